@@ -1,0 +1,20 @@
+"""``hypate bench TARGET``: benchmarks that print medians and ratios (never tests).
+
+Each benchmark module in :data:`BENCH_MODULES` defines ``register_bench(subparsers)``.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+
+#: Modules providing benchmark targets (each has ``register_bench(subparsers)``).
+BENCH_MODULES: tuple[str, ...] = ()
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    parser = sub.add_parser("bench", help="run a benchmark and print medians and ratios",
+                            description="Benchmarks: medians and ratios, never pass/fail.")
+    targets = parser.add_subparsers(dest="target", metavar="TARGET", parser_class=type(parser))
+    for name in BENCH_MODULES:
+        importlib.import_module(name).register_bench(targets)
+    parser.set_defaults(func=lambda args: (parser.print_help(), 2)[1])

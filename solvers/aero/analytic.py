@@ -1,0 +1,269 @@
+"""Analytical aerothermodynamics (Dissertation Sec. 2.3), pointwise and vectorized.
+
+Pressure: full piston theory (Eq. 2.30), first and third order (Eq. 2.32), linearized
+supersonic theory (Eq. 2.37), each on the normal Mach number (Eq. 2.31); optionally on the
+*effective shape* (Eq. 2.33) with the Cox-Crabtree boundary-layer thickness (Eqs. 2.34-2.35)
+applied along the flow direction (strip theory, Eq. 2.36).
+
+Heat flux: Eckert's reference enthalpy method (Eqs. 2.39-2.44) for a calorically perfect
+gas (H = c_p T, so Eq. 2.43 reads T_r = 0.28 T_e + 0.5 T_w + 0.22 T_aw), laminar or
+turbulent, with the edge state from the local pressure of the model (Eq. 2.44).
+
+Pointwise derivatives of the Eckert flux are taken by the complex step (exact to machine
+precision, not a finite difference); the rest is differentiated analytically.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import ArrayLike
+
+from solvers.aero.base import (Array, FluidLoads, FluidModel, SurfacePoints, SurfaceState)
+from solvers.errors import InputError
+from solvers.flow import SUTHERLAND_S, FlowCondition, sutherland_viscosity
+
+#: Pressure laws accepted by :class:`AnalyticFluid`.
+PRESSURE_MODELS = ("pt", "pt1", "pt3", "ls")
+#: Cox-Crabtree turbulent coefficients (Eq. 2.35): delta** = 0.016 x Re^-m, delta* = 0.020 ...
+CC_MOMENTUM, CC_DISPLACEMENT, CC_EXPONENT = 0.016, 0.020, 1.0 / 7.0
+#: Eckert recovery-factor exponents and skin-friction laws (Eq. 2.42).
+RECOVERY_EXPONENT = {"turbulent": 1.0 / 3.0, "laminar": 0.5}
+_COMPLEX_STEP = 1e-30
+
+
+# -- pressure laws ---------------------------------------------------------------------
+def normal_mach(flow: FlowCondition, slope: ArrayLike, velocity: ArrayLike) -> Array:
+    """Normal Mach number M_n = M u_{F,x} + u_F_dot / a (Eq. 2.31)."""
+    return flow.mach * np.asarray(slope, float) + np.asarray(velocity, float) / flow.speed_of_sound
+
+
+def piston_pressure(mn: ArrayLike, p_inf: float, gamma: float, order: str = "pt"
+                    ) -> tuple[Array, Array]:
+    """Piston-theory overpressure p - p_inf and d/dM_n.
+
+    ``order`` is "pt" (full, Eq. 2.30), "pt1" (Eq. 2.32a) or "pt3" (Eq. 2.32b). The full
+    law is floored at vacuum (p = 0) where 1 + (gamma-1)/2 M_n <= 0.
+    """
+    mn = np.asarray(mn)
+    if order == "pt1":
+        return gamma * p_inf * mn, np.full(mn.shape, gamma * p_inf)
+    if order == "pt3":
+        c2, c3 = (1.0 + gamma) / 4.0, (1.0 + gamma) / 12.0
+        p = gamma * p_inf * mn * (1.0 + c2 * mn + c3 * mn**2)
+        return p, gamma * p_inf * (1.0 + 2.0 * c2 * mn + 3.0 * c3 * mn**2)
+    if order != "pt":
+        raise InputError("simulation.aero", f"unknown piston-theory order {order!r}")
+    expo = 2.0 * gamma / (gamma - 1.0)
+    base = 1.0 + 0.5 * (gamma - 1.0) * mn
+    vacuum = np.real(base) <= 0.0
+    base = np.where(vacuum, 1.0, base)
+    p = np.where(vacuum, -p_inf, p_inf * base**expo - p_inf)
+    dp = np.where(vacuum, 0.0, p_inf * expo * 0.5 * (gamma - 1.0) * base ** (expo - 1.0))
+    return p, dp
+
+
+def linearized_supersonic_pressure(flow: FlowCondition, slope: ArrayLike, velocity: ArrayLike
+                                   ) -> tuple[Array, Array, Array]:
+    """Linearized supersonic theory (Eq. 2.37): p, dp/d(slope), dp/d(velocity)."""
+    M, g, pinf = flow.mach, flow.gamma, flow.pressure
+    c = g * pinf * M / np.sqrt(M * M - 1.0)
+    cv = c * (M * M - 2.0) / (M * M - 1.0) / flow.speed_of_sound
+    slope, velocity = np.asarray(slope, float), np.asarray(velocity, float)
+    p = c * M * slope + cv * velocity
+    return p, np.full(p.shape, c * M), np.full(p.shape, cv)
+
+
+# -- boundary layer (effective shape) ------------------------------------------------------
+@dataclass(frozen=True)
+class BoundaryLayerShape:
+    """Cox-Crabtree displacement of the effective shape, Eqs. (2.34)-(2.36).
+
+    ``delta(x, T_w) = (g-1)/(g+1) (d** + d* T_w/T0) M^2 C_w^m`` with turbulent
+    ``d** = 0.016 x Re_x^-m``, ``d* = 0.020 x Re_x^-m``, ``m = 1/7`` and the Chapman-Rubesin
+    coefficient ``C_w = mu(T_w) T_inf / (mu_inf T_w)``. Because ``delta ~ x^(6/7) f(T_w)``,
+    its slope along the flow is ``delta [6/(7 x) + (ln f)' dT_w/ds]``.
+    """
+
+    flow: FlowCondition
+
+    def _log_f_derivatives(self, T: Array) -> tuple[Array, Array]:
+        T0, m = self.flow.stagnation_temperature, CC_EXPONENT
+        a, b = CC_MOMENTUM, CC_DISPLACEMENT / T0
+        lin = a + b * T
+        d1 = b / lin + m * (0.5 / T - 1.0 / (T + SUTHERLAND_S))
+        d2 = -(b / lin) ** 2 + m * (-0.5 / T**2 + 1.0 / (T + SUTHERLAND_S) ** 2)
+        return d1, d2
+
+    def thickness(self, x_le: ArrayLike, T_w: ArrayLike) -> Array:
+        """delta^CC (m) at distance ``x_le`` from the leading edge, wall temperature T_w."""
+        f = self.flow
+        x, T = np.asarray(x_le, float), np.asarray(T_w, float)
+        m = CC_EXPONENT
+        re_x = f.reynolds_per_meter * x
+        c_w = sutherland_viscosity(T) * f.temperature / (f.viscosity * T)
+        core = (CC_MOMENTUM + CC_DISPLACEMENT * T / f.stagnation_temperature) * x / re_x**m
+        return (f.gamma - 1.0) / (f.gamma + 1.0) * core * f.mach**2 * c_w**m
+
+    def slope(self, x_le: ArrayLike, T_w: ArrayLike, dTw_ds: ArrayLike
+              ) -> tuple[Array, Array, Array]:
+        """d delta / ds along the flow and its partials w.r.t. T_w and dT_w/ds (pointwise)."""
+        x, T, Ts = (np.asarray(v, float) for v in (x_le, T_w, dTw_ds))
+        d = self.thickness(x, T)
+        L1, L2 = self._log_f_derivatives(T)
+        geo = (1.0 - CC_EXPONENT) / x
+        ds = d * (geo + L1 * Ts)
+        d_ds_dT = d * L1 * (geo + L1 * Ts) + d * L2 * Ts
+        d_ds_dTs = d * L1
+        return ds, d_ds_dT, d_ds_dTs
+
+
+# -- Eckert heat flux ----------------------------------------------------------------------
+def eckert_heat_flux(flow: FlowCondition, p_e: ArrayLike, T_w: ArrayLike, x_le: ArrayLike,
+                     regime: str = "turbulent") -> Array:
+    """Eckert reference-enthalpy heat flux into the wall (W/m^2), Eqs. (2.39)-(2.44).
+
+    Parameters
+    ----------
+    p_e : array_like
+        Absolute edge pressure (Pa), equal to the wall pressure of the pressure model.
+    T_w : array_like
+        Wall temperature (K).
+    x_le : array_like
+        Distance from the leading edge (m).
+    regime : {"turbulent", "laminar"}
+
+    Works on complex inputs (used for complex-step derivatives).
+    """
+    if regime not in RECOVERY_EXPONENT:
+        raise InputError("simulation.boundary_layer", "must be 'turbulent' or 'laminar'")
+    g, R, cp, pr = flow.gamma, flow.gas_constant, flow.cp, flow.prandtl
+    T0 = flow.stagnation_temperature
+    # Eq. (2.44): isentropic expansion/compression from the free stream to the edge.
+    T_e = flow.temperature * (p_e / flow.pressure) ** ((g - 1.0) / g)
+    V_e2 = 2.0 * cp * (T0 - T_e)  # energy equation, same as M_e sqrt(gamma R T_e) squared
+    V_e = np.sqrt(V_e2)
+    T_aw = T_e + pr ** RECOVERY_EXPONENT[regime] * V_e2 / (2.0 * cp)  # Eq. (2.41)
+    T_r = 0.28 * T_e + 0.5 * T_w + 0.22 * T_aw  # Eq. (2.43) with H = c_p T
+    rho_r = p_e / (R * T_r)
+    re = rho_r * V_e * x_le / sutherland_viscosity(T_r)
+    if regime == "turbulent":
+        c_f = 0.370 * (np.log10(re)) ** -2.584  # Eq. (2.42)
+    else:
+        c_f = 0.664 * re**-0.5
+    stanton = c_f / (2.0 * pr ** (2.0 / 3.0))  # Eq. (2.40)
+    return stanton * rho_r * V_e * cp * (T_aw - T_w)  # Eq. (2.39)
+
+
+def eckert_with_derivatives(flow: FlowCondition, p_e: Array, T_w: Array, x_le: Array,
+                            regime: str) -> tuple[Array, Array, Array]:
+    """q and its partials dq/dp_e, dq/dT_w (complex step, machine precision)."""
+    h = _COMPLEX_STEP
+    q = eckert_heat_flux(flow, p_e, T_w, x_le, regime)
+    dq_dp = np.imag(eckert_heat_flux(flow, p_e + 1j * h * flow.pressure, T_w, x_le, regime)) / (
+        h * flow.pressure)
+    dq_dT = np.imag(eckert_heat_flux(flow, p_e, T_w + 1j * h, x_le, regime)) / h
+    return np.real(q), dq_dp, dq_dT
+
+
+def adiabatic_wall_temperature(flow: FlowCondition, p_e: ArrayLike, regime: str = "turbulent"
+                               ) -> Array:
+    """T_aw at edge pressure p_e (Eq. 2.41); the Eckert flux vanishes at T_w = T_aw."""
+    g, cp = flow.gamma, flow.cp
+    T_e = flow.temperature * (np.asarray(p_e, float) / flow.pressure) ** ((g - 1.0) / g)
+    return T_e + flow.prandtl ** RECOVERY_EXPONENT[regime] * (flow.stagnation_temperature - T_e)
+
+
+# -- the fluid model -------------------------------------------------------------------
+class AnalyticFluid(FluidModel):
+    """Pointwise analytical fluid model.
+
+    Parameters
+    ----------
+    pressure : {"pt", "pt1", "pt3", "ls"}
+        Pressure law.
+    effective_shape : bool
+        Add the Cox-Crabtree boundary-layer slope to the wall slope (Eq. 2.33).
+    heating : {"eckert", "none"}
+    regime : {"turbulent", "laminar"}
+        Boundary-layer regime of the Eckert flux.
+    """
+
+    def __init__(self, pressure: str = "pt", effective_shape: bool = False,
+                 heating: str = "eckert", regime: str = "turbulent") -> None:
+        if pressure not in PRESSURE_MODELS:
+            raise InputError("simulation.aero", f"pressure model must be one of "
+                             f"{', '.join(PRESSURE_MODELS)}; got {pressure!r}")
+        if heating not in ("eckert", "none"):
+            raise InputError("simulation.heating", "must be 'eckert' or 'none'")
+        if regime not in RECOVERY_EXPONENT:
+            raise InputError("simulation.boundary_layer", "must be 'turbulent' or 'laminar'")
+        if effective_shape and pressure == "ls":
+            raise InputError("simulation.aero", "the effective shape is defined for piston "
+                             "theory (pt, pt1, pt3), not for 'ls'")
+        self.pressure_model = pressure
+        self.effective_shape = effective_shape
+        self.heating = heating
+        self.regime = regime
+        self.name = pressure + ("-bl" if effective_shape else "")
+
+    def evaluate(self, points: SurfacePoints, state: SurfaceState, flow: FlowCondition,
+                 jacobians: bool = False) -> FluidLoads:
+        n = points.n
+        slope = np.asarray(state.slope, float)
+        velocity = np.asarray(state.velocity, float)
+        T_w = np.asarray(state.wall_temperature, float)
+        S = points.streamwise_derivative
+        zero = sp.csr_matrix((n, n))
+        dp_dTw: object = zero
+        if self.pressure_model == "ls":
+            p, dp_ds, dp_dv = linearized_supersonic_pressure(flow, slope, velocity)
+        else:
+            eff = slope
+            if self.effective_shape:
+                bl = BoundaryLayerShape(flow)
+                dTw_ds = S @ T_w
+                d_s, d_s_dT, d_s_dTs = bl.slope(points.x_le, T_w, dTw_ds)
+                eff = slope + d_s
+            mn = normal_mach(flow, eff, velocity)
+            p, dp_dmn = piston_pressure(mn, flow.pressure, flow.gamma, self.pressure_model)
+            dp_ds = dp_dmn * flow.mach
+            dp_dv = dp_dmn / flow.speed_of_sound
+            if self.effective_shape and jacobians:
+                # d(delta_s)/dT_w = diag(d_s_dT) + diag(d_s_dTs) S  (chain rule through S T_w)
+                dp_dTw = sp.diags(dp_ds) @ (sp.diags(d_s_dT) + sp.diags(d_s_dTs) @ S)
+        if self.heating == "eckert":
+            q, dq_dpe, dq_dT = eckert_with_derivatives(
+                flow, flow.pressure + p, T_w, points.x_le, self.regime)
+        else:
+            q, dq_dpe, dq_dT = np.zeros(n), np.zeros(n), np.zeros(n)
+        loads = FluidLoads(pressure=p, heat_flux=q)
+        if jacobians:
+            Dq = sp.diags(dq_dpe)
+            loads.jacobians = {
+                "dp_dw": zero, "dp_dws": sp.diags(dp_ds).tocsr(),
+                "dp_dwdot": sp.diags(dp_dv).tocsr(), "dp_dTw": sp.csr_matrix(dp_dTw),
+                "dq_dw": zero, "dq_dws": (Dq @ sp.diags(dp_ds)).tocsr(),
+                "dq_dwdot": (Dq @ sp.diags(dp_dv)).tocsr(),
+                "dq_dTw": (sp.diags(dq_dT) + Dq @ sp.csr_matrix(dp_dTw)).tocsr(),
+            }
+        return loads
+
+
+#: Names accepted by ``[simulation] aero`` for the analytic models.
+ANALYTIC_AERO = {"pt": ("pt", False), "pt1": ("pt1", False), "pt3": ("pt3", False),
+                 "ls": ("ls", False), "pt-bl": ("pt", True)}
+
+
+def make_fluid_model(aero: str, heating: str = "eckert", regime: str = "turbulent"
+                     ) -> FluidModel:
+    """A fluid model from the config names (``[simulation] aero``, ``heating``)."""
+    if aero in ANALYTIC_AERO:
+        pressure, eff = ANALYTIC_AERO[aero]
+        return AnalyticFluid(pressure, eff, heating, regime)
+    if aero.startswith("rom:"):
+        raise InputError("simulation.aero", "ROM fluid models ('rom:PATH') need the fluid-ROM "
+                         "capability, which this version does not include yet")
+    raise InputError("simulation.aero", f"must be one of {', '.join(ANALYTIC_AERO)} or "
+                     f"'rom:PATH'; got {aero!r}")

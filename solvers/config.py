@@ -1,0 +1,352 @@
+"""Panel and case configuration files (TOML), validated with pydantic.
+
+Public schema (keys are a contract; see README "Case files"):
+
+* ``[panel]`` geometry, boundary conditions, mesh, initial temperature, emissivity, damping,
+  and ``[[panel.layers]]`` listed bottom to top;
+* ``[materials.NAME]`` user materials: isotropic (``density``, ``youngs_modulus``,
+  ``poisson_ratio``, ``thermal_expansion``, ``conductivity``, ``specific_heat``),
+  orthotropic (``density``, ``E1``, ``E2``, ``G12``, ``G13``, ``G23``, ``nu12``, ``alpha1``,
+  ``alpha2``, ``k1``, ``k2``, ``k3``, ``specific_heat``), each a constant or a table
+  ``[[T, value], ...]``; or derived: ``kind = "honeycomb"`` (``base``,
+  ``relative_density``, ``cell_size``, ``core_thickness``, ``wall_emissivity``) and
+  ``kind = "stiffener"`` (``base``, ``t1``, ``l1``, ``t2``, ``l2``, Eq. 8.10);
+* ``[flow]`` ``mach`` and exactly one of ``altitude`` | (``p0``, ``T0``) |
+  (``pressure``, ``temperature``);
+* ``[simulation]`` ``scheme``, ``aero``, ``heating``, ``boundary_layer``, ``time_step``,
+  ``duration``.
+
+Every error becomes :class:`~solvers.errors.InputError` naming the key path
+(``panel.layers[0].thickness``) and the allowed range.
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from solvers import materials as mat
+from solvers.errors import InputError
+from solvers.flow import FlowCondition
+from solvers.panel import Layer, PanelSpec
+
+PropertySpec = float | list[tuple[float, float]]
+Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class LayerConfig(_Strict):
+    material: str
+    thickness: Annotated[float, Field(gt=0.0, le=1.0, allow_inf_nan=False)]
+    angle: Annotated[float, Field(ge=-180.0, le=180.0)] = 0.0
+    sublayers: Annotated[int, Field(ge=1, le=50)] = 1
+
+
+class PanelConfig(_Strict):
+    kind: Literal["3d", "2d"] = "3d"
+    length: Annotated[float, Field(gt=0.0, le=100.0, allow_inf_nan=False)] = 1.0
+    width: Annotated[float, Field(gt=0.0, le=100.0, allow_inf_nan=False)] = 1.0
+    boundary: Literal["simply_supported", "clamped"] = "simply_supported"
+    leading_edge_length: Annotated[float, Field(ge=0.0, le=100.0, allow_inf_nan=False)] = 1.0
+    flow_angle: Annotated[float, Field(ge=-90.0, le=90.0)] = 0.0
+    mesh: Annotated[list[Annotated[int, Field(ge=1, le=200)]],
+                    Field(min_length=1, max_length=2)] = [8, 8]
+    initial_temperature: Annotated[float, Field(gt=0.0, le=5000.0, allow_inf_nan=False)] = 300.0
+    emissivity: Annotated[float, Field(ge=0.0, le=1.0)] = 0.85
+    damping: Annotated[list[Annotated[float, Field(ge=0.0, allow_inf_nan=False)]],
+                       Field(min_length=2, max_length=2)] = [0.0, 0.0]
+    radius_x: Annotated[float, Field(gt=0.0)] = math.inf
+    radius_y: Annotated[float, Field(gt=0.0)] = math.inf
+    layers: Annotated[list[LayerConfig], Field(min_length=1, max_length=100)]
+
+    @model_validator(mode="after")
+    def _mesh_matches_kind(self) -> PanelConfig:
+        if self.kind == "3d" and len(self.mesh) != 2:
+            raise ValueError("mesh: a 3d panel needs [nx, ny] elements")
+        if self.kind == "2d" and len(self.mesh) == 2 and self.mesh[1] != 1:
+            raise ValueError("mesh: a 2d strip has one element across; use [nx] or [nx, 1]")
+        return self
+
+
+class MaterialConfig(_Strict):
+    kind: Literal["isotropic", "orthotropic", "honeycomb", "stiffener"] | None = None
+    reference_temperature: Annotated[float, Field(gt=0.0)] = 300.0
+    # isotropic
+    density: PropertySpec | None = None
+    youngs_modulus: PropertySpec | None = None
+    poisson_ratio: PropertySpec | None = None
+    thermal_expansion: PropertySpec | None = None
+    conductivity: PropertySpec | None = None
+    specific_heat: PropertySpec | None = None
+    # orthotropic
+    E1: PropertySpec | None = None
+    E2: PropertySpec | None = None
+    G12: PropertySpec | None = None
+    G13: PropertySpec | None = None
+    G23: PropertySpec | None = None
+    nu12: PropertySpec | None = None
+    alpha1: PropertySpec | None = None
+    alpha2: PropertySpec | None = None
+    k1: PropertySpec | None = None
+    k2: PropertySpec | None = None
+    k3: PropertySpec | None = None
+    # derived
+    base: str | None = None
+    relative_density: float | None = None
+    cell_size: float | None = None
+    core_thickness: float | None = None
+    wall_emissivity: float = 0.8
+    t1: float | None = None
+    l1: float | None = None
+    t2: float | None = None
+    l2: float | None = None
+
+
+class FlowConfig(_Strict):
+    mach: float
+    altitude: float | None = None
+    p0: float | None = None
+    T0: float | None = None
+    pressure: float | None = None
+    temperature: float | None = None
+
+    @model_validator(mode="after")
+    def _exactly_one_state(self) -> FlowConfig:
+        given = {"altitude": self.altitude is not None,
+                 "p0/T0": self.p0 is not None or self.T0 is not None,
+                 "pressure/temperature": self.pressure is not None or self.temperature is not None}
+        if sum(given.values()) != 1:
+            named = [k for k, v in given.items() if v] or ["none"]
+            raise ValueError("give exactly one of altitude | (p0, T0) | (pressure, temperature);"
+                             f" got {', '.join(named)}")
+        if given["p0/T0"] and (self.p0 is None or self.T0 is None):
+            raise ValueError("p0 and T0 must be given together")
+        if given["pressure/temperature"] and (self.pressure is None or self.temperature is None):
+            raise ValueError("pressure and temperature must be given together")
+        return self
+
+
+class SimulationConfig(_Strict):
+    scheme: Literal["s1", "s2", "tc"] = "tc"
+    aero: str = "pt"
+    heating: Literal["eckert", "none"] = "eckert"
+    boundary_layer: Literal["turbulent", "laminar"] = "turbulent"
+    time_step: Positive = 0.2
+    duration: Positive = 160.0
+
+    @model_validator(mode="after")
+    def _check(self) -> SimulationConfig:
+        allowed = ("pt", "pt1", "pt3", "ls", "pt-bl")
+        if self.aero not in allowed and not (self.aero.startswith("rom:") and len(self.aero) > 4):
+            raise ValueError(f"aero: must be one of {', '.join(allowed)} or 'rom:PATH'; "
+                             f"got {self.aero!r}")
+        if self.duration < self.time_step:
+            raise ValueError("duration: must be at least one time_step")
+        return self
+
+
+class CaseConfig(_Strict):
+    panel: PanelConfig
+    materials: dict[str, MaterialConfig] = {}
+    flow: FlowConfig | None = None
+    simulation: SimulationConfig | None = None
+
+
+# -- conversion to physics objects ----------------------------------------------------------
+@dataclass(frozen=True)
+class Case:
+    """A validated case: panel, optional flow condition and simulation settings."""
+
+    panel: PanelSpec
+    flow: FlowCondition | None
+    simulation: SimulationConfig | None
+    source: str = "<memory>"
+
+
+def _loc(loc: tuple[Any, ...]) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out
+
+
+def _pydantic_error(exc: ValidationError, prefix: str = "") -> InputError:
+    err = exc.errors()[0]
+    loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and (
+        p.startswith("function-") or p in ("float", "list[tuple[float, float]]", "tuple"))))
+    path = ".".join(p for p in (prefix, _loc(loc)) if p)
+    msg = err["msg"].removeprefix("Value error, ")
+    if err["type"] == "extra_forbidden":
+        msg = "unknown key (not part of the schema)"
+    elif err["type"] == "missing":
+        msg = "required key is missing"
+    elif "input" in err and not isinstance(err["input"], dict | list):
+        msg += f" (got {err['input']!r})"
+    # model-level validators name their key at the start of the message ("mesh: ...")
+    if ": " in msg and msg.split(": ", 1)[0].isidentifier() and err["type"] == "value_error":
+        key, msg = msg.split(": ", 1)
+        path = ".".join(p for p in (path, key) if p)
+    return InputError(path or "file", msg)
+
+
+def _build_material(name: str, cfg: MaterialConfig, resolved: dict[str, mat.Material],
+                    raw: dict[str, MaterialConfig], stack: tuple[str, ...] = ()) -> mat.Material:
+    field = f"materials.{name}"
+    given = cfg.model_dump(exclude_unset=True)
+    kind = cfg.kind
+    if kind is None:
+        kind = "orthotropic" if "E1" in given else "isotropic"
+    if kind == "isotropic":
+        missing = [k for k in mat.ISOTROPIC_KEYS if given.get(k) is None]
+        if missing:
+            raise InputError(field, f"isotropic material needs {', '.join(missing)}")
+        return mat.isotropic(name, reference_temperature=cfg.reference_temperature,
+                             **{k: given[k] for k in mat.ISOTROPIC_KEYS})
+    if kind == "orthotropic":
+        missing = [k for k in mat.ORTHOTROPIC_KEYS if given.get(k) is None]
+        if missing:
+            raise InputError(field, f"orthotropic material needs {', '.join(missing)}")
+        return mat.orthotropic(name, reference_temperature=cfg.reference_temperature,
+                               **{k: given[k] for k in mat.ORTHOTROPIC_KEYS})
+    if cfg.base is None:
+        raise InputError(f"{field}.base", f"a {kind} material needs a base material name")
+    if cfg.base in stack:
+        raise InputError(f"{field}.base", "circular material reference")
+    base = resolve_material(cfg.base, resolved, raw, stack + (name,), f"{field}.base")
+    if kind == "honeycomb":
+        for key in ("relative_density", "cell_size", "core_thickness"):
+            if given.get(key) is None:
+                raise InputError(f"{field}.{key}", "required for a honeycomb core")
+        return mat.honeycomb_core(base, cfg.relative_density, cfg.cell_size,
+                                  cfg.core_thickness, cfg.wall_emissivity, name=name)
+    return mat.homogenized_stiffener(base, cfg.t1 or 0.0, cfg.l1 or 0.0, cfg.t2 or 0.0,
+                                     cfg.l2 or 0.0, name=name)
+
+
+def resolve_material(name: str, resolved: dict[str, mat.Material],
+                     raw: dict[str, MaterialConfig], stack: tuple[str, ...] = (),
+                     field: str = "material") -> mat.Material:
+    """A material by name: the file's ``[materials.NAME]`` first, then the library."""
+    if name in resolved:
+        return resolved[name]
+    if name in raw:
+        try:
+            m = _build_material(name, raw[name], resolved, raw, stack)
+        except InputError as exc:
+            if exc.field.startswith("materials."):
+                raise
+            raise InputError(f"materials.{exc.field}", exc.message) from None
+    elif name in mat.LIBRARY:
+        m = mat.library_material(name)
+    else:
+        known = sorted(set(mat.LIBRARY) | set(raw))
+        raise InputError(field, f"unknown material {name!r}; known: {', '.join(known)}")
+    resolved[name] = m
+    return m
+
+
+def build_panel(cfg: PanelConfig, materials: dict[str, MaterialConfig] | None = None,
+                name: str = "panel") -> PanelSpec:
+    """A :class:`PanelSpec` from a validated ``[panel]`` table."""
+    raw = dict(materials or {})
+    resolved: dict[str, mat.Material] = {}
+    layers = []
+    for i, lc in enumerate(cfg.layers):
+        m = resolve_material(lc.material, resolved, raw, field=f"panel.layers[{i}].material")
+        layers.append(Layer(m, lc.thickness, math.radians(lc.angle), lc.sublayers))
+    nx = cfg.mesh[0]
+    ny = 1 if cfg.kind == "2d" else cfg.mesh[1]
+    panel = PanelSpec(layers=tuple(layers), kind=cfg.kind, length=cfg.length,
+                      width=cfg.width, boundary=cfg.boundary,
+                      leading_edge_length=cfg.leading_edge_length,
+                      flow_angle=math.radians(cfg.flow_angle), mesh=(nx, ny),
+                      initial_temperature=cfg.initial_temperature, emissivity=cfg.emissivity,
+                      damping=(cfg.damping[0], cfg.damping[1]), radius_x=cfg.radius_x,
+                      radius_y=cfg.radius_y, name=name)
+    if panel.thickness >= 0.2 * min(panel.length, panel.width if cfg.kind == "3d"
+                                    else panel.length):
+        raise InputError("panel.layers", f"total thickness {panel.thickness:g} m is not thin "
+                         "relative to the panel size (shell theory needs h < a/5)")
+    return panel
+
+
+def build_flow(cfg: FlowConfig) -> FlowCondition:
+    """A :class:`FlowCondition` from a validated ``[flow]`` table (errors name ``flow.KEY``)."""
+    try:
+        if cfg.altitude is not None:
+            return FlowCondition.from_altitude(cfg.mach, cfg.altitude)
+        if cfg.p0 is not None:
+            return FlowCondition.from_stagnation(cfg.mach, cfg.p0, cfg.T0)
+        return FlowCondition.from_static(cfg.mach, cfg.pressure, cfg.temperature)
+    except InputError as exc:
+        raise InputError(f"flow.{exc.field}", exc.message) from None
+
+
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """Parse a TOML file; syntax errors and missing files become :class:`InputError`."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(str(path), "file not found")
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(str(path), f"TOML syntax error: {exc}") from None
+    except UnicodeDecodeError:
+        raise InputError(str(path), "not a UTF-8 text file") from None
+
+
+def parse_case(data: dict[str, Any], source: str = "<memory>") -> Case:
+    """Validate a parsed case dictionary and build the physics objects."""
+    try:
+        cfg = CaseConfig.model_validate(data)
+    except ValidationError as exc:
+        raise _pydantic_error(exc) from None
+    panel = build_panel(cfg.panel, cfg.materials, name=Path(source).stem)
+    flow = build_flow(cfg.flow) if cfg.flow is not None else None
+    return Case(panel=panel, flow=flow, simulation=cfg.simulation, source=source)
+
+
+def load_case(path: str | Path) -> Case:
+    """Read and validate a case file (``[panel]`` + optional ``[flow]``, ``[simulation]``)."""
+    return parse_case(read_toml(path), source=str(path))
+
+
+def load_panel(path: str | Path) -> PanelSpec:
+    """Read and validate a panel file; ``[flow]``/``[simulation]`` may be present."""
+    return load_case(path).panel
+
+
+def summary(case: Case) -> list[str]:
+    """Short human-readable summary lines (``hypate validate``)."""
+    p = case.panel
+    size = (f"{p.length:g} m x {p.width:g} m" if p.kind == "3d"
+            else f"{p.length:g} m strip (2d, cylindrical bending)")
+    lines = [f"panel: {p.kind}, {size}, {p.boundary.replace('_', ' ')}, "
+             f"mesh {p.mesh[0]} x {p.mesh[1]}, L_le = {p.leading_edge_length:g} m",
+             f"layers (bottom to top): {len(p.layers)}"]
+    for i, layer in enumerate(p.layers):
+        lines.append(f"  [{i}] {layer.material.name}: {layer.thickness * 1e3:g} mm, "
+                     f"angle {math.degrees(layer.angle):g} deg, {layer.sublayers} thermal sub-layer(s)")
+    lines.append(f"total thickness: {p.thickness * 1e3:g} mm")
+    lines.append(f"mass per area: {p.mass_per_area():.4g} kg/m^2 at {p.initial_temperature:g} K")
+    if case.flow is not None:
+        f = case.flow
+        lines.append(f"flow: M = {f.mach:g}, p = {f.pressure:.6g} Pa, T = {f.temperature:.6g} K, "
+                     f"q = {f.dynamic_pressure:.6g} Pa, Re/m = {f.reynolds_per_meter:.4g}")
+    else:
+        lines.append("flow: none")
+    if case.simulation is not None:
+        s = case.simulation
+        lines.append(f"simulation: scheme {s.scheme}, aero {s.aero}, heating {s.heating} "
+                     f"({s.boundary_layer}), dt = {s.time_step:g} s, duration {s.duration:g} s")
+    return lines
