@@ -140,6 +140,13 @@ class SimulationConfig(_Strict):
     boundary_layer: Literal["turbulent", "laminar"] = "turbulent"
     time_step: Positive = 0.2
     duration: Positive = 160.0
+    radiation_temperature: Annotated[float, Field(gt=0.0, le=5000.0)] | None = None
+    external_pressure: Annotated[float, Field(ge=-1e7, le=1e7)] = 0.0
+    lsa_modes: Annotated[int, Field(ge=1, le=50)] = 6
+    unstable_steps: Annotated[int, Field(ge=1, le=1000)] = 2
+    passes: Annotated[int, Field(ge=1, le=20)] = 2
+    fluid_density: Annotated[int, Field(ge=1, le=8)] = 2
+    rho_bar: Annotated[float, Field(ge=0.0, le=1.0)] = 1.0
 
     @model_validator(mode="after")
     def _check(self) -> SimulationConfig:

@@ -77,6 +77,9 @@ class Property:
             raise InputError(self.name, "table entries must be finite numbers")
         object.__setattr__(self, "T", T)
         object.__setattr__(self, "values", v)
+        # segment slopes, computed once (the Newton Jacobians ask for them every iteration)
+        object.__setattr__(self, "_slopes",
+                           np.diff(v) / np.diff(T) if T.size > 1 else np.zeros(0))
 
     @classmethod
     def constant(cls, name: str, value: float) -> Property:
@@ -123,7 +126,7 @@ class Property:
         T = np.asarray(T, dtype=float)
         if self.is_constant:
             return np.zeros(T.shape)
-        slopes = np.diff(self.values) / np.diff(self.T)
+        slopes = self._slopes
         idx = np.clip(np.searchsorted(self.T, T, side="right") - 1, 0, slopes.size - 1)
         d = slopes[idx]
         return np.where((T < self.T[0]) | (T > self.T[-1]), 0.0, d)

@@ -8,7 +8,8 @@ import argparse
 import importlib
 
 #: Modules providing benchmark targets (each has ``register_bench(subparsers)``).
-BENCH_MODULES: tuple[str, ...] = ()
+BENCH_MODULES: tuple[str, ...] = ("scaling.commands.bench_structure",
+                                  "scaling.commands.bench_thermal")
 
 
 def register(sub: argparse._SubParsersAction) -> None:

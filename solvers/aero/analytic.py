@@ -140,7 +140,11 @@ def eckert_heat_flux(flow: FlowCondition, p_e: ArrayLike, T_w: ArrayLike, x_le: 
         raise InputError("simulation.boundary_layer", "must be 'turbulent' or 'laminar'")
     g, R, cp, pr = flow.gamma, flow.gas_constant, flow.cp, flow.prandtl
     T0 = flow.stagnation_temperature
-    # Eq. (2.44): isentropic expansion/compression from the free stream to the edge.
+    # Eq. (2.44): isentropic expansion/compression from the free stream to the edge. The
+    # edge pressure is kept inside (1e-3 p_inf, 0.95 p_0): beyond, the edge velocity would
+    # vanish or turn imaginary (only reached by Newton overshoots, never at a solution).
+    lo, hi = 1e-3 * flow.pressure, 0.95 * flow.stagnation_pressure
+    p_e = np.where(np.real(p_e) < lo, lo, np.where(np.real(p_e) > hi, hi, p_e))
     T_e = flow.temperature * (p_e / flow.pressure) ** ((g - 1.0) / g)
     V_e2 = 2.0 * cp * (T0 - T_e)  # energy equation, same as M_e sqrt(gamma R T_e) squared
     V_e = np.sqrt(V_e2)
@@ -263,7 +267,10 @@ def make_fluid_model(aero: str, heating: str = "eckert", regime: str = "turbulen
         pressure, eff = ANALYTIC_AERO[aero]
         return AnalyticFluid(pressure, eff, heating, regime)
     if aero.startswith("rom:"):
-        raise InputError("simulation.aero", "ROM fluid models ('rom:PATH') need the fluid-ROM "
-                         "capability, which this version does not include yet")
+        from solvers.aero.rom import load_rom  # local import: the ROM imports this module
+
+        if not aero[4:]:
+            raise InputError("simulation.aero", "'rom:PATH' needs the path of a ROM file")
+        return load_rom(aero[4:], regime=regime)
     raise InputError("simulation.aero", f"must be one of {', '.join(ANALYTIC_AERO)} or "
                      f"'rom:PATH'; got {aero!r}")

@@ -1,0 +1,563 @@
+"""Coupled aerothermoelastic model and the tightly coupled quasi-steady scheme (Ch. 5).
+
+:class:`PanelModel` holds the three disciplines of one panel in one flow -- the DCS9
+structure, the HTSH thermal model and a fluid model of any fidelity -- joined by the
+conservative transfer matrices of Eq. (5.1). It provides the discipline couplings the
+schemes need: aerodynamic loads and their Jacobians on the structural DOFs, the wall heat
+flux as an implicit function of the wall temperature, the static aeroelastic equilibrium
+(Eq. 5.31b) by Newton with the aerodynamic Jacobian, and the linearized stability analysis
+(Eqs. 5.33-5.35).
+
+:func:`run_tc` integrates Eq. (5.31) on the thermal time scale (Sec. 5.4.3): each step a
+Crank-Nicolson thermal step with the aerodynamic heat flux implicit in the wall
+temperature, then the aeroelastic equilibrium with fluid and structure converged together,
+optionally repeated (fixed-point passes) until both fields stop changing; then the LSA.
+The run stops after ``unstable_steps`` consecutive unstable LSA results.
+"""
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from numpy.typing import NDArray
+
+from solvers.aero.base import FluidLoads, FluidModel, SurfaceState
+from solvers.errors import InputError
+from solvers.flow import FlowCondition
+from solvers.panel import PanelSpec
+from solvers.response import Response, sinusoidal_modes
+from solvers.stability import StabilityResult, gep, pep
+from solvers.structure import StructuralModel
+from solvers.thermal import SurfaceCondition, ThermalLoads, ThermalModel
+from solvers.transfer import Transfer, fluid_points
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class CouplingSettings:
+    """Settings of a coupled run (SI units).
+
+    Attributes
+    ----------
+    time_step, duration : float
+        s.
+    radiation_temperature : float or None
+        Surroundings of the upper-surface radiation (K); None = free-stream temperature.
+        A radiant heater of the scaling problem sets this to T_rad.
+    external_pressure : float
+        Uniform pressure on the panel's lower surface minus p_inf (Pa): positive pushes
+        the panel towards +z (into the flow).
+    lsa_modes : int
+        Eigenvalues computed per LSA.
+    lsa_every : int
+        LSA every this many steps (1 = every step).
+    unstable_steps : int
+        Consecutive unstable LSA results that end the run.
+    passes : int
+        Maximum thermal/aeroelastic fixed-point passes per step (1 = one of each).
+    pass_tol : float
+        Relative change of T and u that ends the passes.
+    newton_rtol : float
+        Residual tolerance of the aeroelastic Newton (relative to the load scale).
+    newton_max_iter : int
+    fluid_density : int
+        Fluid points per shell-node spacing (transfer grid).
+    thermal_alpha : float
+        Crank-Nicolson alpha-bar.
+    keep_fields : bool
+        Store nodal u and T for every step in the response.
+    """
+
+    time_step: float = 1.0
+    duration: float = 160.0
+    radiation_temperature: float | None = None
+    external_pressure: float = 0.0
+    lsa_modes: int = 6
+    lsa_every: int = 1
+    unstable_steps: int = 2
+    passes: int = 2
+    pass_tol: float = 1e-5
+    newton_rtol: float = 1e-8
+    newton_max_iter: int = 30
+    fluid_density: int = 2
+    thermal_alpha: float = 0.5
+    keep_fields: bool = True
+
+    def __post_init__(self) -> None:
+        if not (self.time_step > 0 and math.isfinite(self.time_step)):
+            raise InputError("simulation.time_step", "must be > 0 (s)")
+        if not (self.duration >= self.time_step):
+            raise InputError("simulation.duration", "must be at least one time_step")
+        if self.unstable_steps < 1:
+            raise InputError("simulation.unstable_steps", "must be >= 1")
+        if self.passes < 1:
+            raise InputError("simulation.passes", "must be >= 1")
+
+    @property
+    def n_steps(self) -> int:
+        return int(round(self.duration / self.time_step))
+
+
+@dataclass
+class StepTimer:
+    """Wall time per discipline (s), accumulated over a run (Table 8.6 style)."""
+
+    fluid: float = 0.0
+    structural: float = 0.0
+    thermal: float = 0.0
+    stability: float = 0.0
+    factorizations: int = 0
+
+    def as_dict(self) -> dict[str, float]:
+        return {"fluid": self.fluid, "structural": self.structural, "thermal": self.thermal,
+                "stability": self.stability}
+
+
+class EquilibriumError(RuntimeError):
+    """The static aeroelastic equilibrium did not converge (e.g. past a snap-through)."""
+
+
+class PanelModel:
+    """A panel in a flow: structure, thermal model, fluid model and transfer (Eq. 5.1).
+
+    Parameters
+    ----------
+    panel : PanelSpec
+    flow : FlowCondition
+    fluid : FluidModel
+    settings : CouplingSettings
+    structure : StructuralModel, optional
+        Reused when given (same panel).
+    """
+
+    def __init__(self, panel: PanelSpec, flow: FlowCondition, fluid: FluidModel,
+                 settings: CouplingSettings | None = None,
+                 structure: StructuralModel | None = None) -> None:
+        self.panel = panel
+        self.flow = flow
+        self.fluid = fluid
+        self.settings = settings or CouplingSettings()
+        self.structure = structure if structure is not None else StructuralModel(panel)
+        self.thermal = ThermalModel(panel)
+        self.points = fluid_points(panel, self.settings.fluid_density)
+        self.transfer = Transfer.build(panel, self.points, self.thermal.n_levels)
+        tr = self.transfer
+        n_in = self.thermal.n_inplane
+        top = self.thermal.mesh.top_nodes
+        # wall temperature from the top-level nodes only; the fluid heat input goes back as
+        # nodal loads on them (Eq. 5.1b)
+        self._H_FT_top = tr.H_FT[:, top].tocsr()
+        self._H_TF_top = tr.H_TF[top, :].tocsr()
+        self._n_in = n_in
+        self.timer = StepTimer()
+        s = self.settings
+        self.T_rad = float(flow.temperature if s.radiation_temperature is None
+                           else s.radiation_temperature)
+        self._F_ext = (self.structure.pressure_load(s.external_pressure)
+                       if s.external_pressure != 0.0 else np.zeros(self.structure.n_dof))
+        self.modes = sinusoidal_modes(panel, self.points)
+
+    # -- fields on the fluid grid -------------------------------------------------------
+    def wall_temperature(self, T: Array) -> Array:
+        """T_w on the fluid points from the thermal nodal field (Eq. 5.1d)."""
+        return self.transfer.H_FT @ T
+
+    def surface_state(self, u: Array, T_w: Array, u_dot: Array | None = None) -> SurfaceState:
+        tr = self.transfer
+        vel = np.zeros(self.points.n) if u_dot is None else tr.H_FS @ u_dot
+        return SurfaceState(tr.H_FS @ u, tr.H_FS_slope @ u, vel, T_w)
+
+    def fluid_loads(self, u: Array, T_w: Array, u_dot: Array | None = None,
+                    jacobians: bool = False) -> FluidLoads:
+        t0 = time.perf_counter()
+        out = self.fluid.evaluate(self.points, self.surface_state(u, T_w, u_dot), self.flow,
+                                  jacobians=jacobians)
+        self.timer.fluid += time.perf_counter() - t0
+        return out
+
+    def structural_temperature(self, T: Array) -> Array:
+        """Thermal nodal field -> per-shell-node through-thickness profile (n_nodes, n_levels)."""
+        return self.thermal.profile(T)
+
+    # -- aerodynamic operators on the structural DOFs -------------------------------------
+    def aero_force(self, loads: FluidLoads) -> Array:
+        """F_S = H_SF p + external load (Eqs. 5.1a, 5.27)."""
+        return self.transfer.H_SF @ loads.pressure + self._F_ext
+
+    def aero_stiffness(self, loads: FluidLoads) -> sp.csr_matrix | spla.LinearOperator:
+        """K_A = dF_S/du = H_SF (dp/dw H_FS + dp/dw_s H_FS_slope) (Eq. 5.34)."""
+        tr, J = self.transfer, loads.jacobians
+        if all(sp.issparse(J[k]) for k in ("dp_dw", "dp_dws")):
+            return (tr.H_SF @ (J["dp_dw"] @ tr.H_FS + J["dp_dws"] @ tr.H_FS_slope)).tocsr()
+        n = self.structure.n_dof
+        return spla.LinearOperator(
+            (n, n), dtype=float,
+            matvec=lambda x: tr.H_SF @ (J["dp_dw"] @ (tr.H_FS @ x)
+                                        + J["dp_dws"] @ (tr.H_FS_slope @ x)))
+
+    def aero_damping(self, loads: FluidLoads) -> sp.csr_matrix:
+        """C_A = dF_S/du_dot = H_SF dp/dw_dot H_FS (Eq. 5.34)."""
+        tr = self.transfer
+        return sp.csr_matrix(tr.H_SF @ (loads.jacobians["dp_dwdot"] @ tr.H_FS))
+
+    # -- thermal coupling -------------------------------------------------------------------
+    def thermal_loads(self, u: Array) -> ThermalLoads:
+        """Upper surface: aerodynamic heat flux implicit in the wall temperature (Eq. 5.31a)
+        plus radiation to ``T_rad``; lower surface insulated."""
+        H_FT, H_TF = self._H_FT_top, self._H_TF_top
+
+        def flux(T_top: Array) -> tuple[Array, sp.csr_matrix]:
+            # nodal heat input Q = H_TF q (Eq. 5.1b) and its derivative, on the thermal pattern
+            loads = self.fluid_loads(u, H_FT @ T_top, jacobians=True)
+            dQ = H_TF @ sp.csr_matrix(loads.jacobians["dq_dTw"]) @ H_FT
+            return H_TF @ loads.heat_flux, dQ.tocsr()
+
+        top = SurfaceCondition(flux=flux, emissivity=self.panel.emissivity, T_rad=self.T_rad,
+                               nodal_load=True)
+        return ThermalLoads(top=top)
+
+    def thermal_step(self, T: Array, u: Array, dt: float, T_guess: Array | None = None) -> Array:
+        t0 = time.perf_counter()
+        f0 = self.thermal.factorizations
+        res = self.thermal.step(T, dt, self.thermal_loads(u), alpha=self.settings.thermal_alpha,
+                                T_guess=T_guess)
+        self.timer.factorizations += self.thermal.factorizations - f0
+        self.timer.thermal += time.perf_counter() - t0
+        if not res.converged:
+            raise EquilibriumError(f"thermal Newton did not converge (residual "
+                                   f"{res.residual_norm:.3g} W)")
+        return res.T
+
+    # -- aeroelastic equilibrium ---------------------------------------------------------------
+    def equilibrium(self, u: Array, T: Array) -> tuple[Array, int]:
+        """Static aeroelastic equilibrium ``F_I(u, T) = F_S(u, 0, T)`` (Eq. 5.31b).
+
+        Newton-Raphson with the aerodynamic Jacobian (Eq. 5.42) from ``u``. Full Newton
+        steps are taken (a residual-norm line search stalls on the membrane stiffening of
+        thin panels); when Newton fails, the load -- the aerodynamic force and the
+        temperature rise from the initial state -- is applied in increments from ``u``.
+
+        Returns
+        -------
+        u, iterations
+        """
+        try:
+            return self._newton(u, T, 1.0)
+        except EquilibriumError:
+            pass
+        T0 = self.thermal.initial_state()
+        total = 0
+        for steps in (4, 16):
+            x = np.array(u, copy=True)
+            try:
+                for k in range(1, steps + 1):
+                    lam = k / steps
+                    x, it = self._newton(x, T0 + lam * (T - T0), lam)
+                    total += it
+                return x, total
+            except EquilibriumError:
+                continue
+        return self._newton(u, T, 1.0)  # raises with the diagnostic of the full problem
+
+    def _newton(self, u: Array, T: Array, load: float) -> tuple[Array, int]:
+        """Newton iterations on ``F_I(u, T) - load * F_S(u, T) = 0``."""
+        s = self.settings
+        st = self.structure
+        T_s = self.structural_temperature(T)
+        T_w = self.wall_temperature(T)
+        free = st.free_dofs
+
+        def residual(x: Array):
+            loads = self.fluid_loads(x, T_w, jacobians=True)
+            t0 = time.perf_counter()
+            F_I, K = st.force_and_tangent(x, T_s)
+            self.timer.structural += time.perf_counter() - t0
+            return F_I - load * self.aero_force(loads), K, loads
+
+        R, K, loads = residual(u)
+        ref = max(float(np.linalg.norm(st.thermal_load(T_s)[free])),
+                  float(np.linalg.norm((self.transfer.H_SF @ loads.pressure)[free])),
+                  float(np.linalg.norm(self._F_ext[free])), 1e-3)
+        rnorm = float(np.linalg.norm(R[free]))
+        for it in range(s.newton_max_iter):
+            if rnorm <= s.newton_rtol * ref:
+                return u, it
+            t0 = time.perf_counter()
+            KA = self.aero_stiffness(loads)
+            du = self._solve(K, load * KA if sp.issparse(KA) else _scaled(KA, load), -R)
+            self.timer.structural += time.perf_counter() - t0
+            u = u + du
+            R, K, loads = residual(u)
+            rnorm = float(np.linalg.norm(R[free]))
+            if not np.isfinite(rnorm):
+                break
+        raise EquilibriumError(
+            f"aeroelastic equilibrium did not converge in {s.newton_max_iter} Newton "
+            f"iterations (residual {rnorm:.3g} N vs scale {ref:.3g} N)")
+
+    def _solve(self, K: sp.csr_matrix, KA, b: Array) -> Array:
+        """Solve (K - K_A) x = b: sparse LU for a sparse K_A, else GMRES preconditioned by
+        the factor of K (Eqs. 5.44-5.45)."""
+        self.timer.factorizations += 1
+        if sp.issparse(KA):
+            return spla.splu((K - KA).tocsc()).solve(b)
+        fac = self.structure.factor(K)
+        n = K.shape[0]
+        op = spla.LinearOperator((n, n), matvec=lambda x: K @ x - KA @ x, dtype=float)
+        prec = spla.LinearOperator((n, n), matvec=fac.solve, dtype=float)
+        x, info = spla.gmres(op, b, M=prec, rtol=1e-12, atol=0.0, restart=80, maxiter=50)
+        if info != 0:
+            raise EquilibriumError("GMRES for the aeroelastic Newton step did not converge")
+        return x
+
+    # -- stability -----------------------------------------------------------------------------
+    def stability(self, u: Array, T: Array, method: str = "gep") -> StabilityResult:
+        """LSA about the state (u, T): GEP (Eq. 5.35) or PEP with C - C_A (Eq. 5.33)."""
+        t0 = time.perf_counter()
+        st = self.structure
+        T_s = self.structural_temperature(T)
+        loads = self.fluid_loads(u, self.wall_temperature(T), jacobians=True)
+        K = st.tangent(u, T_s)
+        M = st.mass(T_s)
+        KA = self.aero_stiffness(loads)
+        free = st.free_dofs
+        if not sp.issparse(KA):
+            KA = sp.csr_matrix(KA @ np.eye(st.n_dof))  # ROM operator: small dense product
+        if method == "pep":
+            res = pep(K, M, st.damping(T_s), KA, self.aero_damping(loads),
+                      count=self.settings.lsa_modes, free=free)
+        else:
+            res = gep(K, M, KA, count=self.settings.lsa_modes, free=free)
+        self.timer.stability += time.perf_counter() - t0
+        self.timer.factorizations += 1
+        return res
+
+
+def _scaled(op: spla.LinearOperator, factor: float) -> spla.LinearOperator:
+    return spla.LinearOperator(op.shape, matvec=lambda x: factor * (op @ x), dtype=float)
+
+
+def run_tc(model: PanelModel, progress=None) -> Response:
+    """Tightly coupled quasi-steady scheme (Sec. 5.4.3) with LSA each step.
+
+    Parameters
+    ----------
+    model : PanelModel
+    progress : callable(step, n_steps), optional
+        Called after every step.
+
+    Returns
+    -------
+    Response
+        Histories up to the end or to the instability (``instability_time``,
+        ``instability_type``); a solver failure ends the run with ``status = "failed"``
+        and the reason in ``message`` (never an exception).
+    """
+    s = model.settings
+    dt, n_steps = s.time_step, s.n_steps
+    resp = Response.start(model, scheme="tc")
+    T = model.thermal.initial_state()
+    u = np.zeros(model.structure.n_dof)
+    unstable_run = 0
+    first_unstable: tuple[float, str] | None = None
+    t_start = time.perf_counter()
+    try:
+        u, _ = model.equilibrium(u, T)
+        lsa = model.stability(u, T)
+        resp.record(0.0, u, T, model, lsa)
+        for n in range(1, n_steps + 1):
+            t = n * dt
+            T_new, u_new = T, u
+            for _ in range(s.passes):
+                T_prev, u_prev = T_new, u_new
+                T_new = model.thermal_step(T, u_new, dt, T_guess=T_new)
+                u_new, _ = model.equilibrium(u_new, T_new)
+                dT = np.max(np.abs(T_new - T_prev)) / max(np.max(np.abs(T_new - T)), 1e-12)
+                du = np.max(np.abs(u_new - u_prev)) / max(np.max(np.abs(u_new)), 1e-12)
+                if dT <= s.pass_tol and du <= s.pass_tol:
+                    break
+            T, u = T_new, u_new
+            lsa = model.stability(u, T) if n % s.lsa_every == 0 else None
+            resp.record(t, u, T, model, lsa)
+            if progress is not None:
+                progress(n, n_steps)
+            if lsa is not None and lsa.unstable:
+                unstable_run += 1
+                if first_unstable is None:
+                    first_unstable = (t, lsa.status)
+                if unstable_run >= s.unstable_steps:
+                    resp.finish("unstable", f"{lsa.status} detected by the LSA at "
+                                f"t = {first_unstable[0]:g} s", first_unstable)
+                    break
+            elif lsa is not None:
+                unstable_run, first_unstable = 0, None
+        else:
+            resp.finish("completed", "", None)
+    except EquilibriumError as exc:
+        if not resp.times:
+            resp.finish("failed", f"no equilibrium at t = 0: {exc}", None)
+        else:
+            # the quasi-steady equilibrium ceased to exist during the step: a limit point of
+            # the static aeroelastic problem, i.e. a snap-through (divergence-type instability)
+            t_fail = resp.times[-1] + dt
+            resp.finish("unstable", f"static aeroelastic equilibrium lost at t = {t_fail:g} s "
+                        f"(limit point, snap-through): {exc}",
+                        first_unstable or (t_fail, "divergence"))
+    resp.wall_seconds = time.perf_counter() - t_start
+    resp.timing = model.timer.as_dict()
+    return resp
+
+
+def _explicit_thermal_loads(model: PanelModel, q_fluid: Array) -> ThermalLoads:
+    """Thermal loads with a given (estimated) fluid heat flux and radiation (S1/S2)."""
+    top = SurfaceCondition(flux=model._H_TF_top @ q_fluid, emissivity=model.panel.emissivity,
+                           T_rad=model.T_rad, nodal_load=True)
+    return ThermalLoads(top=top)
+
+
+def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float = 1.0, record_every: int = 1,
+           progress=None, stop_on_snap: bool = True) -> Response:
+    """Loosely coupled transient schemes S1 and S2 (Sec. 5.3.1), time step ``settings.time_step``.
+
+    Both: thermal step with the extrapolated heat flux ``1.5 q^n - 0.5 q^(n-1)`` (Eq. 5.2).
+    S1: structure with the extrapolated pressure ``2 p^n - p^(n-1)`` (Eq. 5.3), then the fluid
+    at the new displacement (Eq. 5.4). S2: fluid at the extrapolated displacement
+    ``u^n + dt (1.5 v^n - 0.5 v^(n-1))`` (Eq. 5.5), then the structure with that pressure
+    (Eq. 5.6). Start: Eq. (5.7). Generalized-alpha structure, Crank-Nicolson thermal.
+
+    The run ends at ``settings.duration``; with ``stop_on_snap`` it ends once a snap-through
+    is over (the centre deflection has reversed sign and passed its pre-snap magnitude).
+    """
+    from solvers.dynamics import AlphaStepper
+
+    if scheme not in ("s1", "s2"):
+        raise InputError("simulation.scheme", "loosely coupled schemes are 's1' and 's2'")
+    s = model.settings
+    dt, n_steps = s.time_step, s.n_steps
+    st, tr = model.structure, model.transfer
+    resp = Response.start(model, scheme=scheme)
+    T = model.thermal.initial_state()
+    T_s = model.structural_temperature(T)
+    T_w = model.wall_temperature(T)
+    u0 = np.zeros(st.n_dof)
+    loads0 = model.fluid_loads(u0, T_w)
+    F0 = model.aero_force(loads0)
+    stepper = AlphaStepper(st, dt, rho_bar=rho_bar, u0=u0, T0=T_s, F0=F0)
+    resp.record(0.0, stepper.u, T, model, None)
+    center = 5 * st.mesh.center + 2
+    t_start = time.perf_counter()
+    # start procedure, Eq. (5.7): u^1, v^1 from the initial acceleration
+    u1 = stepper.u + dt * stepper.v + 0.5 * dt * dt * stepper.a
+    v1 = stepper.v + dt * stepper.a
+    p_hist = [loads0.pressure, None]
+    q_hist = [loads0.heat_flux, loads0.heat_flux]
+    v_prev = stepper.v.copy()
+    peak = 0.0
+    try:
+        for n in range(1, n_steps + 1):
+            t = n * dt
+            # -- thermal step with the extrapolated heat flux (Eq. 5.2)
+            q_est = 1.5 * q_hist[0] - 0.5 * q_hist[1]
+            t0 = time.perf_counter()
+            res = model.thermal.step(T, dt, _explicit_thermal_loads(model, q_est),
+                                     alpha=s.thermal_alpha)
+            model.timer.thermal += time.perf_counter() - t0
+            if not res.converged:
+                raise EquilibriumError("thermal Newton did not converge")
+            T = res.T
+            T_s = model.structural_temperature(T)
+            T_w = model.wall_temperature(T)
+            if n == 1:
+                # Eq. (5.7): the first step is taken by the start procedure
+                loads = model.fluid_loads(u1, T_w, u_dot=v1)
+                stepper.u, stepper.v = u1, v1
+                stepper.FI = st.internal_force(u1, T_s)
+                stepper.F = model.aero_force(loads)
+                stepper.a = st.solver.factor(stepper.M).solve(
+                    stepper.F - stepper.FI - (stepper.C @ v1 if stepper.has_damping else 0.0))
+                p_hist = [loads.pressure, p_hist[0]]
+            elif scheme == "s1":
+                p_est = 2.0 * p_hist[0] - p_hist[1]  # Eq. (5.3)
+                t0 = time.perf_counter()
+                u, v, _ = stepper.step(tr.H_SF @ p_est + model._F_ext, T_s)
+                model.timer.structural += time.perf_counter() - t0
+                loads = model.fluid_loads(u, T_w, u_dot=v)  # Eq. (5.4)
+                p_hist = [loads.pressure, p_hist[0]]
+            else:
+                u_est = stepper.u + dt * (1.5 * stepper.v - 0.5 * v_prev)  # Eq. (5.5)
+                v_est = 1.5 * stepper.v - 0.5 * v_prev
+                loads = model.fluid_loads(u_est, T_w, u_dot=v_est)
+                v_prev = stepper.v.copy()
+                t0 = time.perf_counter()
+                stepper.step(model.aero_force(loads), T_s)  # Eq. (5.6)
+                model.timer.structural += time.perf_counter() - t0
+                p_hist = [loads.pressure, p_hist[0]]
+            if n == 1:
+                v_prev = stepper.v.copy() if scheme == "s1" else v_prev
+            q_hist = [loads.heat_flux, q_hist[0]]
+            if not np.all(np.isfinite(stepper.u)):
+                raise EquilibriumError("the transient response diverged (non-finite state)")
+            if n % record_every == 0 or n == n_steps:
+                resp.record(t, stepper.u, T, model, None)
+            if progress is not None:
+                progress(n, n_steps)
+            w = float(stepper.u[center])
+            if stop_on_snap:
+                if abs(w) > abs(peak) and (peak == 0.0 or np.sign(w) == np.sign(peak)):
+                    peak = w
+                elif (abs(peak) > 0.25 * model.panel.thickness and np.sign(w) != np.sign(peak)
+                      and abs(w) > abs(peak)):
+                    onset = snap_onset(np.asarray(resp.times), np.asarray(resp.center_deflection))
+                    resp.finish("unstable", "snap-through", (onset, "divergence"))
+                    break
+        else:
+            resp.finish("completed", "", None)
+    except EquilibriumError as exc:
+        resp.finish("failed", str(exc), None)
+    resp.wall_seconds = time.perf_counter() - t_start
+    resp.timing = model.timer.as_dict()
+    return resp
+
+
+def snap_onset(times: Array, w: Array) -> float:
+    """Onset of a snap-through in a deflection history: the last time the deflection still
+    moved away from zero on the pre-snap side (the turning point before the reversal)."""
+    sign0 = np.sign(w[np.argmax(np.abs(w[: max(2, np.argmax(np.sign(w) != np.sign(w[-1])))]))])
+    pre = np.flatnonzero(np.sign(w) == sign0)
+    if pre.size == 0:
+        return float(times[0])
+    last = pre[-1]
+    k = int(np.argmax(np.abs(w[: last + 1])))
+    return float(times[k])
+
+
+def settings_from_config(sim) -> CouplingSettings:
+    """:class:`CouplingSettings` from a validated ``[simulation]`` table."""
+    return CouplingSettings(time_step=sim.time_step, duration=sim.duration,
+                            radiation_temperature=sim.radiation_temperature,
+                            external_pressure=sim.external_pressure, lsa_modes=sim.lsa_modes,
+                            unstable_steps=sim.unstable_steps, passes=sim.passes,
+                            fluid_density=sim.fluid_density)
+
+
+def simulate(panel: PanelSpec, flow: FlowCondition, sim, progress=None,
+             keep_fields: bool = True) -> Response:
+    """Run a case: ``sim`` is a validated ``[simulation]`` table (scheme, aero, heating...).
+
+    The entry point of ``hypate simulate`` and of the scaling problem's evaluations.
+    """
+    from solvers.aero.analytic import make_fluid_model
+
+    fluid = make_fluid_model(sim.aero, sim.heating, sim.boundary_layer)
+    settings = replace(settings_from_config(sim), keep_fields=keep_fields)
+    model = PanelModel(panel, flow, fluid, settings)
+    if sim.scheme == "tc":
+        return run_tc(model, progress=progress)
+    every = max(1, int(round(0.01 / sim.time_step)))  # record about every 10 ms
+    return run_lc(model, sim.scheme, rho_bar=sim.rho_bar, record_every=every, progress=progress)

@@ -1,0 +1,69 @@
+"""Transfer matrices (Eq. 5.1): exactness on polynomial fields and conservation."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from solvers.materials import library_material
+from solvers.panel import Layer, PanelSpec, thermal_levels
+from solvers.transfer import W_DOF, Transfer, fluid_points
+
+
+def _panel(kind: str = "3d", angle: float = 0.0) -> PanelSpec:
+    mat = library_material("inconel718")
+    return PanelSpec(layers=(Layer(mat, 0.001, 0.0, 2), Layer(mat, 0.001)), kind=kind,
+                     length=1.2, width=0.8, mesh=(4, 3) if kind == "3d" else (6, 1),
+                     leading_edge_length=0.5, flow_angle=angle)
+
+
+def _nodes(panel: PanelSpec) -> tuple[np.ndarray, np.ndarray]:
+    nx, ny = panel.mesh
+    X, Y = np.meshgrid(np.linspace(0, panel.length, 2 * nx + 1), np.linspace(0, panel.width, 2 * ny + 1))
+    return X.ravel(), Y.ravel()
+
+
+@pytest.mark.parametrize("angle", [0.0, math.radians(25.0)])
+def test_quadratic_displacement_and_slope_are_exact(angle: float) -> None:
+    panel = _panel(angle=angle)
+    pts = fluid_points(panel, density=3)
+    tr = Transfer.build(panel, pts, len(thermal_levels(panel)))
+    X, Y = _nodes(panel)
+    u = np.zeros(5 * X.size)
+    # biquadratic w is reproduced exactly by the 9-node shape functions
+    u[W_DOF::5] = 0.3 * X**2 - 0.2 * X * Y + 0.1 * Y**2 + 0.05 * X**2 * Y**2
+    x, y = pts.x, pts.y
+    w = 0.3 * x**2 - 0.2 * x * y + 0.1 * y**2 + 0.05 * x**2 * y**2
+    ws = (math.cos(angle) * (0.6 * x - 0.2 * y + 0.1 * x * y**2)
+          + math.sin(angle) * (-0.2 * x + 0.2 * y + 0.1 * x**2 * y))
+    assert np.allclose(tr.H_FS @ u, w, atol=1e-13)
+    assert np.allclose(tr.H_FS_slope @ u, ws, atol=1e-12)
+
+
+def test_bilinear_temperature_exact_and_only_top_level() -> None:
+    panel = _panel()
+    levels = len(thermal_levels(panel))
+    pts = fluid_points(panel)
+    tr = Transfer.build(panel, pts, levels)
+    X, Y = _nodes(panel)
+    T = np.concatenate([np.full(X.size, 1e6)] * (levels - 1) + [300 + 20 * X - 7 * Y + 3 * X * Y])
+    assert np.allclose(tr.H_FT @ T, 300 + 20 * pts.x - 7 * pts.y + 3 * pts.x * pts.y, atol=1e-10)
+
+
+@pytest.mark.parametrize("kind", ["3d", "2d"])
+def test_force_heat_and_work_conservation(kind: str) -> None:
+    panel = _panel(kind)
+    pts = fluid_points(panel)
+    tr = Transfer.build(panel, pts, len(thermal_levels(panel)))
+    rng = np.random.default_rng(0)
+    p, q = rng.normal(1e3, 200, pts.n), rng.normal(5e4, 1e4, pts.n)
+    F, Q = tr.H_SF @ p, tr.H_TF @ q
+    total_p, total_q = pts.weights @ p, pts.weights @ q
+    # partition of unity: totals identical to round-off (1e-12 relative)
+    assert F[W_DOF::5].sum() == pytest.approx(-total_p, rel=1e-12)
+    assert np.all(np.delete(F, np.s_[W_DOF::5]) == 0.0)
+    assert Q.sum() == pytest.approx(total_q, rel=1e-12)
+    u = rng.normal(0, 1e-3, F.size)
+    # virtual work of the nodal loads equals the fluid-side work -p^T W u_F
+    assert F @ u == pytest.approx(-(p * pts.weights) @ (tr.H_FS @ u), rel=1e-12)
