@@ -20,6 +20,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "scaling.commands.structure",
     "scaling.commands.thermal",
     "scaling.commands.simulate",
+    "scaling.commands.flutter",
     "scaling.commands.bench",
 )
 

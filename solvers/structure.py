@@ -266,7 +266,7 @@ class StructuralModel:
         key: object = Tn if isinstance(Tn, float) else None
         if self._cache_state is not None:
             ck = self._cache_key
-            if key is not None and ck == key:
+            if key is not None and isinstance(ck, float) and ck == key:
                 return self._cache_state
             if key is None and isinstance(ck, np.ndarray) and ck.shape == np.shape(Tn) \
                     and np.array_equal(ck, Tn):
