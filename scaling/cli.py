@@ -21,6 +21,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "scaling.commands.thermal",
     "scaling.commands.simulate",
     "scaling.commands.flutter",
+    "scaling.commands.rom",
     "scaling.commands.bench",
 )
 

@@ -144,13 +144,13 @@ class SimulationConfig(_Strict):
     external_pressure: Annotated[float, Field(ge=-1e7, le=1e7)] = 0.0
     lsa_modes: Annotated[int, Field(ge=1, le=50)] = 6
     unstable_steps: Annotated[int, Field(ge=1, le=1000)] = 2
-    passes: Annotated[int, Field(ge=1, le=20)] = 2
+    passes: Annotated[int, Field(ge=1, le=20)] = 1
     fluid_density: Annotated[int, Field(ge=1, le=8)] = 2
     rho_bar: Annotated[float, Field(ge=0.0, le=1.0)] = 1.0
 
     @model_validator(mode="after")
     def _check(self) -> SimulationConfig:
-        allowed = ("pt", "pt1", "pt3", "ls", "pt-bl")
+        allowed = ("pt", "pt1", "pt3", "ls", "pt-bl", "se")
         if self.aero not in allowed and not (self.aero.startswith("rom:") and len(self.aero) > 4):
             raise ValueError(f"aero: must be one of {', '.join(allowed)} or 'rom:PATH'; "
                              f"got {self.aero!r}")

@@ -144,8 +144,8 @@ def _result(lam_p: CArray) -> StabilityResult:
 
 def gep(K: sp.spmatrix, M: sp.spmatrix, K_A: sp.spmatrix | LowRank | None = None,
         count: int = 6, sigma: float | None = None, solver: str = "direct",
-        free: Array | None = None, rng: np.random.Generator | int | None = 0
-        ) -> StabilityResult:
+        free: Array | None = None, rng: np.random.Generator | int | None = 0,
+        on_factor=None) -> StabilityResult:
     """LSA by the GEP ``(K - K_A) u = lambda_g M u`` (Eq. 5.35), eigenvalues nearest ``sigma``.
 
     Parameters
@@ -164,6 +164,9 @@ def gep(K: sp.spmatrix, M: sp.spmatrix, K_A: sp.spmatrix | LowRank | None = None
         K - sigma M with a Woodbury update / preconditioned GMRES for a low-rank K_A.
     free : ndarray of int, optional
         DOFs kept (the rest are constrained and removed); default all.
+    on_factor : callable, optional
+        Receives the sparse LU of the shifted matrix (direct solver), so a caller can reuse
+        it (e.g. as a preconditioner of the next Newton solves).
     """
     if free is not None:
         K = K[free][:, free]
@@ -182,6 +185,8 @@ def gep(K: sp.spmatrix, M: sp.spmatrix, K_A: sp.spmatrix | LowRank | None = None
             K_A, LowRank) else sp.csc_matrix(K_A))).tocsc()
         lu = spla.splu(A)
         solve = lu.solve
+        if on_factor is not None:
+            on_factor(lu)
     else:
         lu = spla.splu(shifted)
         if solver == "woodbury":

@@ -9,7 +9,9 @@ import importlib
 
 #: Modules providing benchmark targets (each has ``register_bench(subparsers)``).
 BENCH_MODULES: tuple[str, ...] = ("scaling.commands.bench_structure",
-                                  "scaling.commands.bench_thermal")
+                                  "scaling.commands.bench_thermal",
+                                  "scaling.commands.bench_ate",
+                                  "scaling.commands.bench_rom")
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -266,11 +266,15 @@ def make_fluid_model(aero: str, heating: str = "eckert", regime: str = "turbulen
     if aero in ANALYTIC_AERO:
         pressure, eff = ANALYTIC_AERO[aero]
         return AnalyticFluid(pressure, eff, heating, regime)
+    if aero == "se":
+        from solvers.aero.shock_expansion import ShockExpansionFluid  # imports this module
+
+        return ShockExpansionFluid(boundary_layer=True, heating=heating, regime=regime)
     if aero.startswith("rom:"):
         from solvers.aero.rom import load_rom  # local import: the ROM imports this module
 
         if not aero[4:]:
             raise InputError("simulation.aero", "'rom:PATH' needs the path of a ROM file")
         return load_rom(aero[4:], regime=regime)
-    raise InputError("simulation.aero", f"must be one of {', '.join(ANALYTIC_AERO)} or "
+    raise InputError("simulation.aero", f"must be one of {', '.join(ANALYTIC_AERO)}, 'se' or "
                      f"'rom:PATH'; got {aero!r}")

@@ -1,0 +1,219 @@
+"""Schema of ROM build files (``hypate rom build CONFIG.toml``), validated with pydantic.
+
+Public schema (keys are a contract; see README "Fluid ROM"), example
+``studies/rom_2d_panel.toml`` (Dissertation Sec. 7.1, Table 7.1)::
+
+    [panel]                      # the reference geometry of the ROM (L_ref = length)
+    kind = "2d"                  # "2d" (one line of points at mid-span) or "3d"
+    length = 1.0                 # a (m)
+    width = 1.0                  # b (m); ignored for "2d"
+    leading_edge_length = 1.0    # L_le (m) rigid wall ahead of the panel
+    thickness = 0.0025           # h (m); deformation amplitudes are in units of h
+    flow_angle = 0.0             # beta (deg)
+
+    [grid]                       # fluid surface points (edges included)
+    n_x = 65
+    n_y = 1
+
+    [reference]                  # reference condition c_ref: mach + altitude (m) or
+    mach = 6.0                   # mach + pressure (Pa) + temperature (K)
+    altitude = 25000.0
+
+    [[modes]]                    # deformation modes u/h = sum a_i sin(m pi x/a) sin(n pi y/b)
+    m = 1                        # streamwise half-waves (>= 1)
+    n = 0                        # spanwise half-waves (0 = uniform across; "2d" needs 0)
+    range = [-6.0, 6.0]          # amplitude range in units of h (Table 7.1)
+
+    [wall_temperature]
+    range = [200.0, 900.0]       # mean (uniform) wall temperature range (K)
+
+    [source]
+    kind = "shock-expansion"     # built-in source, or "snapshots" (external samples)
+    path = ""                    # snapshots: NPZ or CSV file, relative to this file
+    boundary_layer = true        # shock-expansion: Cox-Crabtree effective shape
+    regime = "turbulent"         # Eckert regime
+
+    [training]
+    samples = 200                # OLH samples (shock-expansion source)
+    seed = 0
+    pod_tolerance = 0.005        # Eq. (A.14) energy criterion
+    kernel = "rbf"               # "rbf" (Gaussian, Eq. A.4) or "matern52"
+    trend = "linear"             # regression part of Eq. (A.2): constant | linear | quadratic
+    restarts = 1                 # likelihood-optimization restarts (first POD coefficient)
+    optimized_modes = 3          # POD coefficients with their own optimized hyperparameters
+
+    [conventional]               # optional: build the conventional ROM (Eq. 2.62) instead,
+    mach = [5.0, 7.0]            # with the flight condition as extra inputs
+    altitude = [20000.0, 30000.0]
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from solvers.config import _pydantic_error, read_toml
+from solvers.errors import InputError
+from solvers.flow import FlowCondition
+
+__all__ = ["RomBuildConfig", "load_rom_config", "parse_rom_config"]
+
+Length = Annotated[float, Field(gt=0.0, le=100.0, allow_inf_nan=False)]
+Range = Annotated[list[Annotated[float, Field(allow_inf_nan=False)]],
+                  Field(min_length=2, max_length=2)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+def _ordered(r: list[float], name: str) -> None:
+    if not r[0] < r[1]:
+        raise ValueError(f"{name}: range must be [low, high] with low < high")
+
+
+class RomPanel(_Strict):
+    kind: Literal["2d", "3d"] = "2d"
+    length: Length = 1.0
+    width: Length = 1.0
+    leading_edge_length: Annotated[float, Field(gt=0.0, le=100.0, allow_inf_nan=False)] = 1.0
+    thickness: Annotated[float, Field(gt=0.0, le=1.0, allow_inf_nan=False)] = 0.0025
+    flow_angle: Annotated[float, Field(ge=-60.0, le=60.0)] = 0.0
+
+
+class RomGrid(_Strict):
+    n_x: Annotated[int, Field(ge=3, le=1000)] = 65
+    n_y: Annotated[int, Field(ge=1, le=200)] = 1
+
+
+class RomReference(_Strict):
+    mach: Annotated[float, Field(gt=1.0, le=30.0)]
+    altitude: float | None = None
+    pressure: Annotated[float, Field(gt=0.0)] | None = None
+    temperature: Annotated[float, Field(gt=0.0)] | None = None
+
+    @model_validator(mode="after")
+    def _one_state(self) -> RomReference:
+        alt = self.altitude is not None
+        pt = self.pressure is not None or self.temperature is not None
+        if alt == pt:
+            raise ValueError("give either altitude or (pressure and temperature)")
+        if pt and (self.pressure is None or self.temperature is None):
+            raise ValueError("pressure and temperature are both required")
+        return self
+
+    def flow(self) -> FlowCondition:
+        if self.altitude is not None:
+            return FlowCondition.from_altitude(self.mach, self.altitude)
+        return FlowCondition.from_static(self.mach, self.pressure, self.temperature)
+
+
+class RomMode(_Strict):
+    m: Annotated[int, Field(ge=1, le=100)]
+    n: Annotated[int, Field(ge=0, le=100)] = 0
+    range: Range
+
+    @model_validator(mode="after")
+    def _check(self) -> RomMode:
+        _ordered(self.range, "range")
+        return self
+
+
+class RomWallTemperature(_Strict):
+    range: Range = [200.0, 900.0]
+
+    @model_validator(mode="after")
+    def _check(self) -> RomWallTemperature:
+        _ordered(self.range, "range")
+        if self.range[0] <= 0.0:
+            raise ValueError("range: wall temperatures must be > 0 K")
+        return self
+
+
+class RomSource(_Strict):
+    kind: Literal["shock-expansion", "snapshots"] = "shock-expansion"
+    path: str = ""
+    boundary_layer: bool = True
+    regime: Literal["turbulent", "laminar"] = "turbulent"
+
+    @model_validator(mode="after")
+    def _check(self) -> RomSource:
+        if self.kind == "snapshots" and not self.path:
+            raise ValueError("path: a snapshots source needs the path of an NPZ or CSV file")
+        return self
+
+
+class RomTraining(_Strict):
+    samples: Annotated[int, Field(ge=5, le=20000)] = 200
+    seed: int = 0
+    pod_tolerance: Annotated[float, Field(gt=0.0, lt=1.0)] = 0.005
+    kernel: Literal["rbf", "matern52"] = "rbf"
+    trend: Literal["constant", "linear", "quadratic"] = "linear"
+    restarts: Annotated[int, Field(ge=0, le=20)] = 1
+    optimized_modes: Annotated[int, Field(ge=1, le=1000)] = 3
+
+
+class RomConventional(_Strict):
+    mach: Range
+    altitude: Range
+
+    @model_validator(mode="after")
+    def _check(self) -> RomConventional:
+        _ordered(self.mach, "mach")
+        _ordered(self.altitude, "altitude")
+        if self.mach[0] <= 1.0:
+            raise ValueError("mach: must be > 1")
+        return self
+
+
+class RomBuildConfig(_Strict):
+    """A validated ROM build file (see the module docstring for the keys)."""
+
+    panel: RomPanel = RomPanel()
+    grid: RomGrid = RomGrid()
+    reference: RomReference
+    modes: Annotated[list[RomMode], Field(min_length=1, max_length=50)]
+    wall_temperature: RomWallTemperature = RomWallTemperature()
+    source: RomSource = RomSource()
+    training: RomTraining = RomTraining()
+    conventional: RomConventional | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> RomBuildConfig:
+        if self.panel.kind == "2d":
+            if self.grid.n_y != 1:
+                raise ValueError("grid: a 2d panel has one line of points (n_y = 1)")
+            if any(m.n != 0 for m in self.modes):
+                raise ValueError("modes: a 2d panel has no spanwise waves (n = 0)")
+            if self.panel.flow_angle != 0.0:
+                raise ValueError("panel: a 2d panel is aligned with the flow (flow_angle = 0)")
+        seen = {(m.m, m.n) for m in self.modes}
+        if len(seen) != len(self.modes):
+            raise ValueError("modes: each (m, n) pair may appear once")
+        return self
+
+    @property
+    def flow_angle_rad(self) -> float:
+        return math.radians(self.panel.flow_angle)
+
+
+def parse_rom_config(data: dict[str, Any]) -> RomBuildConfig:
+    """Validate a parsed TOML table; errors become :class:`InputError` naming the key."""
+    try:
+        cfg = RomBuildConfig.model_validate(data)
+    except ValidationError as exc:
+        raise _pydantic_error(exc) from None
+    try:
+        cfg.reference.flow()
+    except InputError as exc:
+        raise InputError(f"reference.{exc.field}", exc.message) from None
+    return cfg
+
+
+def load_rom_config(path: str | Path) -> tuple[RomBuildConfig, Path]:
+    """Read and validate a ROM build file; returns the config and its directory (for
+    resolving a relative ``source.path``)."""
+    path = Path(path)
+    return parse_rom_config(read_toml(path)), path.resolve().parent

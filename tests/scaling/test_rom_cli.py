@@ -1,0 +1,133 @@
+"""``hypate rom build/check/plan`` and ``hypate bench rom`` (scaling/commands/rom.py)."""
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from scaling.cli import main
+
+SMALL_TOML = """
+[panel]
+kind = "2d"
+length = 1.0
+leading_edge_length = 1.0
+thickness = 0.0025
+
+[grid]
+n_x = 33
+
+[reference]
+mach = 6.0
+altitude = 25000.0
+
+[[modes]]
+m = 1
+range = [-6.0, 6.0]
+[[modes]]
+m = 2
+range = [-2.0, 2.0]
+
+[wall_temperature]
+range = [200.0, 900.0]
+
+[training]
+samples = 30
+seed = 1
+restarts = 0
+optimized_modes = 2
+"""
+
+
+def _hypate(*args: str) -> subprocess.CompletedProcess:
+    exe = shutil.which("hypate")
+    cmd = [exe, *args] if exe else [sys.executable, "-m", "scaling.cli", *args]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    d = tmp_path_factory.mktemp("romcli")
+    (d / "small.toml").write_text(SMALL_TOML)
+    assert main(["rom", "build", str(d / "small.toml"), "--out", str(d / "rom.npz")]) == 0
+    return d
+
+
+def test_build_and_check_json(built: Path, capsys: pytest.CaptureFixture) -> None:
+    capsys.readouterr()
+    assert main(["rom", "check", str(built / "rom.npz"), "--samples", "5", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert set(data) == {"pressure_nrmse", "heat_flux_nrmse", "samples"}
+    assert data["samples"] == 5
+    # 30 samples only (a CLI contract test; accuracy is tested in tests/solvers/test_rom.py)
+    assert 0.0 <= data["pressure_nrmse"] < 0.05 and 0.0 <= data["heat_flux_nrmse"] < 0.05
+    assert main(["rom", "check", str(built / "rom.npz"), "--samples", "4", "--mach", "7",
+                 "--altitude", "30000", "--scale", "4", "--json"]) == 0
+    off = json.loads(capsys.readouterr().out)
+    assert off["samples"] == 4 and off["pressure_nrmse"] < 0.10 and off["heat_flux_nrmse"] < 0.10
+
+
+def test_console_script_build_check_and_errors(built: Path, tmp_path: Path) -> None:
+    out = tmp_path / "r.npz"
+    res = _hypate("rom", "build", str(built / "small.toml"), "--out", str(out), "--samples",
+                  "12", "--json")
+    assert res.returncode == 0, res.stderr
+    assert json.loads(res.stdout)["samples"] == 12
+    res = _hypate("rom", "check", str(out), "--samples", "3", "--json")
+    assert res.returncode == 0, res.stderr
+    assert set(json.loads(res.stdout)) == {"pressure_nrmse", "heat_flux_nrmse", "samples"}
+    # corrupted file: one line, exit 2, no traceback
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(out.read_bytes()[:500])
+    res = _hypate("rom", "check", str(bad), "--samples", "3", "--json")
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert res.stderr.startswith("hypate: error:") and len(res.stderr.strip().splitlines()) == 1
+    res = _hypate("rom", "check", str(tmp_path / "missing.npz"), "--samples", "3")
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+
+
+def test_bad_inputs_exit_2(built: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    bad_cfg = tmp_path / "bad.toml"
+    bad_cfg.write_text(SMALL_TOML.replace("n_x = 33", "n_x = 33\nn_y = 3"))
+    assert main(["rom", "build", str(bad_cfg), "--out", str(tmp_path / "x.npz")]) == 2
+    assert "grid" in capsys.readouterr().err
+    assert main(["rom", "check", str(built / "rom.npz"), "--samples", "0"]) == 2
+    assert main(["rom", "check", str(built / "rom.npz"), "--samples", "2", "--scale", "-1"]) == 2
+    assert main(["rom", "check", str(built / "rom.npz"), "--samples", "2", "--mach", "0.5"]) == 2
+
+
+def test_plan_csv(built: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    out = tmp_path / "plan.csv"
+    assert main(["rom", "plan", str(built / "small.toml"), "--out", str(out), "--samples", "40",
+                 "--groups", "2", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["ratio"] > 1.0
+    rows = list(csv.DictReader(open(out)))
+    assert len(rows) == 40
+    assert set(rows[0]) == {"group", "position", "sample", "restart_from", "distance", "a1",
+                            "a2", "T_w"}
+
+
+def test_shipped_study_file_validates() -> None:
+    from solvers.aero.rom_config import load_rom_config
+
+    cfg, _ = load_rom_config(Path(__file__).resolve().parents[2] / "studies" /
+                             "rom_2d_panel.toml")
+    assert len(cfg.modes) == 6 and cfg.training.samples <= 200
+    assert [m.range for m in cfg.modes] == [[-6, 6], [-2, 2], [-2, 2], [-2, 2], [-1.5, 1.5],
+                                            [-1.5, 1.5]]  # Table 7.1
+
+
+def test_bench_rom_prints_table(capsys: pytest.CaptureFixture, tmp_path: Path) -> None:
+    cfg = tmp_path / "b.toml"
+    cfg.write_text(SMALL_TOML)
+    assert main(["bench", "rom", "--config", str(cfg), "--counts", "10", "20",
+                 "--test-samples", "5"]) == 0
+    out = capsys.readouterr().out
+    assert "samples" in out and len([ln for ln in out.splitlines() if ln.strip()[:2]
+                                     in ("10", "20")]) == 2
