@@ -16,6 +16,7 @@ from solvers.errors import InputError
 #: Modules providing subcommands (each has ``register(subparsers)``), in ``--help`` order.
 COMMAND_MODULES: tuple[str, ...] = (
     "scaling.commands.condition",
+    "scaling.commands.run",
     "scaling.commands.validate",
     "scaling.commands.structure",
     "scaling.commands.thermal",

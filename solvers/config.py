@@ -200,7 +200,8 @@ def _pydantic_error(exc: ValidationError, prefix: str = "") -> InputError:
     elif "input" in err and not isinstance(err["input"], dict | list):
         msg += f" (got {err['input']!r})"
     # model-level validators name their key at the start of the message ("mesh: ...")
-    if ": " in msg and msg.split(": ", 1)[0].isidentifier() and err["type"] == "value_error":
+    if ": " in msg and msg.split(": ", 1)[0].replace(".", "_").isidentifier() \
+            and err["type"] == "value_error":
         key, msg = msg.split(": ", 1)
         path = ".".join(p for p in (path, key) if p)
     return InputError(path or "file", msg)

@@ -72,6 +72,12 @@ class CouplingSettings:
         Crank-Nicolson alpha-bar.
     keep_fields : bool
         Store nodal u and T for every step in the response.
+    initial_temperature_rise : float
+        Uniform temperature rise (K) of the panel at t = 0 over its stress-free initial
+        temperature (the uniformly heated panel of Sec. 9.1).
+    initial_deflection : float
+        Amplitude of an initial deflection ``w0 = A h sin(pi x/a) sin(pi y/b)`` in units of
+        the thickness (a perturbation that lets a flat heated panel leave the trivial state).
     """
 
     time_step: float = 1.0
@@ -88,6 +94,8 @@ class CouplingSettings:
     fluid_density: int = 2
     thermal_alpha: float = 0.5
     keep_fields: bool = True
+    initial_temperature_rise: float = 0.0
+    initial_deflection: float = 0.0
 
     def __post_init__(self) -> None:
         if not (self.time_step > 0 and math.isfinite(self.time_step)):
@@ -166,6 +174,55 @@ class PanelModel:
 
     def _keep_precond(self, lu) -> None:
         self._precond = lu
+
+    def initial_state(self) -> tuple[Array, Array]:
+        """(u0, T0) at t = 0: the initial deflection and the initial temperature field."""
+        s = self.settings
+        T = self.thermal.initial_state() + s.initial_temperature_rise
+        u = np.zeros(self.structure.n_dof)
+        if s.initial_deflection:
+            x, y = self.structure.mesh.x, self.structure.mesh.y
+            shape = np.sin(math.pi * x / self.panel.length)
+            if self.panel.kind == "3d":
+                shape = shape * np.sin(math.pi * y / self.panel.width)
+            u[2::5] = s.initial_deflection * self.panel.thickness * shape
+        return u, T
+
+    def relax_inplane(self, u: Array, T: Array, max_iter: int = 30) -> Array:
+        """Static equilibrium of every DOF but w, with w held at its value.
+
+        A transient run that starts from a deflected or suddenly heated panel needs an
+        initial state whose membrane forces balance (the in-plane waves such an imbalance
+        excites are far faster than any step the schemes take): the panel starts at rest
+        with the in-plane displacements and rotations in equilibrium with ``w``.
+        """
+        st = self.structure
+        T_s = self.structural_temperature(T)
+        T_w = self.wall_temperature(T)
+        # every DOF except the free w: the constrained ones too, so the penalty springs
+        # carry their static reactions (else the first acceleration is absurd there)
+        sub = np.setdiff1d(np.arange(st.n_dof), np.intersect1d(st.free_dofs,
+                                                               np.arange(2, st.n_dof, 5)))
+        u = np.array(u, dtype=float)
+        ref = float(np.linalg.norm(st.thermal_load(T_s)))
+        for it in range(max_iter):
+            F_I, K = st.force_and_tangent(u, T_s)
+            R = (F_I - self.aero_force(self.fluid_loads(u, T_w)))[sub]
+            rnorm = float(np.linalg.norm(R))
+            if it == 0:
+                ref = max(ref, rnorm, 1e-3)
+            if rnorm <= 1e-9 * ref:
+                return u
+            u[sub] -= spla.splu(K[sub][:, sub].tocsc()).solve(R)
+        raise EquilibriumError("in-plane equilibrium of the initial state did not converge")
+
+    @property
+    def thermal_frozen(self) -> bool:
+        """True when nothing heats or cools the panel (no aerodynamic heating, no
+        radiation): the temperature field stays at its initial value and the thermal steps
+        are skipped."""
+        heating = getattr(self.fluid, "heating", "eckert")
+        return heating == "none" and self.panel.emissivity == 0.0
 
     # -- fields on the fluid grid -------------------------------------------------------
     def wall_temperature(self, T: Array) -> Array:
@@ -407,8 +464,7 @@ def run_tc(model: PanelModel, progress=None) -> Response:
     s = model.settings
     dt, n_steps = s.time_step, s.n_steps
     resp = Response.start(model, scheme="tc")
-    T = model.thermal.initial_state()
-    u = np.zeros(model.structure.n_dof)
+    u, T = model.initial_state()
     unstable_run = 0
     first_unstable: tuple[float, str] | None = None
     t_start = time.perf_counter()
@@ -421,7 +477,8 @@ def run_tc(model: PanelModel, progress=None) -> Response:
             T_new, u_new = T, u
             for _ in range(s.passes):
                 T_prev, u_prev = T_new, u_new
-                T_new = model.thermal_step(T, u_new, dt, T_guess=T_new)
+                if not model.thermal_frozen:
+                    T_new = model.thermal_step(T, u_new, dt, T_guess=T_new)
                 u_new, _ = model.equilibrium(u_new, T_new)
                 dT = np.max(np.abs(T_new - T_prev)) / max(np.max(np.abs(T_new - T)), 1e-12)
                 du = np.max(np.abs(u_new - u_prev)) / max(np.max(np.abs(u_new)), 1e-12)
@@ -487,19 +544,23 @@ def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float = 1.0, record_e
     dt, n_steps = s.time_step, s.n_steps
     st, tr = model.structure, model.transfer
     resp = Response.start(model, scheme=scheme)
-    T = model.thermal.initial_state()
+    u0, T = model.initial_state()
+    u0 = model.relax_inplane(u0, T)
     T_s = model.structural_temperature(T)
     T_w = model.wall_temperature(T)
-    u0 = np.zeros(st.n_dof)
     loads0 = model.fluid_loads(u0, T_w)
     F0 = model.aero_force(loads0)
     stepper = AlphaStepper(st, dt, rho_bar=rho_bar, u0=u0, T0=T_s, F0=F0)
     resp.record(0.0, stepper.u, T, model, None)
     center = 5 * st.mesh.center + 2
     t_start = time.perf_counter()
-    # start procedure, Eq. (5.7): u^1, v^1 from the initial acceleration
-    u1 = stepper.u + dt * stepper.v + 0.5 * dt * dt * stepper.a
-    v1 = stepper.v + dt * stepper.a
+    # start procedure, Eq. (5.7): u^1, v^1 from the initial acceleration -- on the free
+    # transverse DOFs; the in-plane, rotational and penalty-constrained DOFs are far
+    # stiffer than any explicit step resolves, so they are relaxed to equilibrium at t^1
+    w_free = np.intersect1d(st.free_dofs, np.arange(2, st.n_dof, 5))
+    u1, v1 = stepper.u.copy(), stepper.v.copy()
+    u1[w_free] += dt * stepper.v[w_free] + 0.5 * dt * dt * stepper.a[w_free]
+    v1[w_free] += dt * stepper.a[w_free]
     p_hist = [loads0.pressure, None]
     q_hist = [loads0.heat_flux, loads0.heat_flux]
     v_prev = stepper.v.copy()
@@ -508,18 +569,20 @@ def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float = 1.0, record_e
         for n in range(1, n_steps + 1):
             t = n * dt
             # -- thermal step with the extrapolated heat flux (Eq. 5.2)
-            q_est = 1.5 * q_hist[0] - 0.5 * q_hist[1]
-            t0 = time.perf_counter()
-            res = model.thermal.step(T, dt, _explicit_thermal_loads(model, q_est),
-                                     alpha=s.thermal_alpha)
-            model.timer.thermal += time.perf_counter() - t0
-            if not res.converged:
-                raise EquilibriumError("thermal Newton did not converge")
-            T = res.T
-            T_s = model.structural_temperature(T)
-            T_w = model.wall_temperature(T)
+            if not model.thermal_frozen:
+                q_est = 1.5 * q_hist[0] - 0.5 * q_hist[1]
+                t0 = time.perf_counter()
+                res = model.thermal.step(T, dt, _explicit_thermal_loads(model, q_est),
+                                         alpha=s.thermal_alpha)
+                model.timer.thermal += time.perf_counter() - t0
+                if not res.converged:
+                    raise EquilibriumError("thermal Newton did not converge")
+                T = res.T
+                T_s = model.structural_temperature(T)
+                T_w = model.wall_temperature(T)
             if n == 1:
                 # Eq. (5.7): the first step is taken by the start procedure
+                u1 = model.relax_inplane(u1, T)
                 loads = model.fluid_loads(u1, T_w, u_dot=v1)
                 stepper.u, stepper.v = u1, v1
                 stepper.FI = st.internal_force(u1, T_s)

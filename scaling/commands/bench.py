@@ -8,7 +8,8 @@ import argparse
 import importlib
 
 #: Modules providing benchmark targets (each has ``register_bench(subparsers)``).
-BENCH_MODULES: tuple[str, ...] = ("scaling.commands.bench_structure",
+BENCH_MODULES: tuple[str, ...] = ("scaling.commands.bench_bo",
+                                  "scaling.commands.bench_structure",
                                   "scaling.commands.bench_thermal",
                                   "scaling.commands.bench_ate",
                                   "scaling.commands.bench_rom")

@@ -1,0 +1,96 @@
+"""``hypate run [STUDY.toml]``: run a scaling study (the main job)."""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from scaling.pareto import hypervolume
+from scaling.runner import run_study
+from scaling.study import load_study
+from solvers.errors import InputError
+
+#: Reference point of the progress-bar hypervolume (relative errors of 100 %).
+PROGRESS_REF = np.array([1.0, 1.0])
+
+
+def default_study() -> Path:
+    """The shipped quick-start study (the embedded default)."""
+    return Path(str(resources.files("studies").joinpath("quickstart.toml")))
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("run", help="run a scaling study (default: the quick-start study)",
+                       description="Optimize a wind-tunnel model whose nondimensional "
+                       "aerothermoelastic response matches the prototype's. Writes "
+                       "evaluations.sqlite/.csv, pareto.csv and design_point.json to --out.")
+    p.add_argument("study", nargs="?", help="study TOML file (default: studies/quickstart.toml)")
+    p.add_argument("--out", help="run directory (default: runs/<study name>)")
+    p.add_argument("--resume", action="store_true", help="continue the run in --out")
+    p.add_argument("--workers", type=int, default=1, help="local worker processes (default 1)")
+    p.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT")
+    p.add_argument("--seed", type=int, help="override the study's optimizer seed")
+    p.set_defaults(func=run)
+
+
+class _Progress:
+    """Progress bar: evaluations / budget, best max(J), hypervolume, elapsed and ETA."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.bar = tqdm(total=1, unit="eval", desc="evaluations", disable=not enabled,
+                        dynamic_ncols=True)
+        self.F: list[np.ndarray] = []
+
+    def __call__(self, done: int, budget: int, evaluation) -> None:
+        self.bar.total = budget
+        if evaluation is not None and evaluation.status == "ok":
+            self.F.append(np.asarray(evaluation.F, float))
+        post = {}
+        if self.F:
+            F = np.array(self.F)
+            post["best"] = f"{F.max(axis=1).min():.4g}"
+            if F.shape[1] == 2:
+                post["HV"] = f"{hypervolume(F[np.all(F < PROGRESS_REF, axis=1)], PROGRESS_REF):.4g}"
+        self.bar.set_postfix(post, refresh=False)
+        self.bar.update(done - self.bar.n)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def run(args: argparse.Namespace) -> int:
+    path = Path(args.study) if args.study else default_study()
+    study = load_study(path)
+    out = Path(args.out) if args.out else Path("runs") / study.name
+    if args.seed is not None and args.seed < 0:
+        raise InputError("--seed", "must be >= 0")
+    t0 = time.perf_counter()
+    print(f"study {study.name}: {study.description or path}", file=sys.stderr)
+    print("simulating the prototype ...", file=sys.stderr)
+    bar = _Progress(enabled=sys.stderr.isatty())
+    try:
+        outcome = run_study(study, out, resume=args.resume, workers=args.workers,
+                            scheduler=args.scheduler, seed=args.seed, progress=bar)
+    finally:
+        bar.close()
+    point = outcome.design_point
+    print(f"{out}: {point['statistics']['evaluations']} evaluations in "
+          f"{time.perf_counter() - t0:.1f} s")
+    if point.get("design"):
+        objs = ", ".join(f"{k} = {v:.4g}" for k, v in point["objectives"].items())
+        print(f"design point: {objs}")
+        for name, value in point["design"].items():
+            print(f"  {name:>10s} = {value:.6g}")
+        if point["active_constraints"]:
+            print(f"  active: {', '.join(point['active_constraints'])}")
+    else:
+        print("no successful evaluation: see evaluations.csv for the reasons")
+    if not math.isfinite(point["statistics"].get("wall_seconds") or 0.0):
+        return 1
+    return 0

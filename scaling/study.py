@@ -1,0 +1,323 @@
+"""Study files (TOML): a scaling problem plus optimizer settings, validated.
+
+Public keys (documented in the README, used by the shipped ``studies/*.toml``)::
+
+    [study]        name, description, kind ("quasi_steady" | "aeroelastic"), objectives,
+                   xi, time_scaling ("fourier" | "structural"), projection ("center" | "modal")
+    [prototype]    case (path of a case file, relative to the study), delta_T,
+                   temperature_independent
+    [simulation]   time_step, steps, aero, heating, boundary_layer, initial_deflection,
+                   lsa_modes, unstable_steps, rho_bar, mesh
+    [model]        material, thickness, sublayers, boundary, emissivity,
+                   initial_temperature, temperature_independent
+    [tunnel]       name (shipped: ideal, WT5, WT6, WT7) or an inline envelope (mach /
+                   mach_values, p0, T0 ...), mach (the nozzle to use)
+    [variables]    NAME = [lower, upper] or "tunnel" (the envelope's bounds)
+    [fixed]        NAME = value (design values that are not optimized)
+    [constraints]  equality = ["T_inf"]
+    [optimizer]    approach, acquisition, v, weights, initial_samples, iterations,
+                   batch_size, seed, classical_seed, timeout
+
+Every error is an :class:`~solvers.errors.InputError` naming its key; nothing runs on a bad
+file.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from scaling.problem import EQUALITY_CONSTRAINTS, OBJECTIVES, ScalingSpec, Simulation, Variable
+from scaling.similarity import Configuration
+from scaling.tunnels import TunnelEnvelope, resolve_tunnel
+from solvers import materials as mat
+from solvers.config import _pydantic_error, load_case, read_toml
+from solvers.errors import InputError
+from solvers.flow import FlowCondition
+from solvers.panel import Layer, PanelSpec
+
+#: Design variables a study may optimize (names of scaling.similarity.apply_design).
+VARIABLES = ("M", "p0", "T0", "p_inf", "T_inf", "L", "L_le", "h", "emissivity", "T_rad",
+             "p_ext", "delta_T")
+#: Manufacturing / facility limits no design may leave (Table 9.7 and physics).
+HARD_LIMITS = {"h": (1e-4, 0.05), "L": (0.01, 5.0), "L_le": (0.0, 10.0),
+               "emissivity": (0.0, 1.0), "T_rad": (1.0, 5000.0), "M": (1.0001, 30.0),
+               "p0": (1.0, 1e9), "T0": (1.0, 1e4), "p_inf": (1e-3, 1e7), "T_inf": (1.0, 5000.0),
+               "delta_T": (1e-6, 2000.0), "p_ext": (-1e7, 1e7)}
+
+PosFloat = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class StudySection(_Strict):
+    name: str = "study"
+    description: str = ""
+    kind: Literal["quasi_steady", "aeroelastic"] = "quasi_steady"
+    objectives: Annotated[list[Literal["J_u", "J_T", "J_s"]], Field(min_length=1, max_length=2)
+                          ] = ["J_u", "J_T"]
+    xi: Annotated[float, Field(ge=1.0, le=100.0)] = 1.0
+    time_scaling: Literal["fourier", "structural"] = "fourier"
+    projection: Literal["center", "modal"] = "center"
+
+
+class PrototypeSection(_Strict):
+    case: str
+    delta_T: Annotated[float, Field(gt=0.0, le=2000.0)] | None = None
+    temperature_independent: bool = False
+
+
+class SimulationSection(_Strict):
+    time_step: PosFloat = 1.0
+    steps: Annotated[int, Field(ge=1, le=100000)] = 160
+    aero: str = "pt-bl"
+    heating: Literal["eckert", "none"] = "eckert"
+    boundary_layer: Literal["turbulent", "laminar"] = "turbulent"
+    initial_deflection: Annotated[float, Field(ge=-10.0, le=10.0)] = 0.0
+    lsa_modes: Annotated[int, Field(ge=1, le=50)] = 6
+    unstable_steps: Annotated[int, Field(ge=1, le=1000)] = 2
+    rho_bar: Annotated[float, Field(ge=0.0, le=1.0)] = 0.5
+    mesh: Annotated[list[Annotated[int, Field(ge=1, le=100)]], Field(min_length=2,
+                                                                      max_length=2)] | None = None
+
+
+class ModelSection(_Strict):
+    material: str = "ti6242"
+    thickness: Annotated[float, Field(gt=0.0, le=0.1)] | None = None
+    sublayers: Annotated[int, Field(ge=1, le=50)] = 1
+    boundary: Literal["simply_supported", "clamped"] | None = None
+    emissivity: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
+    initial_temperature: Annotated[float, Field(gt=0.0, le=5000.0)] = 300.0
+    temperature_independent: bool = False
+
+
+class ConstraintsSection(_Strict):
+    equality: list[str] = []
+
+    @model_validator(mode="after")
+    def _known(self) -> ConstraintsSection:
+        for name in self.equality:
+            if name not in EQUALITY_CONSTRAINTS:
+                raise ValueError(f"equality: unknown constraint {name!r}; available: "
+                                 f"{', '.join(EQUALITY_CONSTRAINTS)}")
+        return self
+
+
+class OptimizerSection(_Strict):
+    approach: Literal["indirect", "direct"] = "indirect"
+    acquisition: Literal["hvlcb", "hvei", "hvpoi", "ws", "cheb", "lcb", "ei", "poi"] | None = None
+    v: Annotated[float, Field(ge=0.0, le=100.0)] | None = None
+    weights: list[Annotated[float, Field(ge=0.0)]] | None = None
+    initial_samples: Annotated[int, Field(ge=1, le=10000)] = 20
+    iterations: Annotated[int, Field(ge=0, le=100000)] = 50
+    batch_size: Annotated[int, Field(ge=1, le=64)] = 1
+    seed: Annotated[int, Field(ge=0)] = 0
+    classical_seed: bool = True
+    timeout: PosFloat | None = None
+
+
+class StudyFile(_Strict):
+    study: StudySection = StudySection()
+    prototype: PrototypeSection
+    simulation: SimulationSection = SimulationSection()
+    model: ModelSection = ModelSection()
+    tunnel: dict[str, Any] | None = None
+    variables: dict[str, list[float] | str]
+    fixed: dict[str, float] = {}
+    constraints: ConstraintsSection = ConstraintsSection()
+    optimizer: OptimizerSection = OptimizerSection()
+
+    @model_validator(mode="after")
+    def _check(self) -> StudyFile:
+        if not self.variables:
+            raise ValueError("variables: at least one design variable is needed")
+        for name in list(self.variables) + list(self.fixed):
+            if name not in VARIABLES:
+                raise ValueError(f"{'variables' if name in self.variables else 'fixed'}.{name}:"
+                                 f" unknown design variable; known: {', '.join(VARIABLES)}")
+        n_obj = len(self.study.objectives)
+        acq = self.optimizer.acquisition
+        if acq is not None:
+            single = acq in ("lcb", "ei", "poi")
+            if single != (n_obj == 1):
+                raise ValueError(f"optimizer.acquisition: {acq!r} does not fit {n_obj} objective(s) "
+                                 "(lcb/ei/poi for one; hvlcb/hvei/hvpoi/ws/cheb for two)")
+        if self.optimizer.weights is not None and len(self.optimizer.weights) != n_obj:
+            raise ValueError(f"optimizer.weights: need {n_obj} values")
+        return self
+
+
+@dataclasses.dataclass(frozen=True)
+class Study:
+    """A validated study: the scaling spec, the tunnel and the optimizer settings."""
+
+    path: str
+    name: str
+    description: str
+    spec: ScalingSpec
+    tunnel: TunnelEnvelope | None
+    optimizer: OptimizerSection
+    raw: StudyFile
+
+    @property
+    def acquisition(self) -> str:
+        opt = self.optimizer
+        if opt.acquisition is not None:
+            return opt.acquisition
+        if len(self.spec.objectives) == 1:
+            return "lcb"
+        return "hvlcb" if opt.approach == "indirect" else "cheb"
+
+
+def constant_material(m: mat.Material, T: float) -> mat.Material:
+    """``m`` with every property frozen at temperature ``T`` (Sec. 9.1, Table 9.1)."""
+    def c(prop: mat.Property | None) -> mat.Property | None:
+        return None if prop is None else mat.Property.constant(prop.name, float(prop(T)))
+
+    return dataclasses.replace(
+        m, density=c(m.density), E1=c(m.E1), E2=c(m.E2), nu12=c(m.nu12), G12=c(m.G12),
+        G13=c(m.G13), G23=c(m.G23), alpha1=c(m.alpha1), alpha2=c(m.alpha2), k1=c(m.k1),
+        k2=c(m.k2), k3=c(m.k3), specific_heat=c(m.specific_heat),
+        description=f"{m.name} at {T:g} K (temperature independent)")
+
+
+def _freeze(panel: PanelSpec, T: float) -> PanelSpec:
+    layers = tuple(dataclasses.replace(layer, material=constant_material(layer.material, T))
+                   for layer in panel.layers)
+    return dataclasses.replace(panel, layers=layers)
+
+
+def _bounds(name: str, value: list[float] | str, tunnel: TunnelEnvelope | None
+            ) -> tuple[float, float]:
+    field = f"variables.{name}"
+    if isinstance(value, str):
+        if value != "tunnel":
+            raise InputError(field, "bounds must be [lower, upper] or \"tunnel\"")
+        if tunnel is None:
+            raise InputError(field, "\"tunnel\" bounds need a [tunnel] table")
+        b = tunnel.bounds()
+        if name not in b:
+            raise InputError(field, f"the tunnel {tunnel.name!r} gives no bounds for {name} "
+                             f"(it bounds {', '.join(b)})")
+        return b[name]
+    if len(value) != 2:
+        raise InputError(field, "bounds must be [lower, upper]")
+    lo, hi = float(value[0]), float(value[1])
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise InputError(field, f"bounds must be finite with lower < upper; got [{lo:g}, {hi:g}]")
+    hard = HARD_LIMITS[name]
+    if lo < hard[0] or hi > hard[1]:
+        raise InputError(field, f"bounds [{lo:g}, {hi:g}] leave the allowed range "
+                         f"[{hard[0]:g}, {hard[1]:g}]")
+    if tunnel is not None and name in tunnel.bounds():
+        tlo, thi = tunnel.bounds()[name]
+        if lo < tlo * (1 - 1e-9) or hi > thi * (1 + 1e-9):
+            raise InputError(field, f"bounds [{lo:g}, {hi:g}] leave the tunnel envelope "
+                             f"{tunnel.name} [{tlo:g}, {thi:g}]")
+    return lo, hi
+
+
+def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
+    """Validate a parsed study and build its :class:`ScalingSpec` (nothing is simulated)."""
+    try:
+        cfg = StudyFile.model_validate(data)
+    except ValidationError as exc:
+        raise _pydantic_error(exc) from None
+    base = Path(path).parent if str(path) != "<memory>" else Path.cwd()
+    case_path = (base / cfg.prototype.case) if not Path(cfg.prototype.case).is_absolute() \
+        else Path(cfg.prototype.case)
+    try:
+        case = load_case(case_path)
+    except InputError as exc:
+        raise InputError(f"prototype.case ({exc.field})", exc.message) from None
+    if case.flow is None:
+        raise InputError("prototype.case", f"{case_path} has no [flow] table")
+    sim_cfg = cfg.simulation
+    proto_panel = case.panel
+    if sim_cfg.mesh is not None:
+        proto_panel = dataclasses.replace(proto_panel, mesh=tuple(sim_cfg.mesh))
+    if cfg.prototype.temperature_independent:
+        proto_panel = _freeze(proto_panel, proto_panel.initial_temperature)
+    prototype = Configuration(panel=proto_panel, flow=case.flow, delta_T=cfg.prototype.delta_T)
+
+    tunnel = None
+    if cfg.tunnel is not None:
+        tun = dict(cfg.tunnel)
+        spec_tun: str | dict[str, Any] = tun["name"] if set(tun) == {"name"} else tun
+        tunnel = resolve_tunnel(spec_tun, field="tunnel")
+
+    # -- model template -------------------------------------------------------------------
+    m = cfg.model
+    xi = cfg.study.xi
+    try:
+        material = mat.library_material(m.material)
+    except InputError:
+        raise InputError("model.material", f"unknown material {m.material!r}; library "
+                         f"materials are {', '.join(mat.LIBRARY)}") from None
+    if m.temperature_independent:
+        material = constant_material(material, m.initial_temperature)
+    thickness = m.thickness if m.thickness is not None else proto_panel.thickness / xi
+    model_panel = PanelSpec(
+        layers=(Layer(material, thickness, 0.0, m.sublayers),), kind=proto_panel.kind,
+        length=proto_panel.length / xi, width=proto_panel.width / xi,
+        boundary=m.boundary or proto_panel.boundary,
+        leading_edge_length=proto_panel.leading_edge_length / xi,
+        flow_angle=proto_panel.flow_angle, mesh=proto_panel.mesh,
+        initial_temperature=m.initial_temperature,
+        emissivity=proto_panel.emissivity if m.emissivity is None else m.emissivity,
+        damping=proto_panel.damping, name="model")
+    if tunnel is not None:
+        lo_p, hi_p = tunnel.p0
+        lo_T, hi_T = tunnel.T0
+        mach = (tunnel.mach_values[0] if tunnel.mach_values
+                else 0.5 * (tunnel.mach_bounds[0] + tunnel.mach_bounds[1]))
+        if "M" in cfg.fixed:
+            mach = cfg.fixed["M"]
+        model_flow = FlowCondition.from_stagnation(mach, math.sqrt(lo_p * hi_p),
+                                                   math.sqrt(lo_T * hi_T))
+    else:
+        model_flow = case.flow
+    model = Configuration(panel=model_panel, flow=model_flow, delta_T=cfg.prototype.delta_T)
+
+    variables = tuple(Variable(name, *_bounds(name, value, tunnel))
+                      for name, value in cfg.variables.items())
+    if tunnel is not None and tunnel.mach_values and len(tunnel.mach_values) > 1 \
+            and "M" not in cfg.fixed:
+        raise InputError("fixed.M", f"tunnel {tunnel.name} has several nozzles "
+                         f"{list(tunnel.mach_values)}: fix M (one study per nozzle, Eq. 6.7)")
+    if tunnel is not None and tunnel.mach_values and "M" in cfg.variables:
+        raise InputError("variables.M", f"tunnel {tunnel.name} has discrete Mach numbers "
+                         f"{list(tunnel.mach_values)}; M cannot be a continuous variable")
+    for name, value in cfg.fixed.items():
+        lo, hi = HARD_LIMITS[name]
+        if not (lo <= value <= hi):
+            raise InputError(f"fixed.{name}", f"must be within [{lo:g}, {hi:g}]; got {value:g}")
+    fixed = dict(cfg.fixed)
+    aero = sim_cfg.aero
+    if aero not in ("pt", "pt1", "pt3", "ls", "pt-bl", "se") and not aero.startswith("rom:"):
+        raise InputError("simulation.aero", f"must be one of pt, pt1, pt3, ls, pt-bl, se or "
+                         f"'rom:PATH'; got {aero!r}")
+    simulation = Simulation(kind=cfg.study.kind, aero=aero, heating=sim_cfg.heating,
+                            boundary_layer=sim_cfg.boundary_layer, time_step=sim_cfg.time_step,
+                            steps=sim_cfg.steps, initial_deflection=sim_cfg.initial_deflection,
+                            lsa_modes=sim_cfg.lsa_modes, unstable_steps=sim_cfg.unstable_steps,
+                            rho_bar=sim_cfg.rho_bar)
+    spec = ScalingSpec(prototype=prototype, model=model, variables=variables, fixed=fixed,
+                       objectives=tuple(cfg.study.objectives), simulation=simulation,
+                       time_scaling=cfg.study.time_scaling, projection=cfg.study.projection,
+                       equalities=tuple(cfg.constraints.equality), xi=xi)
+    return Study(path=str(path), name=cfg.study.name, description=cfg.study.description,
+                 spec=spec, tunnel=tunnel, optimizer=cfg.optimizer, raw=cfg)
+
+
+def load_study(path: str | Path) -> Study:
+    """Read and validate a study file."""
+    return parse_study(read_toml(path), path)
+
+
+__all__ = ["OBJECTIVES", "Study", "StudyFile", "constant_material", "load_study", "parse_study"]

@@ -1,0 +1,89 @@
+"""The scaling problem: analytical scaling recovered, cheap constraints, failures."""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from scaling.optimizer import evaluate_design
+from scaling.problem import ModelFailure, ScalingProblem
+from scaling.similarity import analytical_scaling
+from scaling.study import load_study
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _coarse_91(xi: int = 2, steps: int = 40) -> ScalingProblem:
+    study = load_study(REPO / "studies" / f"sec9_1_xi{xi}.toml")
+    spec = study.spec
+    proto = dataclasses.replace(spec.prototype, panel=dataclasses.replace(
+        spec.prototype.panel, mesh=(4, 4)))
+    model = dataclasses.replace(spec.model, panel=dataclasses.replace(spec.model.panel,
+                                                                       mesh=(4, 4)))
+    sim = dataclasses.replace(spec.simulation, steps=steps)
+    return ScalingProblem(dataclasses.replace(spec, prototype=proto, model=model,
+                                              simulation=sim))
+
+
+def test_analytical_laws_make_the_aeroelastic_responses_similar() -> None:
+    # Sec. 9.1: with Eq. 9.2 (h, p_inf, Delta T) and the Eq. 9.3 time step the Ti 6242
+    # model reproduces the Inconel prototype's nondimensional transient; the residual
+    # (about 1 %) is the piston-theory damping term w_dot / a_inf, which Eq. 9.1 ignores.
+    prob = _coarse_91(2)
+    an = analytical_scaling(prob.spec.prototype, prob.spec.model, 2.0).design()
+    x = np.array([an["h"], an["p_inf"], an["delta_T"]])
+    J = prob.errors(x)["J_u"]
+    assert J < 0.03
+    # a 3 % thicker model is visibly dissimilar: the objective resolves the design
+    assert prob.errors(x * np.array([1.03, 1.0, 1.0]))["J_u"] > 5 * J
+
+
+def test_prototype_is_simulated_once() -> None:
+    prob = _coarse_91(2, steps=10)
+    first = prob.prototype_response
+    assert prob.prototype_response is first
+    assert first.status == "completed" and len(first.times) == 11
+
+
+def test_failed_model_is_an_evaluation_not_a_crash() -> None:
+    prob = _coarse_91(2, steps=30)
+    # a very thin, very hot model at high pressure: flat-state divergence/flutter or no
+    # comparable response -> recorded as a failed evaluation with its reason
+    x = np.array([2e-4, 11000.0, 4.5])
+    res = evaluate_design(prob, x)
+    if res["status"] == "ok":
+        pytest.skip("this design happened to give a comparable response")
+    assert res["status"] == "error" and res["message"]
+
+
+def test_t_inf_equality_constraint_exact_and_gradient() -> None:
+    study = load_study(REPO / "studies" / "sec9_2_3_case1_wt7.toml")
+    prob = ScalingProblem(study.spec)
+    (con,) = prob.cheap_constraints()
+    names = study.spec.names
+    x = np.array([0.5 * (v.lower + v.upper) for v in study.spec.variables])
+    i = names.index("T0")
+    M = study.spec.model.flow.mach
+    # T0 that matches the prototype's T_w / T_inf (both panels start at 300 K)
+    x[i] = study.spec.prototype.flow.temperature * (1 + 0.2 * M * M)
+    assert abs(float(con.fun(x)[0])) < 1e-12
+    h = 1e-6 * x
+    fd = [(con.fun(x + np.eye(len(x))[k] * h[k])[0] - con.fun(x - np.eye(len(x))[k] * h[k])[0])
+          / (2 * h[k]) for k in range(len(x))]
+    assert np.allclose(con.jac(x)[0], fd, rtol=1e-6, atol=1e-12)
+
+
+def test_model_time_step_scales_by_fourier_number() -> None:
+    study = load_study(REPO / "studies" / "quickstart.toml")
+    prob = ScalingProblem(study.spec)
+    x = np.array([0.5 * (v.lower + v.upper) for v in study.spec.variables])
+    cfg = prob.model_configuration(x)
+    x2 = x.copy()
+    x2[study.spec.names.index("h")] *= 2.0
+    # Eq. 6.5: dt_m ~ h_m^2 at fixed materials
+    ratio = prob.model_time_step(prob.model_configuration(x2)) / prob.model_time_step(cfg)
+    assert ratio == pytest.approx(4.0, rel=1e-9)
+    assert math.isclose(cfg.panel.length, study.spec.prototype.panel.length / 4.0)

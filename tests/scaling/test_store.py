@@ -1,0 +1,72 @@
+"""The append-only SQLite evaluation store (scaling/store.py)."""
+from __future__ import annotations
+
+import sqlite3
+
+import numpy as np
+import pytest
+
+from scaling.store import Evaluation, EvaluationStore
+
+
+def _evals():
+    return [
+        Evaluation(x=np.array([0.1 + 0.2, 1e-300, -3.5]), F=np.array([np.pi, np.e]),
+                   G=np.array([-1.0]), iteration=0, batch_index=0, seed=7, seconds=0.25),
+        Evaluation(x=np.array([1.0, 2.0, 3.0]), F=np.array([np.nan, np.inf]), G=np.array([np.nan]),
+                   status="error", message="RuntimeError: solver diverged", iteration=0,
+                   batch_index=1, seed=7, seconds=1.5),
+        Evaluation(x=np.array([5e-324, -0.0, 1.0 / 3.0]), F=np.array([-np.inf, 1e308]),
+                   G=np.array([0.0]), status="invalid", message="non-finite", iteration=1,
+                   batch_index=0, seed=7),
+    ]
+
+
+def _same(a: Evaluation, b: Evaluation) -> bool:
+    arrs = all(np.array_equal(getattr(a, k), getattr(b, k), equal_nan=True) for k in "xFG")
+    bits = all(np.array_equal(np.asarray(getattr(a, k)).view(np.int64),
+                              np.asarray(getattr(b, k)).view(np.int64)) for k in "xFG")
+    rest = all(getattr(a, k) == getattr(b, k) for k in
+               ("status", "message", "seconds", "iteration", "batch_index", "seed", "created"))
+    return arrs and bits and rest
+
+
+def test_round_trip_is_bit_exact_across_connections(tmp_path):
+    path = tmp_path / "run.sqlite"
+    evals = _evals()
+    with EvaluationStore(path) as store:
+        for e in evals:
+            store.append(e)
+        # committed per row: a second connection sees every row while the first is open
+        assert len(EvaluationStore(path)) == 3
+    loaded = EvaluationStore(path).load()
+    assert len(loaded) == 3
+    assert all(_same(a, b) for a, b in zip(evals, loaded))
+
+
+def test_append_only_and_unique_per_iteration_slot(tmp_path):
+    store = EvaluationStore(tmp_path / "a.sqlite")
+    store.append(_evals()[0])
+    with pytest.raises(sqlite3.IntegrityError):
+        store.append(_evals()[0])
+    assert len(store) == 1
+
+
+def test_meta_guards_against_resuming_a_different_run(tmp_path):
+    store = EvaluationStore(tmp_path / "m.sqlite")
+    store.set_meta("seed", 3)
+    store.set_meta("seed", 3)
+    assert store.get_meta("seed") == 3
+    with pytest.raises(ValueError, match="seed"):
+        store.set_meta("seed", 4)
+
+
+def test_dataframe_columns():
+    store = EvaluationStore(":memory:")
+    for e in _evals():
+        store.append(e)
+    df = store.to_dataframe()
+    assert list(df.columns) == ["iteration", "batch_index", "x0", "x1", "x2", "f0", "f1", "g0",
+                                "status", "message", "seconds", "seed"]
+    assert list(df["status"]) == ["ok", "error", "invalid"]
+    assert df.loc[0, "x0"] == 0.1 + 0.2

@@ -1,0 +1,122 @@
+"""Study files and `hypate run`: validation errors, outputs and their public fields."""
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from scaling.cli import main
+from scaling.study import load_study
+
+REPO = Path(__file__).resolve().parents[2]
+TINY = """
+[study]
+name = "tiny"
+kind = "quasi_steady"
+objectives = ["J_u", "J_T"]
+xi = 4.0
+
+[prototype]
+case = "{case}"
+
+[simulation]
+time_step = 40.0
+steps = 4
+aero = "pt-bl"
+mesh = [2, 2]
+
+[model]
+material = "ti6242"
+
+[tunnel]
+name = "ideal"
+
+[variables]
+M = "tunnel"
+p0 = "tunnel"
+T0 = "tunnel"
+h = [0.001, 0.01]
+
+[optimizer]
+initial_samples = 4
+iterations = 2
+seed = 3
+"""
+
+
+def _tiny(tmp_path: Path, text: str = TINY) -> Path:
+    path = tmp_path / "tiny.toml"
+    path.write_text(text.format(case=(REPO / "studies" / "cases" / "sec9_2_prototype.toml")
+                                .as_posix()))
+    return path
+
+
+def test_shipped_studies_validate() -> None:
+    names = sorted(p.name for p in (REPO / "studies").glob("*.toml") if p.name != "rom_2d_panel.toml")
+    # public study names (issues 8 and 9)
+    for required in ["quickstart.toml", "sec9_1_xi2.toml", "sec9_1_xi3.toml", "sec9_1_xi4.toml",
+                     "sec9_2_2_xi2.toml", "sec9_2_2_xi5.toml", "sec9_2_3_case1_wt5.toml",
+                     "sec9_2_3_case2_wt7.toml"]:
+        assert required in names
+    for name in names:
+        study = load_study(REPO / "studies" / name)
+        assert study.spec.variables
+
+
+MALFORMED = [
+    ("unknown key", ("[optimizer]", "[optimizer]\ncolour = 1"), "optimizer.colour"),
+    ("bounds reversed", ('h = [0.001, 0.01]', 'h = [0.01, 0.001]'), "variables.h"),
+    ("tunnel unknown", ('name = "ideal"', 'name = "WT9"'), "tunnel"),
+    ("negative budget", ("iterations = 2", "iterations = -5"), "optimizer.iterations"),
+    ("thickness outside manufacturing", ('h = [0.001, 0.01]', 'h = [1e-6, 0.01]'), "variables.h"),
+    ("missing prototype", ("[prototype]", "[prototypes]"), "prototype"),
+    ("unknown variable", ('h = [0.001, 0.01]', 'wingspan = [1.0, 2.0]'), "variables.wingspan"),
+    ("bad objective", ('objectives = ["J_u", "J_T"]', 'objectives = ["drag"]'), "study.objectives"),
+    ("acquisition mismatch", ("seed = 3", 'seed = 3\nacquisition = "ei"'), "optimizer.acquisition"),
+    ("p0 outside tunnel", ('p0 = "tunnel"', "p0 = [1.0e5, 1.0e9]"), "variables.p0"),
+    ("missing case file", ("case = ", 'case = "nope.toml" #'), "prototype.case"),
+    ("zero xi", ("xi = 4.0", "xi = 0.0"), "study.xi"),
+    ("bad equality", ("[optimizer]", '[constraints]\nequality = ["Mach"]\n[optimizer]'),
+     "constraints.equality"),
+]
+
+
+@pytest.mark.parametrize("label, change, key", MALFORMED, ids=[m[0] for m in MALFORMED])
+def test_malformed_study_exits_2_and_writes_nothing(tmp_path: Path, capsys, label, change, key):
+    text = TINY.replace(*change)
+    path = _tiny(tmp_path, text)
+    out = tmp_path / "run"
+    assert main(["run", str(path), "--out", str(out)]) == 2, label
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("hypate: error: ") and key in err[-1], (label, err[-1])
+    assert not out.exists()
+
+
+def test_run_writes_public_outputs_and_resume_adds_nothing(tmp_path: Path, capsys) -> None:
+    path = _tiny(tmp_path)
+    out = tmp_path / "run"
+    assert main(["run", str(path), "--out", str(out)]) == 0
+    for name in ("evaluations.sqlite", "evaluations.csv", "pareto.csv", "design_point.json",
+                 "prototype.npz"):
+        assert (out / name).is_file(), name
+    point = json.loads((out / "design_point.json").read_text())
+    assert set(point["design"]) == {"M", "p0", "T0", "h"}
+    assert set(point["objectives"]) == {"J_u", "J_T"}
+    assert isinstance(point["active_constraints"], list)
+    rows = point["similarity"]
+    assert rows and set(rows[0]) == {"name", "prototype", "model", "relative_difference"}
+    df = pd.read_csv(out / "evaluations.csv")
+    assert {"M", "p0", "T0", "h", "J_u", "J_T", "status", "seconds"} <= set(df.columns)
+    n = len(df)
+    assert n == 1 + 4 + 2  # classical seed + initial sample + iterations
+    # the design point is the evaluation with the smallest max(J_u, J_T)
+    ok = df[df.status == "ok"]
+    assert max(point["objectives"].values()) == pytest.approx(ok[["J_u", "J_T"]].max(axis=1).min())
+    # an existing run is refused without --resume; --resume re-evaluates nothing
+    assert main(["run", str(path), "--out", str(out)]) == 2
+    assert main(["run", str(path), "--out", str(out), "--resume"]) == 0
+    assert len(pd.read_csv(out / "evaluations.csv")) == n
+    shutil.rmtree(out)
