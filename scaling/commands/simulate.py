@@ -39,20 +39,23 @@ def run(args: argparse.Namespace) -> int:
     resp = simulate(case.panel, case.flow, case.simulation, progress=progress,
                     keep_fields=out is not None)
     bar.close()
-    summary = resp.summary()
+    summary = {**resp.summary(), "status": resp.status, "message": resp.message}
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         resp.save(out / "response.npz")
         (out / "summary.json").write_text(json.dumps(
-            {**summary, "status": resp.status, "message": resp.message,
-             "wall_seconds": resp.wall_seconds, "timing": resp.timing}, indent=2))
+            {**summary, "wall_seconds": resp.wall_seconds, "timing": resp.timing}, indent=2))
     if args.json:
         print(json.dumps(summary))
     else:
-        print(f"{args.case}: {resp.status} after {resp.times[-1]:g} s simulated "
+        simulated = resp.times[-1] if resp.times else 0.0
+        print(f"{args.case}: {resp.status} after {simulated:g} s simulated "
               f"({resp.wall_seconds:.1f} s wall)")
+        if resp.message:
+            print(f"  {resp.message}")
         if resp.instability_type:
             print(f"  instability: {resp.instability_type} at t = {resp.instability_time:g} s")
-        print(f"  final centre deflection {resp.center_deflection[-1]:.4g} m, "
-              f"mean temperature {resp.mean_temperature[-1]:.1f} K")
+        if resp.times:
+            print(f"  final centre deflection {resp.center_deflection[-1]:.4g} m, "
+                  f"mean temperature {resp.mean_temperature[-1]:.1f} K")
     return 0

@@ -126,6 +126,10 @@ def _as_rng(rng: np.random.Generator | int | None) -> np.random.Generator:
 # ======================================================================================
 # POD and POD-kriging
 # ======================================================================================
+#: Smallest absolute pressure ratio kept by the BL correction (vacuum floor).
+_VACUUM = 1e-9
+
+
 class PodBasis:
     """Snapshot POD, Eqs. (A.9)-(A.14), of mean-centred snapshots.
 
@@ -720,14 +724,15 @@ class RomFluid(FluidModel):
                 dR_dTs = s_c_dTs / s_r
                 dR_dTbar = -s_c * s_r_dT / s_r**2
                 ge = (cref.gamma - 1.0) / (2.0 * cref.gamma)
+                # vacuum floor (as piston theory, Eq. 2.30): states with a negative absolute
+                # pressure only occur in Newton overshoots; there p = -p_inf, derivative 0
                 base_pk = 1.0 + p_pk / cref.pressure
-                if np.any(base_pk <= 0.0):
-                    raise InputError("rom", "the ROM pressure is below vacuum; the BL "
-                                     "correction is undefined (use correction='pt')")
+                vac = base_pk <= _VACUUM
+                base_pk = np.where(vac, _VACUUM, base_pk)
                 E = base_pk**ge - 1.0
                 B = 1.0 + (1.0 - R) * 0.5 * (gam - 1.0) * M * ws + R * (M / cref.mach) * E
-                if np.any(B <= 0.0):
-                    raise InputError("rom", "BL correction reaches vacuum (B <= 0)")
+                vac = vac | (B <= _VACUUM)
+                B = np.where(vac, _VACUUM, B)
                 ex = 2.0 * gam / (gam - 1.0)
                 p_st = p_inf * B**ex - p_inf  # Eq. (2.72)
                 Lam_u = p_inf * ex * B ** (ex - 1.0)  # Eq. (2.76a) times p_inf 2 gamma/(gamma-1)
@@ -738,6 +743,11 @@ class RomFluid(FluidModel):
                 dpst_dws = Lam_u * (1.0 - R) * 0.5 * (gam - 1.0) * M  # Eq. (2.75), first term
                 dpst_dTloc = (np.diag(Lam_u * dB_dR * dR_dT)
                               + (sp.diags(Lam_u * dB_dR * dR_dTs) @ S).toarray())
+                if np.any(vac):
+                    p_st = np.where(vac, -p_inf, p_st)
+                    dpst_dd[vac] = 0.0
+                    dpst_dws = np.where(vac, 0.0, dpst_dws)
+                    dpst_dTloc[vac] = 0.0
             # -- heat-flux correction, Eq. (2.65): ratio of Eckert fluxes; the edge pressure
             # (Eq. 2.44: the wall pressure) is the corrected ROM pressure on the panel and
             # the ROM pressure on the reference ("rom"), or piston theory on both ("pt")

@@ -36,6 +36,7 @@ import math
 import warnings
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import ArrayLike
 
 from solvers.aero.analytic import RECOVERY_EXPONENT, BoundaryLayerShape
@@ -363,9 +364,12 @@ class ShockExpansionFluid(FluidModel):
                 J["qs"][rows, k] = dqs[gi, rows]
                 J["pT"][rows, k] = dpT[gi, rows] / (2.0 * hT[k])
                 J["qT"][rows, k] = dqT[gi, rows] / (2.0 * hT[k])
-        zero = np.zeros((n, n))
         V = flow.velocity
-        loads.jacobians = {"dp_dw": zero, "dp_dws": J["ps"], "dp_dwdot": J["ps"] / V,
-                           "dp_dTw": J["pT"], "dq_dw": zero.copy(), "dq_dws": J["qs"],
-                           "dq_dwdot": J["qs"] / V, "dq_dTw": J["qT"]}
+        # sparse (the marching couples only points of one strip, upstream-triangular), so
+        # the coupled Newton and the LSA can factor K - K_A directly
+        csr = {k: sp.csr_matrix(v) for k, v in J.items()}
+        zero = sp.csr_matrix((n, n))
+        loads.jacobians = {"dp_dw": zero, "dp_dws": csr["ps"], "dp_dwdot": csr["ps"] / V,
+                           "dp_dTw": csr["pT"], "dq_dw": zero.copy(), "dq_dws": csr["qs"],
+                           "dq_dwdot": csr["qs"] / V, "dq_dTw": csr["qT"]}
         return loads

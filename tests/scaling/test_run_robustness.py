@@ -1,0 +1,127 @@
+"""Crash safety of `hypate run`: SIGKILL + --resume, process pools and a Dask cluster."""
+from __future__ import annotations
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from scaling.runner import run_study
+from scaling.study import load_study
+
+REPO = Path(__file__).resolve().parents[2]
+STUDY = """
+[study]
+name = "robust"
+kind = "quasi_steady"
+objectives = ["J_u", "J_T"]
+xi = 4.0
+
+[prototype]
+case = "{case}"
+
+[simulation]
+time_step = 20.0
+steps = 8
+aero = "pt-bl"
+mesh = [3, 3]
+
+[model]
+material = "ti6242"
+
+[tunnel]
+name = "ideal"
+
+[variables]
+M = "tunnel"
+p0 = "tunnel"
+T0 = "tunnel"
+h = [0.001, 0.01]
+
+[optimizer]
+initial_samples = 6
+iterations = 6
+seed = 5
+"""
+
+
+def _study(tmp_path: Path) -> Path:
+    path = tmp_path / "robust.toml"
+    path.write_text(STUDY.format(case=(REPO / "studies" / "cases" / "sec9_2_prototype.toml")
+                                 .as_posix()))
+    return path
+
+
+def _rows(store: Path) -> int:
+    if not store.exists():
+        return 0
+    try:
+        with sqlite3.connect(f"file:{store}?mode=ro", uri=True, timeout=1.0) as con:
+            return int(con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0])
+    except sqlite3.Error:
+        return 0
+
+
+def _table(run: Path) -> pd.DataFrame:
+    df = pd.read_csv(run / "evaluations.csv")
+    return df.sort_values(["iteration", "batch_index"]).reset_index(drop=True)
+
+
+def _same(a: pd.DataFrame, b: pd.DataFrame) -> None:
+    assert len(a) == len(b)
+    cols = ["M", "p0", "T0", "h", "J_u", "J_T"]
+    assert list(a["status"]) == list(b["status"])
+    assert np.allclose(a[cols].to_numpy(float), b[cols].to_numpy(float), rtol=1e-9,
+                       equal_nan=True)
+
+
+def _cli(*args: str) -> list[str]:
+    return [sys.executable, "-m", "scaling.cli", "run", *args]
+
+
+def test_sigkill_and_resume_equals_uninterrupted_run(tmp_path: Path) -> None:
+    study = _study(tmp_path)
+    whole = tmp_path / "whole"
+    subprocess.run(_cli(str(study), "--out", str(whole)), check=True, capture_output=True,
+                   timeout=600)
+    killed = tmp_path / "killed"
+    proc = subprocess.Popen(_cli(str(study), "--out", str(killed)), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    store = killed / "evaluations.sqlite"
+    deadline = time.monotonic() + 300
+    while _rows(store) < 5 and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    if proc.poll() is not None:
+        pytest.fail("the run finished before it could be killed; enlarge the study")
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=30)
+    done_before = _rows(store)
+    assert 5 <= done_before < len(_table(whole))
+    subprocess.run(_cli(str(study), "--out", str(killed), "--resume"), check=True,
+                   capture_output=True, timeout=600)
+    # no evaluation lost, none repeated, same proposals as the uninterrupted run
+    _same(_table(killed), _table(whole))
+
+
+def test_process_pool_gives_the_same_evaluations(tmp_path: Path) -> None:
+    study = load_study(_study(tmp_path))
+    local = run_study(study, tmp_path / "local")
+    pool = run_study(study, tmp_path / "pool", workers=2)
+    _same(_table(local.directory), _table(pool.directory))
+
+
+def test_dask_local_cluster_gives_the_same_evaluations(tmp_path: Path) -> None:
+    distributed = pytest.importorskip("distributed")
+    study = load_study(_study(tmp_path))
+    local = run_study(study, tmp_path / "local")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  host="127.0.0.1", dashboard_address=None) as cluster:
+        remote = run_study(study, tmp_path / "dask", scheduler=cluster.scheduler_address)
+    _same(_table(local.directory), _table(remote.directory))
