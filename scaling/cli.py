@@ -17,6 +17,9 @@ from solvers.errors import InputError
 COMMAND_MODULES: tuple[str, ...] = (
     "scaling.commands.condition",
     "scaling.commands.run",
+    "scaling.commands.laws",
+    "scaling.commands.report",
+    "scaling.commands.whatif",
     "scaling.commands.validate",
     "scaling.commands.structure",
     "scaling.commands.thermal",

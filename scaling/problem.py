@@ -48,6 +48,9 @@ from solvers.response import Response
 
 #: Objective names.
 OBJECTIVES = ("J_u", "J_T", "J_s")
+#: Largest |deflection| / thickness of a meaningful response: beyond it the von Karman
+#: (moderate rotation) shell model no longer holds and the run counts as diverged.
+MAX_DEFLECTION = 50.0
 #: Cheap equality constraints available (Eq. 9.7).
 EQUALITY_CONSTRAINTS = ("T_inf",)
 
@@ -272,6 +275,12 @@ class ScalingProblem(Problem):
                                f"{len(resp.times) - 1} of {n_p - 1} (the prototype "
                                f"{'stays stable' if proto.status == 'completed' else 'lasts longer'}):"
                                f" {resp.message}")
+        w = np.abs(np.asarray(resp.center_deflection)) / resp.thickness
+        modal = np.abs(np.asarray(resp.modal)) if resp.modal else np.zeros(1)
+        if not (np.all(np.isfinite(w)) and w.max() <= MAX_DEFLECTION
+                and np.all(np.isfinite(modal)) and modal.max() <= MAX_DEFLECTION):
+            raise ModelFailure(f"model response diverged (deflection beyond {MAX_DEFLECTION:g} "
+                               "thicknesses: outside the moderate-rotation shell model)")
         return response_errors(resp, proto, self.spec.projection)
 
     def _evaluate(self, X: np.ndarray, out: dict[str, Any], *args: Any, **kwargs: Any) -> None:

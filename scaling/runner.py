@@ -15,11 +15,12 @@ Outputs in the run directory (public names):
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,10 +30,12 @@ import numpy as np
 import pandas as pd
 
 from scaling.classical import classical_scaling
-from scaling.optimizer import BayesianOptimizer, OptimizationResult, evaluate_design
+from scaling.optimizer import (BayesianOptimizer, OptimizationResult, _project, _scipy_cheap,
+                               evaluate_design)
 from scaling.problem import ScalingProblem
 from scaling.study import Study
 from solvers.errors import InputError
+from scaling.store import Evaluation, EvaluationStore
 from solvers.response import Response
 
 #: Parameters matched by the classical baseline (Eqs. 9.1, 6.3), per study kind.
@@ -107,10 +110,40 @@ def make_executor(workers: int, scheduler: str | None) -> tuple[Any, Callable[[]
     return None, lambda: None
 
 
+def project_cheap(problem: ScalingProblem, x: np.ndarray) -> np.ndarray:
+    """Clip ``x`` to the bounds and project it onto the cheap equality constraints (Eq. 9.7)
+    as the optimizer does for its initial design, so that seeds satisfy them exactly."""
+    lo, hi = np.asarray(problem.xl, float), np.asarray(problem.xu, float)
+    x = np.clip(np.asarray(x, float), lo, hi)
+    cons = problem.cheap_constraints()
+    if not cons:
+        return x
+    span = hi - lo
+    u = _project((x - lo) / span, _scipy_cheap(cons, lo, span))
+    return lo + u * span
+
+
+def _seed_designs(study: Study, problem: ScalingProblem, classical: dict[str, Any] | None,
+                  seeds: Sequence[tuple[Sequence[float], str]] | None
+                  ) -> list[tuple[np.ndarray, str]]:
+    """Classical baseline first (if enabled), then the caller's seeds (duplicates dropped)."""
+    out: list[tuple[np.ndarray, str]] = []
+    if classical and classical.get("x") is not None and study.optimizer.classical_seed:
+        out.append((np.asarray(classical["x"], float), "seed: classical baseline"))
+    span = np.asarray(problem.xu, float) - np.asarray(problem.xl, float)
+    for x, why in seeds or ():
+        x = np.asarray(x, float)
+        if any(np.max(np.abs(x - y) / span) < 1e-9 for y, _ in out):
+            continue
+        out.append((x, why))
+    return out
+
+
 def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: int = 1,
               scheduler: str | None = None, seed: int | None = None,
-              progress: Callable[[int, int, Any], None] | None = None
-              ) -> RunOutcome:
+              progress: Callable[[int, int, Any], None] | None = None,
+              seeds: Sequence[tuple[Sequence[float], str]] | None = None,
+              prototype_response: Response | None = None) -> RunOutcome:
     """Run (or resume) a study into ``out``.
 
     Parameters
@@ -129,6 +162,13 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
     progress : callable, optional
         ``progress(done, budget, evaluation)`` after each committed evaluation (the
         :class:`scaling.store.Evaluation` just stored).
+    seeds : sequence of (x, reason), optional
+        Extra designs evaluated before the initial sample and stored with it as
+        iteration -1 (recycled samples of Sec. 9.2.4, a refined law's prediction); the
+        classical baseline comes first. Each seed is committed as soon as it is
+        evaluated, so an interrupted run resumes without evaluating it again.
+    prototype_response : Response, optional
+        The prototype's response if already simulated.
     """
     out = Path(out)
     store_path = out / STORE_NAME
@@ -140,21 +180,13 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
     opt = study.optimizer
     if workers < 1:
         raise InputError("--workers", "must be >= 1")
-    problem = ScalingProblem(study.spec)
+    problem = ScalingProblem(study.spec, prototype_response=prototype_response)
     proto = problem.prototype_response  # simulated once, before any worker starts
     out.mkdir(parents=True, exist_ok=True)
     proto.save(out / "prototype.npz")
     classical = classical_baseline(study, problem)
-    initial = None
-    if classical and classical.get("x") is not None and opt.classical_seed and not resume:
-        res = evaluate_design(problem, np.asarray(classical["x"]), timeout=opt.timeout)
-        classical["objectives"] = {o: _finite(f) for o, f in zip(study.spec.objectives,
-                                                                 res["F"])}
-        classical["evaluation_status"] = res["status"]
-        initial = (np.atleast_2d(classical["x"]), np.atleast_2d(res["F"]))
-    _write_json(out / "classical.json", classical or {"status": "not available"})
-    budget = opt.initial_samples + opt.iterations * opt.batch_size + (1 if initial else 0)
-    executor, close = make_executor(workers, scheduler)
+    seed_list = _seed_designs(study, problem, classical, seeds)
+    budget = opt.initial_samples + opt.iterations * opt.batch_size + len(seed_list)
     count = [0]
 
     def callback(evaluation) -> None:
@@ -162,13 +194,35 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
         if progress is not None:
             progress(count[0], budget, evaluation)
 
+    run_seed = opt.seed if seed is None else seed
+    # seeds: iteration -1, committed one by one (crash-safe; skipped when already stored)
+    with EvaluationStore(store_path) as store:
+        stored = {r.batch_index: r for r in store.load() if r.iteration == -1}
+        for i, (x, why) in enumerate(seed_list):
+            if i in stored:
+                ev = stored[i]
+            else:
+                res = evaluate_design(problem, x, timeout=opt.timeout)
+                ev = Evaluation(x=np.asarray(x, float), F=np.asarray(res["F"], float),
+                                G=np.asarray(res["G"], float), status=res["status"],
+                                message=f"{why}; {res['message']}" if res["message"] else why,
+                                seconds=float(res["seconds"]), iteration=-1, batch_index=i,
+                                seed=run_seed)
+                store.append(ev)
+                callback(ev)
+            if i == 0 and why == "seed: classical baseline" and classical is not None:
+                classical["objectives"] = {o: _finite(f) for o, f in
+                                           zip(study.spec.objectives, ev.F)}
+                classical["evaluation_status"] = ev.status
+    _write_json(out / "classical.json", classical or {"status": "not available"})
+    executor, close = make_executor(workers, scheduler)
     weights = opt.weights if opt.weights is not None else None
     optimizer = BayesianOptimizer(
         problem, acquisition=study.acquisition, n_init=opt.initial_samples,
         n_iter=opt.iterations, batch_size=opt.batch_size, v=opt.v, weights=weights,
         cheap_constraints=problem.cheap_constraints(), executor=executor,
-        timeout=opt.timeout, store=store_path, initial_samples=initial,
-        seed=opt.seed if seed is None else seed, callback=callback)
+        timeout=opt.timeout, store=store_path, initial_samples=None,
+        seed=run_seed, callback=callback)
     t0 = time.perf_counter()
     try:
         result = optimizer.run()
@@ -176,7 +230,19 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
         close()
     wall = time.perf_counter() - t0
     point = write_outputs(study, problem, result, out, wall_seconds=wall)
+    write_report_safely(out)
     return RunOutcome(directory=out, result=result, design_point=point, problem=problem)
+
+
+def write_report_safely(run_dir: Path) -> Path | None:
+    """``report.html`` + ``figures/`` of a run; a failing report never costs the run."""
+    from scaling.report import write_report  # matplotlib only when a report is written
+
+    try:
+        return write_report(run_dir)
+    except (OSError, ValueError, KeyError, RuntimeError, InputError) as exc:
+        warnings.warn(f"report of {run_dir} not written: {exc}", RuntimeWarning, stacklevel=2)
+        return None
 
 
 def evaluations_table(study: Study, result: OptimizationResult) -> pd.DataFrame:
@@ -213,7 +279,9 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     pareto.to_csv(tmp, index=False)
     tmp.replace(out / "pareto.csv")
     row = choose_design_point(study, result)
-    point: dict[str, Any] = {"study": study.name, "xi": study.spec.xi}
+    point: dict[str, Any] = {"study": study.name, "xi": study.spec.xi,
+                             "study_path": str(Path(study.path).resolve())
+                             if study.path != "<memory>" else None}
     if row is None:
         point.update(design=None, objectives=None, similarity=[], active_constraints=[],
                      message="no successful evaluation")
@@ -226,6 +294,7 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
         point["active_constraints"] = problem.active_bounds(x) + [
             f"{name} (equality)" for name in study.spec.equalities]
         point["evaluation"] = int(row)
+        point["bounds"] = {v.name: [v.lower, v.upper] for v in study.spec.variables}
         try:
             config, resp = problem.simulate_model(x, keep_fields=False)
             resp.save(out / "design_point.npz")
@@ -246,9 +315,204 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     return point
 
 
+# -- sweeps (issue 10, Sec. 9.2.4) -----------------------------------------------------------
+SWEEP_JSON = "sweep.json"
+SWEEP_CSV = "sweep.csv"
+
+
+@dataclass
+class SweepOutcome:
+    """A finished (or resumed) sweep: one record per sweep point, in run order."""
+
+    directory: Path
+    points: list[dict[str, Any]]
+
+
+def _best_designs(store_path: Path, k: int) -> np.ndarray:
+    """The ``k`` best successful, feasible designs of a finished sub-run (smallest
+    max over objectives, the design-point criterion)."""
+    if k <= 0 or not store_path.exists():
+        return np.zeros((0, 0))
+    with EvaluationStore(store_path) as store:
+        recs = [r for r in store.load() if r.ok and np.all(np.asarray(r.G) <= 0.0)
+                and np.all(np.isfinite(r.F))]
+    recs.sort(key=lambda r: float(np.max(r.F)))
+    if not recs:
+        return np.zeros((0, 0))
+    return np.array([r.x for r in recs[:k]], dtype=float)
+
+
+def sweep_seeds(study: Study, sub: Study, problem: ScalingProblem, index: int,
+                records: Sequence[dict[str, Any]], out: Path
+                ) -> list[tuple[np.ndarray, str]]:
+    """Seeds of sweep point ``index`` from the points already finished (Sec. 9.2.4).
+
+    * **Recycling**: the ``sweep.recycle`` best designs of the previous point (its
+      neighbour: scales in order, conditions in serpentine order) are re-evaluated in the
+      new problem as part of its initial sample. When the scale changes they are first
+      moved along the scaling laws, ``d * (xi_new / xi_old)**k``, with the refined
+      exponent ``k`` where two or more scales are finished and the analytical one
+      otherwise (:mod:`scaling.laws`), so that e.g. the thickness keeps ``h/L``.
+    * **Prediction**: for a scale not solved yet, with ``sweep.predict`` and two or more
+      finished scales, the refined laws' prediction (:func:`scaling.laws.predicted_design`)
+      comes first.
+
+    Every seed is clipped to the new bounds and projected onto the cheap equalities
+    (Eq. 9.7). The result depends only on finished points, so a resumed sweep recomputes
+    the same seeds.
+    """
+    from scaling.laws import (ANALYTICAL_EXPONENTS, _point_from_record, analytical_laws,
+                              fit_laws, predicted_design)
+
+    sw = study.sweep
+    if sw is None or index == 0:
+        return []
+    names = sub.spec.names
+    xi_new = sub.spec.xi
+    done = [r for r in records[:index] if r.get("status") == "done"]
+    points = [p for r in done if (p := _point_from_record(r)) is not None]
+    laws = []
+    if len({p.xi for p in points}) >= 2:
+        laws = fit_laws(points, variables=names, analytical=analytical_laws(sub),
+                        exponent_bounds={k: tuple(v) for k, v in
+                                         sub.raw.laws.exponent_bounds.items()},
+                        monotone=dict(sub.raw.laws.monotone))
+    fitted = {law.variable: law.fit.exponent for law in laws if law.fit.exponent is not None}
+    seeds: list[tuple[np.ndarray, str]] = []
+    if sw.predict and laws and all(abs(p.xi - xi_new) > 1e-12 for p in points):
+        d = predicted_design(laws, points, xi_new, names)
+        seeds.append((project_cheap(problem, np.array([d[n] for n in names])),
+                      f"seed: refined-law prediction at xi = {xi_new:g}"))
+    prev = records[index - 1]
+    if prev.get("status") == "done" and sw.recycle > 0:
+        X = _best_designs(out / prev["label"] / STORE_NAME, sw.recycle)
+        xi_old = float(prev.get("xi") or xi_new)
+        ratio = xi_new / xi_old
+        k = np.array([fitted.get(n, ANALYTICAL_EXPONENTS.get(n, 0.0)) for n in names])
+        for j, x in enumerate(X):
+            if x.size != len(names):
+                continue
+            x_new = x * ratio ** k if ratio != 1.0 else x
+            seeds.append((project_cheap(problem, x_new),
+                          f"seed: recycled #{j + 1} of {prev['label']}"))
+    return seeds
+
+
+def _point_record(point: Any, sub: Study, directory: Path, status: str,
+                  design_point: dict[str, Any] | None) -> dict[str, Any]:
+    rec: dict[str, Any] = {"label": point.label, "xi": sub.spec.xi,
+                           "mach": sub.spec.prototype.flow.mach,
+                           "altitude": sub.spec.prototype.flow.altitude,
+                           "directory": directory.name, "status": status,
+                           "bounds": {v.name: [v.lower, v.upper] for v in sub.spec.variables}}
+    if design_point is not None:
+        rec.update(design=design_point.get("design"), objectives=design_point.get("objectives"),
+                   active_constraints=design_point.get("active_constraints", []),
+                   model_time_step=design_point.get("model_time_step"),
+                   evaluations=(design_point.get("statistics") or {}).get("evaluations"))
+        if not design_point.get("design"):
+            rec["status"] = "failed"
+    return rec
+
+
+def write_sweep_summary(study: Study, out: Path, records: Sequence[dict[str, Any]]) -> None:
+    """``sweep.json`` (study data + one record per point) and ``sweep.csv`` (one row per
+    point: label, xi, mach, altitude, status, design variables, objectives)."""
+    from scaling.study import study_data
+
+    _write_json(out / SWEEP_JSON, {"study": study.name, "study_path": study.path,
+                                   "study_data": study_data(study), "points": list(records)})
+    rows = []
+    for r in records:
+        row = {k: r.get(k) for k in ("label", "xi", "mach", "altitude", "status")}
+        row.update(r.get("design") or {})
+        row.update(r.get("objectives") or {})
+        row["evaluations"] = r.get("evaluations")
+        row["active_constraints"] = ";".join(r.get("active_constraints") or [])
+        rows.append(row)
+    tmp = out / (SWEEP_CSV + ".tmp")
+    pd.DataFrame(rows).to_csv(tmp, index=False)
+    tmp.replace(out / SWEEP_CSV)
+
+
+def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: int = 1,
+              scheduler: str | None = None, seed: int | None = None,
+              progress: Callable[[int, int, Any], None] | None = None,
+              on_point: Callable[[int, int, Any], None] | None = None) -> SweepOutcome:
+    """Run (or resume) a sweep study: one optimization per sweep point.
+
+    Each point (:func:`scaling.study.sweep_points`) runs :func:`run_study` into
+    ``out/<label>`` (its own store), sequentially, with the executor of ``workers`` /
+    ``scheduler`` inside each point; seeds from its finished neighbours
+    (:func:`sweep_seeds`). After every point ``out/sweep.json`` and ``out/sweep.csv`` are
+    rewritten. With ``resume``, finished points (``design_point.json`` written) are
+    skipped, an interrupted one continues from its store and the rest run normally.
+
+    Parameters
+    ----------
+    study : Study
+        A study with a ``[sweep]`` table.
+    out : path
+    resume, workers, scheduler, seed, progress
+        As :func:`run_study` (``progress`` restarts with each point).
+    on_point : callable, optional
+        ``on_point(index, n_points, point)`` before each point starts or is skipped.
+    """
+    from scaling.study import study_at, sweep_points
+
+    points = sweep_points(study)
+    if not points:
+        raise InputError("sweep", "the study has no [sweep] table")
+    out = Path(out)
+    if (out / SWEEP_JSON).exists() and not resume:
+        raise InputError("--out", f"{out} already holds a sweep; use --resume to continue it "
+                         "or choose another directory")
+    if resume and not (out / SWEEP_JSON).exists():
+        raise InputError("--resume", f"{out} holds no sweep to resume")
+    out.mkdir(parents=True, exist_ok=True)
+    subs = [study_at(study, p, first=(i == 0)) for i, p in enumerate(points)]
+    records = [_point_record(p, sub, out / p.label, "pending", None)
+               for p, sub in zip(points, subs)]
+    if not resume:
+        write_sweep_summary(study, out, records)
+    prototypes: dict[tuple[float, float, float], Response] = {}
+    for i, (point, sub) in enumerate(zip(points, subs)):
+        if on_point is not None:
+            on_point(i, len(points), point)
+        sub_dir = out / point.label
+        finished = sub_dir / "design_point.json"
+        if resume and finished.exists() and (sub_dir / STORE_NAME).exists():
+            records[i] = _point_record(point, sub, sub_dir, "done",
+                                       json.loads(finished.read_text()))
+            continue
+        flow = sub.spec.prototype.flow
+        key = (flow.mach, flow.pressure, flow.temperature)
+        problem = ScalingProblem(sub.spec, prototype_response=prototypes.get(key))
+        seeds = sweep_seeds(study, sub, problem, i, records, out)
+        if sub.optimizer.initial_samples + len(seeds) < 2:
+            n0 = max(2, study.optimizer.initial_samples)
+            warnings.warn(f"sweep point {point.label}: only {len(seeds)} recycled design(s); "
+                          f"drawing {n0} initial samples instead", RuntimeWarning, stacklevel=2)
+            sub = dataclasses.replace(sub, optimizer=sub.optimizer.model_copy(
+                update={"initial_samples": n0}))
+        outcome = run_study(sub, sub_dir, resume=resume and (sub_dir / STORE_NAME).exists(),
+                            workers=workers, scheduler=scheduler, seed=seed,
+                            progress=progress, seeds=seeds,
+                            prototype_response=problem.prototype_response)
+        prototypes[key] = outcome.problem.prototype_response
+        records[i] = _point_record(point, sub, sub_dir, "done", outcome.design_point)
+        write_sweep_summary(study, out, records)
+    write_sweep_summary(study, out, records)
+    for record_dir in (out / p.label for p in points):
+        if (record_dir / "design_point.json").exists():
+            write_report_safely(record_dir)  # again: the laws section now sees every point
+    return SweepOutcome(directory=out, points=records)
+
+
 def load_response(path: Path) -> Response | None:
     return Response.load(path) if path.exists() else None
 
 
-__all__ = ["RunOutcome", "run_study", "write_outputs", "classical_baseline", "make_executor",
+__all__ = ["RunOutcome", "SweepOutcome", "run_study", "run_sweep", "sweep_seeds",
+           "write_sweep_summary", "project_cheap", "write_outputs", "classical_baseline", "make_executor",
            "evaluations_table", "choose_design_point", "STORE_NAME"]

@@ -5,7 +5,9 @@ Public keys (documented in the README, used by the shipped ``studies/*.toml``)::
     [study]        name, description, kind ("quasi_steady" | "aeroelastic"), objectives,
                    xi, time_scaling ("fourier" | "structural"), projection ("center" | "modal")
     [prototype]    case (path of a case file, relative to the study), delta_T,
-                   temperature_independent
+                   temperature_independent, mach, altitude (override the case's flight
+                   condition: ``mach`` alone keeps the case's static p and T, ``altitude``
+                   (m, 1976 standard atmosphere) needs ``mach`` or a case Mach number)
     [simulation]   time_step, steps, aero, heating, boundary_layer, initial_deflection,
                    lsa_modes, unstable_steps, rho_bar, mesh
     [model]        material, thickness, sublayers, boundary, emissivity,
@@ -17,6 +19,26 @@ Public keys (documented in the README, used by the shipped ``studies/*.toml``)::
     [constraints]  equality = ["T_inf"]
     [optimizer]    approach, acquisition, v, weights, initial_samples, iterations,
                    batch_size, seed, classical_seed, timeout
+    [sweep]        one optimization per sweep point into sub-directories of one run
+                   directory (``hypate run``; Sec. 9.1.3, 9.2.2, 9.2.4):
+                   xi = [2, 3, 4]            geometric scales (sub-directories ``xi_2`` ...)
+                   mach = [...], altitude = [...] (m)   flight conditions: the grid
+                   conditions = [[M, H], ...]          or an explicit list (``M6_H25km``)
+                   (xi and conditions may be combined: xi outer, conditions inner; grid
+                   points are visited in serpentine order, so consecutive points are
+                   neighbours)
+                   recycle = 10          best designs of the previous point re-evaluated
+                                         as part of the next point's initial sample
+                                         (Sec. 9.2.4; for a new xi they are first mapped
+                                         by the refined law, see scaling.laws)
+                   predict = true        for a new xi, also seed with the refined law's
+                                         prediction (needs 2 finished scales)
+                   initial_samples, iterations   budget of every point after the first
+                                         (default: [optimizer]'s; Table 9.11 uses 0 / 20)
+    [laws]         refined scaling laws of a sweep (``hypate laws``, scaling.laws):
+                   analytical.NAME = k        analytical exponent override (xi^k)
+                   exponent_bounds.NAME = [lo, hi]    constrain the fitted exponent (cvxpy)
+                   monotone.NAME = "increasing" | "decreasing"  (k >= 0 | k <= 0, cvxpy)
 
 Every error is an :class:`~solvers.errors.InputError` naming its key; nothing runs on a bad
 file.
@@ -70,6 +92,56 @@ class PrototypeSection(_Strict):
     case: str
     delta_T: Annotated[float, Field(gt=0.0, le=2000.0)] | None = None
     temperature_independent: bool = False
+    mach: Annotated[float, Field(gt=1.0, le=30.0)] | None = None
+    altitude: Annotated[float, Field(ge=0.0, le=86000.0)] | None = None
+
+
+Scale = Annotated[float, Field(ge=1.0, le=100.0)]
+Mach = Annotated[float, Field(gt=1.0, le=30.0)]
+Altitude = Annotated[float, Field(ge=0.0, le=86000.0)]
+
+
+class SweepSection(_Strict):
+    xi: Annotated[list[Scale], Field(min_length=1)] | None = None
+    mach: Annotated[list[Mach], Field(min_length=1)] | None = None
+    altitude: Annotated[list[Altitude], Field(min_length=1)] | None = None
+    conditions: Annotated[list[Annotated[list[float], Field(min_length=2, max_length=2)]],
+                          Field(min_length=1)] | None = None
+    recycle: Annotated[int, Field(ge=0, le=1000)] = 10
+    predict: bool = True
+    initial_samples: Annotated[int, Field(ge=0, le=10000)] | None = None
+    iterations: Annotated[int, Field(ge=0, le=100000)] | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> SweepSection:
+        if self.conditions is not None and (self.mach is not None or self.altitude is not None):
+            raise ValueError("conditions: give either conditions or mach/altitude, not both")
+        if self.xi is None and self.mach is None and self.altitude is None \
+                and self.conditions is None:
+            raise ValueError("xi: a sweep needs xi, mach/altitude or conditions")
+        for i, (m, h) in enumerate(self.conditions or []):
+            if not (1.0 < m <= 30.0 and 0.0 <= h <= 86000.0):
+                raise ValueError(f"conditions[{i}]: need [M, H] with 1 < M <= 30 and "
+                                 f"0 <= H <= 86000 m; got [{m:g}, {h:g}]")
+        for name in ("xi", "mach", "altitude"):
+            values = getattr(self, name)
+            if values is not None and len(set(values)) != len(values):
+                raise ValueError(f"{name}: repeated value")
+        return self
+
+
+class LawsSection(_Strict):
+    analytical: dict[str, float] = {}
+    exponent_bounds: dict[str, Annotated[list[float], Field(min_length=2, max_length=2)]] = {}
+    monotone: dict[str, Literal["increasing", "decreasing"]] = {}
+
+    @model_validator(mode="after")
+    def _check(self) -> LawsSection:
+        for name, (lo, hi) in self.exponent_bounds.items():
+            if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+                raise ValueError(f"exponent_bounds.{name}: need finite [lower, upper] with "
+                                 f"lower <= upper")
+        return self
 
 
 class SimulationSection(_Strict):
@@ -131,6 +203,8 @@ class StudyFile(_Strict):
     fixed: dict[str, float] = {}
     constraints: ConstraintsSection = ConstraintsSection()
     optimizer: OptimizerSection = OptimizerSection()
+    sweep: SweepSection | None = None
+    laws: LawsSection = LawsSection()
 
     @model_validator(mode="after")
     def _check(self) -> StudyFile:
@@ -163,6 +237,11 @@ class Study:
     tunnel: TunnelEnvelope | None
     optimizer: OptimizerSection
     raw: StudyFile
+
+    @property
+    def sweep(self) -> SweepSection | None:
+        """The ``[sweep]`` table (None: a single optimization)."""
+        return self.raw.sweep
 
     @property
     def acquisition(self) -> str:
@@ -243,7 +322,15 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
         proto_panel = dataclasses.replace(proto_panel, mesh=tuple(sim_cfg.mesh))
     if cfg.prototype.temperature_independent:
         proto_panel = _freeze(proto_panel, proto_panel.initial_temperature)
-    prototype = Configuration(panel=proto_panel, flow=case.flow, delta_T=cfg.prototype.delta_T)
+    proto_flow = case.flow
+    if cfg.prototype.altitude is not None:
+        proto_flow = FlowCondition.from_altitude(
+            cfg.prototype.mach if cfg.prototype.mach is not None else case.flow.mach,
+            cfg.prototype.altitude)
+    elif cfg.prototype.mach is not None:
+        proto_flow = FlowCondition.from_static(cfg.prototype.mach, case.flow.pressure,
+                                               case.flow.temperature)
+    prototype = Configuration(panel=proto_panel, flow=proto_flow, delta_T=cfg.prototype.delta_T)
 
     tunnel = None
     if cfg.tunnel is not None:
@@ -320,4 +407,123 @@ def load_study(path: str | Path) -> Study:
     return parse_study(read_toml(path), path)
 
 
-__all__ = ["OBJECTIVES", "Study", "StudyFile", "constant_material", "load_study", "parse_study"]
+# -- sweeps ---------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class SweepPoint:
+    """One point of a ``[sweep]``: a geometric scale and/or a flight condition.
+
+    Attributes
+    ----------
+    label : str
+        Sub-directory name, e.g. ``"xi_2"``, ``"M6_H25km"`` or ``"xi_2_M6_H25km"``.
+    xi : float or None
+        Geometric scale (None: the study's).
+    mach, altitude : float or None
+        Prototype flight condition (altitude in m; None: the study's).
+    """
+
+    label: str
+    xi: float | None = None
+    mach: float | None = None
+    altitude: float | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+def _num(value: float) -> str:
+    return f"{value:g}"
+
+
+def sweep_points(study: Study) -> list[SweepPoint]:
+    """The points of a study's ``[sweep]`` in the order they are run.
+
+    Scales are visited in the listed order. A ``mach`` x ``altitude`` grid is visited in
+    serpentine order (Mach outer; the altitude direction alternates) so that consecutive
+    points are neighbours and recycled samples (Sec. 9.2.4) come from the closest
+    condition already solved. A study without ``[sweep]`` has no points.
+    """
+    sw = study.sweep
+    if sw is None:
+        return []
+    conditions: list[tuple[float | None, float | None]]
+    if sw.conditions is not None:
+        conditions = [(float(m), float(h)) for m, h in sw.conditions]
+    elif sw.mach is not None or sw.altitude is not None:
+        machs = sw.mach or [None]
+        alts = sw.altitude or [None]
+        conditions = []
+        for i, m in enumerate(machs):
+            row = alts if i % 2 == 0 else list(reversed(alts))
+            conditions.extend((m, h) for h in row)
+    else:
+        conditions = [(None, None)]
+    scales: list[float | None] = list(sw.xi) if sw.xi is not None else [None]
+    points = []
+    for xi in scales:
+        for m, h in conditions:
+            parts = []
+            if xi is not None:
+                parts.append(f"xi_{_num(xi)}")
+            cond = ""
+            if m is not None:
+                cond += f"M{_num(m)}"
+            if h is not None:
+                cond += ("_" if cond else "") + f"H{_num(h / 1000.0)}km"
+            if cond:
+                parts.append(cond)
+            points.append(SweepPoint(label="_".join(parts), xi=xi, mach=m, altitude=h))
+    return points
+
+
+def study_data(study: Study) -> dict[str, Any]:
+    """The study as a plain dict that :func:`parse_study` accepts anywhere (the prototype
+    case path made absolute); stored in sweep run directories to rebuild sub-studies."""
+    data = study.raw.model_dump(mode="json", exclude_none=True)
+    base = Path(study.path).parent if study.path != "<memory>" else Path.cwd()
+    case = Path(data["prototype"]["case"])
+    data["prototype"]["case"] = str(case if case.is_absolute() else (base / case).resolve())
+    return data
+
+
+def study_at(study: Study | dict[str, Any], point: SweepPoint | None = None, *,
+             xi: float | None = None, first: bool = True) -> Study:
+    """The single study of one sweep point (no ``[sweep]`` table).
+
+    Parameters
+    ----------
+    study : Study or dict
+        The sweep study (or its :func:`study_data`).
+    point : SweepPoint, optional
+    xi : float, optional
+        Geometric scale (overrides the point's), e.g. for a law prediction.
+    first : bool
+        False: the budget of the later points (``sweep.initial_samples``/``iterations``).
+    """
+    data = study_data(study) if isinstance(study, Study) else dict(study)
+    data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
+    sw = data.pop("sweep", None) or {}
+    scale = xi if xi is not None else (point.xi if point is not None else None)
+    if scale is not None:
+        data.setdefault("study", {})["xi"] = float(scale)
+    if point is not None:
+        if point.mach is not None:
+            data["prototype"]["mach"] = float(point.mach)
+        if point.altitude is not None:
+            data["prototype"]["altitude"] = float(point.altitude)
+        data.setdefault("study", {})["name"] = (f"{data.get('study', {}).get('name', 'study')}"
+                                                f" [{point.label}]")
+    sub = parse_study(data, study.path if isinstance(study, Study) else "<memory>")
+    if not first:
+        update = {}
+        if sw.get("initial_samples") is not None:
+            update["initial_samples"] = int(sw["initial_samples"])
+        if sw.get("iterations") is not None:
+            update["iterations"] = int(sw["iterations"])
+        if update:
+            sub = dataclasses.replace(sub, optimizer=sub.optimizer.model_copy(update=update))
+    return sub
+
+
+__all__ = ["OBJECTIVES", "Study", "StudyFile", "SweepPoint", "constant_material", "load_study",
+           "parse_study", "study_at", "study_data", "sweep_points"]

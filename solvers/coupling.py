@@ -398,7 +398,7 @@ class PanelModel:
             x, info = spla.gmres(spla.LinearOperator((n, n), matvec=matvec, dtype=float), b,
                                  M=spla.LinearOperator((n, n), matvec=self._precond.solve,
                                                        dtype=float),
-                                 rtol=1e-8, atol=0.0, restart=30, maxiter=1,
+                                 rtol=1e-11, atol=0.0, restart=30, maxiter=1,
                                  callback=count, callback_type="pr_norm")
             # an inexact Newton step is enough: accept 1e-6 relative (GMRES stagnates near
             # 1e-8 on these badly scaled shell systems)
@@ -524,7 +524,8 @@ def _explicit_thermal_loads(model: PanelModel, q_fluid: Array) -> ThermalLoads:
 
 
 def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float = 1.0, record_every: int = 1,
-           progress=None, stop_on_snap: bool = True) -> Response:
+           progress=None, stop_on_snap: bool = True,
+           record_energy: bool = False) -> Response:
     """Loosely coupled transient schemes S1 and S2 (Sec. 5.3.1), time step ``settings.time_step``.
 
     Both: thermal step with the extrapolated heat flux ``1.5 q^n - 0.5 q^(n-1)`` (Eq. 5.2).
@@ -535,6 +536,16 @@ def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float = 1.0, record_e
 
     The run ends at ``settings.duration``; with ``stop_on_snap`` it ends once a snap-through
     is over (the centre deflection has reversed sign and passed its pre-snap magnitude).
+
+    With ``record_energy`` the artificial energy of the fluid-structure interface of every
+    step (Sec. 5.3.3) is stored in ``Response.artificial_energy`` (J, entry ``n-1`` for the
+    step ``t^(n-1) -> t^n``; NaN for the start step, Eq. 5.7):
+    ``dE = dE_S + dE_F`` (Eq. 5.21), with the work on the structure
+    ``dE_S = 1/2 (F^(n+1,E) + F^(n,E))^T (u^(n+1) - u^n)`` (Eq. 5.19) and the work on the fluid
+    ``dE_F = -1/2 (F^(n+1) + F^n)^T (u^(n+1,E) - u^(n,E))`` (Eq. 5.20), ``F = H_SF p``;
+    superscript E marks the estimated values each scheme hands over (S1: ``p^E`` by Eq. 5.3,
+    ``u^E = u``; S2: ``p^E = p``, ``u^E`` by Eq. 5.5). Per step it is O(dt^3) for S1 (Eq. 5.23)
+    and O(dt^4) for S2 (Eq. 5.24).
     """
     from solvers.dynamics import AlphaStepper
 
@@ -565,6 +576,9 @@ def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float = 1.0, record_e
     q_hist = [loads0.heat_flux, loads0.heat_flux]
     v_prev = stepper.v.copy()
     peak = 0.0
+    # interface histories of the energy balance (Sec. 5.3.3): estimated and actual pressure
+    # and the estimated displacement at the previous step end
+    pE_prev = p_act_prev = uE_prev = None
     try:
         for n in range(1, n_steps + 1):
             t = n * dt
@@ -590,29 +604,45 @@ def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float = 1.0, record_e
                 stepper.a = st.solver.factor(stepper.M).solve(
                     stepper.F - stepper.FI - (stepper.C @ v1 if stepper.has_damping else 0.0))
                 p_hist = [loads.pressure, p_hist[0]]
+                pE_prev = p_act_prev = loads.pressure
+                uE_prev = u1
+                if record_energy:
+                    resp.artificial_energy.append(float("nan"))
             elif scheme == "s1":
                 p_est = 2.0 * p_hist[0] - p_hist[1]  # Eq. (5.3)
+                u_old = stepper.u
                 t0 = time.perf_counter()
                 u, v, _ = stepper.step(tr.H_SF @ p_est + model._F_ext, T_s)
                 model.timer.structural += time.perf_counter() - t0
                 loads = model.fluid_loads(u, T_w, u_dot=v)  # Eq. (5.4)
                 p_hist = [loads.pressure, p_hist[0]]
+                if record_energy:  # Eqs. (5.19)-(5.21) with u^E = u
+                    du = tr.H_SF.T @ (u - u_old)
+                    resp.artificial_energy.append(float(
+                        0.5 * (p_est + pE_prev) @ du - 0.5 * (loads.pressure + p_act_prev) @ du))
+                pE_prev, p_act_prev = p_est, loads.pressure
             else:
                 u_est = stepper.u + dt * (1.5 * stepper.v - 0.5 * v_prev)  # Eq. (5.5)
                 v_est = 1.5 * stepper.v - 0.5 * v_prev
                 loads = model.fluid_loads(u_est, T_w, u_dot=v_est)
                 v_prev = stepper.v.copy()
+                u_old = stepper.u
                 t0 = time.perf_counter()
                 stepper.step(model.aero_force(loads), T_s)  # Eq. (5.6)
                 model.timer.structural += time.perf_counter() - t0
                 p_hist = [loads.pressure, p_hist[0]]
+                if record_energy:  # Eqs. (5.19)-(5.21) with p^E = p
+                    p_mid = 0.5 * (loads.pressure + p_act_prev)
+                    resp.artificial_energy.append(float(
+                        p_mid @ (tr.H_SF.T @ ((stepper.u - u_old) - (u_est - uE_prev)))))
+                pE_prev, p_act_prev, uE_prev = loads.pressure, loads.pressure, u_est
             if n == 1:
                 v_prev = stepper.v.copy() if scheme == "s1" else v_prev
             q_hist = [loads.heat_flux, q_hist[0]]
             if not np.all(np.isfinite(stepper.u)):
                 raise EquilibriumError("the transient response diverged (non-finite state)")
             if n % record_every == 0 or n == n_steps:
-                resp.record(t, stepper.u, T, model, None)
+                resp.record(t, stepper.u, T, model, None, u_dot=stepper.v)
             if progress is not None:
                 progress(n, n_steps)
             w = float(stepper.u[center])

@@ -78,6 +78,7 @@ class Response:
     timing: dict[str, float] = field(default_factory=dict)
     mode_indices: list[tuple[int, int]] = field(default_factory=list)
     keep_fields: bool = True
+    artificial_energy: list[float] = field(default_factory=list)
 
     # -- building ------------------------------------------------------------------------
     @classmethod
@@ -89,7 +90,9 @@ class Response:
                    mode_indices=list(model.modes[1]), keep_fields=model.settings.keep_fields)
 
     def record(self, t: float, u: Array, T: Array, model: PanelModel,
-               lsa: StabilityResult | None) -> None:
+               lsa: StabilityResult | None, u_dot: Array | None = None) -> None:
+        """Append the state at time ``t``; ``u_dot`` (transient schemes) enters the stored
+        surface pressure through the piston-theory velocity term."""
         st, th = model.structure, model.thermal
         tr = model.transfer
         self.times.append(float(t))
@@ -107,7 +110,7 @@ class Response:
         if self.keep_fields:
             self.u.append(np.array(u, copy=True))
             self.T.append(np.array(T, copy=True))
-            loads = model.fluid_loads(u, model.wall_temperature(T))
+            loads = model.fluid_loads(u, model.wall_temperature(T), u_dot=u_dot)
             self.pressure.append(loads.pressure.copy())
             self.heat_flux.append(loads.heat_flux.copy())
 
@@ -154,7 +157,7 @@ class Response:
             "max_wall_temperature": np.asarray(self.max_wall_temperature),
             "modal": np.asarray(self.modal), "lsa": np.asarray(self.lsa),
             "meta": np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)}
-        for name in ("u", "T", "pressure", "heat_flux"):
+        for name in ("u", "T", "pressure", "heat_flux", "artificial_energy"):
             if getattr(self, name):
                 arrays[name] = np.asarray(getattr(self, name))
         tmp = path.with_name(path.name + ".tmp.npz")
@@ -185,6 +188,8 @@ class Response:
         r.lsa = list(arrays["lsa"])
         for name in ("u", "T", "pressure", "heat_flux"):
             setattr(r, name, list(arrays[name]) if name in arrays else [])
+        if "artificial_energy" in arrays:
+            r.artificial_energy = arrays["artificial_energy"].tolist()
         r.status, r.message = meta["status"], meta["message"]
         r.instability_time, r.instability_type = meta["instability_time"], meta["instability_type"]
         r.wall_seconds, r.timing = meta["wall_seconds"], meta["timing"]

@@ -12,7 +12,7 @@ import numpy as np
 from tqdm import tqdm
 
 from scaling.pareto import hypervolume
-from scaling.runner import run_study
+from scaling.runner import run_study, run_sweep
 from scaling.study import load_study
 from solvers.errors import InputError
 
@@ -29,7 +29,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="run a scaling study (default: the quick-start study)",
                        description="Optimize a wind-tunnel model whose nondimensional "
                        "aerothermoelastic response matches the prototype's. Writes "
-                       "evaluations.sqlite/.csv, pareto.csv and design_point.json to --out.")
+                       "evaluations.sqlite/.csv, pareto.csv and design_point.json to --out; "
+                       "a study with a [sweep] table runs one optimization per sweep point "
+                       "into --out/<point> and writes --out/sweep.json and sweep.csv.")
     p.add_argument("study", nargs="?", help="study TOML file (default: studies/quickstart.toml)")
     p.add_argument("--out", help="run directory (default: runs/<study name>)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out")
@@ -72,6 +74,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--seed", "must be >= 0")
     t0 = time.perf_counter()
     print(f"study {study.name}: {study.description or path}", file=sys.stderr)
+    if study.sweep is not None:
+        return _run_sweep(args, study, out, t0)
     print("simulating the prototype ...", file=sys.stderr)
     bar = _Progress(enabled=sys.stderr.isatty())
     try:
@@ -94,3 +98,36 @@ def run(args: argparse.Namespace) -> int:
     if not math.isfinite(point["statistics"].get("wall_seconds") or 0.0):
         return 1
     return 0
+
+
+def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
+    """``hypate run`` of a sweep study: one optimization per point, then the summary."""
+    bars: list[_Progress] = []
+
+    def on_point(i: int, n: int, point) -> None:
+        if bars:
+            bars.pop().close()
+        print(f"[{i + 1}/{n}] {point.label}", file=sys.stderr)
+        bars.append(_Progress(enabled=sys.stderr.isatty()))
+
+    def progress(done: int, budget: int, evaluation) -> None:
+        if bars:
+            bars[-1](done, budget, evaluation)
+
+    try:
+        outcome = run_sweep(study, out, resume=args.resume, workers=args.workers,
+                            scheduler=args.scheduler, seed=args.seed, progress=progress,
+                            on_point=on_point)
+    finally:
+        for bar in bars:
+            bar.close()
+    print(f"{out}: {len(outcome.points)} sweep points in {time.perf_counter() - t0:.1f} s "
+          f"(summary: {out / 'sweep.csv'})")
+    failed = 0
+    for rec in outcome.points:
+        objs = ", ".join(f"{k} = {v:.4g}" for k, v in (rec.get("objectives") or {}).items())
+        active = ", ".join(rec.get("active_constraints") or [])
+        print(f"  {rec['label']:>16s}  {rec['status']:>7s}  {objs}"
+              + (f"  [active: {active}]" if active else ""))
+        failed += rec["status"] != "done"
+    return 1 if failed else 0

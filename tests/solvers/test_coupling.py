@@ -112,7 +112,9 @@ duration = 2.0
 """)
     assert main(["simulate", str(case), "--json", "--out", str(tmp_path / "out")]) == 0
     data = json.loads(capsys.readouterr().out)
-    assert set(data) == {"times", "center_deflection", "mean_temperature", "instability_time",
-                         "instability_type"}
+    # public fields (issue 6) plus the run's status and message
+    assert {"times", "center_deflection", "mean_temperature", "instability_time",
+            "instability_type"} <= set(data)
+    assert data["status"] == "completed"
     assert data["times"] == [0.0, 1.0, 2.0]
     assert (tmp_path / "out" / "response.npz").is_file()

@@ -1,0 +1,132 @@
+"""`hypate whatif`: one design without optimization, sweeps, and input errors."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from scaling.cli import main
+
+REPO = Path(__file__).resolve().parents[2]
+#: A tiny quasi-steady study (2x2 mesh, 4 steps): one evaluation takes well under a second.
+TINY = """
+[study]
+name = "tiny"
+kind = "quasi_steady"
+objectives = ["J_u", "J_T"]
+xi = 4.0
+
+[prototype]
+case = "{case}"
+
+[simulation]
+time_step = 40.0
+steps = 4
+aero = "pt-bl"
+mesh = [2, 2]
+
+[model]
+material = "ti6242"
+
+[tunnel]
+name = "ideal"
+
+[variables]
+M = "tunnel"
+p0 = "tunnel"
+T0 = "tunnel"
+h = [0.001, 0.01]
+
+[constraints]
+equality = ["T_inf"]
+
+[optimizer]
+initial_samples = 4
+iterations = 2
+"""
+
+
+@pytest.fixture()
+def study(tmp_path: Path) -> Path:
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY.format(case=(REPO / "studies" / "cases" / "sec9_2_prototype.toml")
+                                .as_posix()))
+    return path
+
+
+def _json(capsys) -> dict:
+    return json.loads(capsys.readouterr().out)
+
+
+def test_whatif_json_fields(study: Path, capsys) -> None:
+    assert main(["whatif", str(study), "--set", "p0=6e6", "--set", "h=0.01", "--json"]) == 0
+    res = _json(capsys)
+    assert res["design"]["p0"] == 6e6 and res["design"]["h"] == 0.01
+    assert res["sources"] == {"M": "midpoint", "p0": "set", "T0": "midpoint", "h": "set"}
+    assert res["design"]["M"] == pytest.approx(6.0)  # midpoint of the ideal tunnel's [5, 7]
+    assert res["status"] in ("ok", "failed")
+    assert set(res["objectives"]) == {"J_u", "J_T", "J_s"}
+    if res["status"] == "ok":
+        assert all(v >= 0 for v in res["objectives"].values())
+    rows = res["similarity"]
+    assert rows and set(rows[0]) == {"name", "prototype", "model", "relative_difference"}
+    con = res["constraints"]
+    assert "h=upper" in con["active"] and con["outside"] == []
+    assert [e["name"] for e in con["equalities"]] == ["T_inf"]
+    assert con["equalities"][0]["residual"] >= 0.0
+    assert res["model_time_step"] > 0
+
+
+def test_whatif_outside_bounds_is_evaluated_and_flagged(study: Path, capsys) -> None:
+    assert main(["whatif", str(study), "--set", "h=0.02"]) == 0
+    text = capsys.readouterr().out
+    assert "OUTSIDE: h above upper" in text and "J_u" in text
+    assert "similarity parameters" in text
+
+
+def test_whatif_sweep_writes_png_and_csv(study: Path, tmp_path: Path, capsys) -> None:
+    out = tmp_path / "sweep"
+    assert main(["whatif", str(study), "--set", "p0=6e6", "--sweep", "h=0.002:0.012:3",
+                 "--out", str(out), "--json"]) == 0
+    res = _json(capsys)["sweep"]
+    png, csv = out / "whatif_h.png", out / "whatif_h.csv"
+    assert Path(res["png"]) == png and Path(res["csv"]) == csv
+    assert png.read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
+    df = pd.read_csv(csv)
+    assert len(df) == 3 and {"M", "p0", "T0", "h", "J_u", "J_T", "status"} <= set(df.columns)
+    assert df["h"].tolist() == pytest.approx([0.002, 0.007, 0.012])
+    assert (df["p0"] == 6e6).all()
+    assert [r["value"] for r in res["rows"]] == pytest.approx([0.002, 0.007, 0.012])
+    assert res["rows"][-1]["outside"]  # 0.012 > upper bound 0.01: flagged
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["--set", "wingspan=3"], "--set"),
+    (["--set", "h"], "--set"),
+    (["--set", "h=abc"], "--set"),
+    (["--set", "h=-0.001"], "--set"),
+    (["--sweep", "h=0.001:0.01"], "--sweep"),
+    (["--sweep", "colour=1:2:3"], "--sweep"),
+    (["--sweep", "h=0.001:0.01:1"], "--sweep"),
+    (["--set", "h=0.002", "--sweep", "h=0.001:0.01:3"], "--sweep"),
+    (["--out", "x"], "--out"),
+    (["--base", "/nonexistent/run"], "--base"),
+], ids=["unknown", "no value", "not a number", "negative", "sweep syntax", "sweep unknown",
+        "sweep n", "set and sweep", "out without sweep", "base missing"])
+def test_whatif_errors_exit_2_naming_the_option(study: Path, capsys, argv, option) -> None:
+    assert main(["whatif", str(study), *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("hypate: error: ") and option in err[-1], err
+
+
+def test_whatif_base_from_run(study: Path, tmp_path: Path, capsys) -> None:
+    run = tmp_path / "run"
+    run.mkdir()
+    design = {"M": 5.5, "p0": 2e7, "T0": 1500.0, "h": 0.004}
+    (run / "design_point.json").write_text(json.dumps({"design": design}))
+    assert main(["whatif", str(study), "--base", str(run), "--set", "p0=6e6", "--json"]) == 0
+    res = _json(capsys)
+    assert res["design"] == {**design, "p0": 6e6}
+    assert res["sources"]["M"] == "design point" and res["sources"]["p0"] == "set"
