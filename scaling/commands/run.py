@@ -25,6 +25,16 @@ def default_study() -> Path:
     return Path(str(resources.files("studies").joinpath("quickstart.toml")))
 
 
+def default_run_dir(name: str, resume: bool, root: Path = Path("runs")) -> Path:
+    """``runs/NAME``, or ``runs/NAME-2``, ``-3``... when earlier runs exist (a repeated
+    ``hypate run`` starts a new run instead of refusing); with ``--resume`` the latest."""
+    candidates = [root / name] + [root / f"{name}-{k}" for k in range(2, 1000)]
+    existing = [c for c in candidates if c.exists()]
+    if resume:
+        return existing[-1] if existing else candidates[0]
+    return next(c for c in candidates if not c.exists())
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="run a scaling study (default: the quick-start study)",
                        description="Optimize a wind-tunnel model whose nondimensional "
@@ -33,7 +43,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "a study with a [sweep] table runs one optimization per sweep point "
                        "into --out/<point> and writes --out/sweep.json and sweep.csv.")
     p.add_argument("study", nargs="?", help="study TOML file (default: studies/quickstart.toml)")
-    p.add_argument("--out", help="run directory (default: runs/<study name>)")
+    p.add_argument("--out", help="run directory (default: runs/<study name>, numbered -2, "
+                   "-3 ... when it exists)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out")
     p.add_argument("--workers", type=int, default=1, help="local worker processes (default 1)")
     p.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT")
@@ -69,7 +80,7 @@ class _Progress:
 def run(args: argparse.Namespace) -> int:
     path = Path(args.study) if args.study else default_study()
     study = load_study(path)
-    out = Path(args.out) if args.out else Path("runs") / study.name
+    out = Path(args.out) if args.out else default_run_dir(study.name, args.resume)
     if args.seed is not None and args.seed < 0:
         raise InputError("--seed", "must be >= 0")
     t0 = time.perf_counter()
