@@ -21,7 +21,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
 from solvers.aero.analytic import AnalyticFluid
 from solvers.coupling import CouplingSettings, EquilibriumError, PanelModel

@@ -763,7 +763,7 @@ class ThermalModel:
         element-local coupling); otherwise returned as a sparse (n_nodes, n_nodes) term
         (the Jacobian is then factorized with SuperLU).
         """
-        n, n_in = self.n_nodes, self.n_inplane
+        n = self.n_nodes
         Md = sp.coo_matrix(sp.csr_matrix(dq) if nodal_load
                            else self.surface_mass @ sp.csr_matrix(dq))
         Md.sum_duplicates()

@@ -1,13 +1,72 @@
 """Shared pytest fixtures."""
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
+PROTOTYPE_CASE = REPO / "studies" / "cases" / "sec9_2_prototype.toml"
+
+#: A tiny quasi-steady scaling study (the Sec. 9.2 prototype on a coarse mesh, few steps):
+#: one evaluation takes well under a second, a whole run a few seconds.
+TINY_STUDY = """
+[study]
+name = "{name}"
+kind = "quasi_steady"
+objectives = ["J_u", "J_T"]
+xi = {xi}
+
+[prototype]
+case = "{case}"
+
+[simulation]
+time_step = {time_step}
+steps = {steps}
+aero = "pt-bl"
+mesh = [{mesh}, {mesh}]
+
+[model]
+material = "ti6242"
+
+[tunnel]
+name = "ideal"
+
+[variables]
+M = "tunnel"
+p0 = "tunnel"
+T0 = "tunnel"
+h = [0.001, 0.01]
+{sections}
+[optimizer]
+initial_samples = {initial}
+iterations = {iterations}
+seed = {seed}
+{tail}"""
+
+
+def tiny_study_text(name: str = "tiny", xi: float = 4.0, mesh: int = 2, steps: int = 4,
+                    time_step: float = 40.0, initial: int = 4, iterations: int = 2,
+                    seed: int = 3, sections: str = "", tail: str = "") -> str:
+    """The tiny study as TOML text; ``sections`` go before [optimizer], ``tail`` after."""
+    return TINY_STUDY.format(name=name, xi=xi, case=PROTOTYPE_CASE.as_posix(), mesh=mesh,
+                             steps=steps, time_step=time_step, initial=initial,
+                             iterations=iterations, seed=seed, sections=sections, tail=tail)
 
 
 @pytest.fixture
 def repo_root() -> Path:
     return REPO
+
+
+@pytest.fixture
+def tiny_study(tmp_path: Path) -> Callable[..., Path]:
+    """Factory writing a tiny study file: ``tiny_study(text=None, **options) -> Path``."""
+
+    def write(text: str | None = None, filename: str = "tiny.toml", **options) -> Path:
+        path = tmp_path / filename
+        path.write_text(text if text is not None else tiny_study_text(**options))
+        return path
+
+    return write

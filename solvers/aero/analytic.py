@@ -174,7 +174,7 @@ def eckert_with_derivatives(flow: FlowCondition, p_e: Array, T_w: Array, x_le: A
 def adiabatic_wall_temperature(flow: FlowCondition, p_e: ArrayLike, regime: str = "turbulent"
                                ) -> Array:
     """T_aw at edge pressure p_e (Eq. 2.41); the Eckert flux vanishes at T_w = T_aw."""
-    g, cp = flow.gamma, flow.cp
+    g = flow.gamma
     T_e = flow.temperature * (np.asarray(p_e, float) / flow.pressure) ** ((g - 1.0) / g)
     return T_e + flow.prandtl ** RECOVERY_EXPONENT[regime] * (flow.stagnation_temperature - T_e)
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from scaling.optimizer import evaluate_design
-from scaling.problem import ModelFailure, ScalingProblem
+from scaling.problem import ScalingProblem
 from scaling.similarity import analytical_scaling
 from scaling.study import load_study
 

@@ -10,50 +10,16 @@ from pathlib import Path
 
 import pytest
 
+from conftest import tiny_study_text
 from scaling import report
 from scaling.cli import main
 
-REPO = Path(__file__).resolve().parents[2]
-#: The tiny study of test_study_run.py (2x2 mesh, 4 steps, 1 + 4 + 2 evaluations).
-TINY = """
-[study]
-name = "tiny"
-kind = "quasi_steady"
-objectives = ["J_u", "J_T"]
-xi = 4.0
-
-[prototype]
-case = "{case}"
-
-[simulation]
-time_step = 40.0
-steps = 4
-aero = "pt-bl"
-mesh = [2, 2]
-
-[model]
-material = "ti6242"
-
-[tunnel]
-name = "ideal"
-
-[variables]
-M = "tunnel"
-p0 = "tunnel"
-T0 = "tunnel"
-h = [0.001, 0.01]
-
-[optimizer]
-initial_samples = 4
-iterations = 2
-seed = 3
-"""
+TINY = tiny_study_text()  # 2x2 mesh, 4 steps, 1 + 4 + 2 evaluations
 
 
 def _tiny(tmp_path: Path) -> Path:
     path = tmp_path / "tiny.toml"
-    path.write_text(TINY.format(case=(REPO / "studies" / "cases" / "sec9_2_prototype.toml")
-                                .as_posix()))
+    path.write_text(TINY)
     return path
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"

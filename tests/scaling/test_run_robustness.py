@@ -13,49 +13,17 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from conftest import tiny_study_text
 from scaling.runner import run_study
 from scaling.study import load_study
 
-REPO = Path(__file__).resolve().parents[2]
-STUDY = """
-[study]
-name = "robust"
-kind = "quasi_steady"
-objectives = ["J_u", "J_T"]
-xi = 4.0
-
-[prototype]
-case = "{case}"
-
-[simulation]
-time_step = 20.0
-steps = 8
-aero = "pt-bl"
-mesh = [3, 3]
-
-[model]
-material = "ti6242"
-
-[tunnel]
-name = "ideal"
-
-[variables]
-M = "tunnel"
-p0 = "tunnel"
-T0 = "tunnel"
-h = [0.001, 0.01]
-
-[optimizer]
-initial_samples = 6
-iterations = 6
-seed = 5
-"""
+STUDY = tiny_study_text(name="robust", mesh=3, steps=8, time_step=20.0, initial=6,
+                        iterations=6, seed=5)
 
 
 def _study(tmp_path: Path) -> Path:
     path = tmp_path / "robust.toml"
-    path.write_text(STUDY.format(case=(REPO / "studies" / "cases" / "sec9_2_prototype.toml")
-                                 .as_posix()))
+    path.write_text(STUDY)
     return path
 
 

@@ -9,48 +9,16 @@ import pandas as pd
 import pytest
 
 from scaling.cli import main
+from conftest import tiny_study_text
 from scaling.study import load_study
 
 REPO = Path(__file__).resolve().parents[2]
-TINY = """
-[study]
-name = "tiny"
-kind = "quasi_steady"
-objectives = ["J_u", "J_T"]
-xi = 4.0
-
-[prototype]
-case = "{case}"
-
-[simulation]
-time_step = 40.0
-steps = 4
-aero = "pt-bl"
-mesh = [2, 2]
-
-[model]
-material = "ti6242"
-
-[tunnel]
-name = "ideal"
-
-[variables]
-M = "tunnel"
-p0 = "tunnel"
-T0 = "tunnel"
-h = [0.001, 0.01]
-
-[optimizer]
-initial_samples = 4
-iterations = 2
-seed = 3
-"""
+TINY = tiny_study_text()
 
 
 def _tiny(tmp_path: Path, text: str = TINY) -> Path:
     path = tmp_path / "tiny.toml"
-    path.write_text(text.format(case=(REPO / "studies" / "cases" / "sec9_2_prototype.toml")
-                                .as_posix()))
+    path.write_text(text)
     return path
 
 

@@ -8,57 +8,25 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from conftest import tiny_study_text
 from scaling.cli import main
 from scaling.runner import STORE_NAME, run_sweep
 from scaling.store import EvaluationStore
 from scaling.study import load_study, study_at, sweep_points
 
 REPO = Path(__file__).resolve().parents[2]
-TINY_SWEEP = """
-[study]
-name = "tiny_sweep"
-kind = "quasi_steady"
-objectives = ["J_u", "J_T"]
-xi = 2.0
-
-[prototype]
-case = "{case}"
-
-[simulation]
-time_step = 40.0
-steps = 4
-aero = "pt-bl"
-mesh = [2, 2]
-
-[model]
-material = "ti6242"
-
-[tunnel]
-name = "ideal"
-
-[variables]
-M = "tunnel"
-p0 = "tunnel"
-T0 = "tunnel"
-h = [0.001, 0.01]
-
-[optimizer]
-initial_samples = 4
-iterations = 2
-seed = 3
-
+TINY_SWEEP = tiny_study_text(name="tiny_sweep", xi=2.0, tail="""
 [sweep]
 xi = [2, 3, 4]
 recycle = 2
 initial_samples = 2
 iterations = 1
-"""
+""")
 
 
 def _tiny(tmp_path: Path) -> Path:
     path = tmp_path / "tiny_sweep.toml"
-    path.write_text(TINY_SWEEP.format(case=(REPO / "studies" / "cases" /
-                                            "sec9_2_prototype.toml").as_posix()))
+    path.write_text(TINY_SWEEP)
     return path
 
 

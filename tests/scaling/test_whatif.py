@@ -7,52 +7,16 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from conftest import tiny_study_text
 from scaling.cli import main
 
-REPO = Path(__file__).resolve().parents[2]
-#: A tiny quasi-steady study (2x2 mesh, 4 steps): one evaluation takes well under a second.
-TINY = """
-[study]
-name = "tiny"
-kind = "quasi_steady"
-objectives = ["J_u", "J_T"]
-xi = 4.0
-
-[prototype]
-case = "{case}"
-
-[simulation]
-time_step = 40.0
-steps = 4
-aero = "pt-bl"
-mesh = [2, 2]
-
-[model]
-material = "ti6242"
-
-[tunnel]
-name = "ideal"
-
-[variables]
-M = "tunnel"
-p0 = "tunnel"
-T0 = "tunnel"
-h = [0.001, 0.01]
-
-[constraints]
-equality = ["T_inf"]
-
-[optimizer]
-initial_samples = 4
-iterations = 2
-"""
+TINY = tiny_study_text(sections='\n[constraints]\nequality = ["T_inf"]\n')
 
 
 @pytest.fixture()
 def study(tmp_path: Path) -> Path:
     path = tmp_path / "tiny.toml"
-    path.write_text(TINY.format(case=(REPO / "studies" / "cases" / "sec9_2_prototype.toml")
-                                .as_posix()))
+    path.write_text(TINY)
     return path
 
 

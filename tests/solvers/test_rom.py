@@ -143,7 +143,6 @@ def test_rom_jacobians_match_central_differences(small_rom: R.RomFluid, correcti
 
 
 def test_rom_on_another_grid_and_projection(small_rom: R.RomFluid) -> None:
-    g = small_rom.geometry
     pts = SurfacePoints.grid(0.5, 0.5, 0.5, 21, 1)  # xi = 2, coarser grid: interpolated
     xr = pts.x * 2.0
     w = (0.0025 / 2.0) * (2.0 * np.sin(np.pi * xr) - 1.0 * np.sin(2 * np.pi * xr))
