@@ -22,6 +22,7 @@ import time
 import warnings
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -105,9 +106,61 @@ def make_executor(workers: int, scheduler: str | None) -> tuple[Any, Callable[[]
             raise InputError("--scheduler", f"cannot reach {scheduler}: {exc}") from None
         return client, client.close
     if workers > 1:
-        pool = ProcessPoolExecutor(max_workers=workers)
-        return pool, lambda: pool.shutdown(cancel_futures=True)
+        pool = ResilientProcessPool(workers)
+        return pool, pool.shutdown
     return None, lambda: None
+
+
+class ResilientProcessPool:
+    """A process pool in which a worker that dies costs only its own evaluation.
+
+    ``concurrent.futures.ProcessPoolExecutor`` breaks as a whole when one worker dies: every
+    pending future fails with ``BrokenProcessPool`` and later submissions are refused. Here
+    the pool is restarted, and each future whose pool broke is re-submitted once, alone,
+    when its result is asked for (the optimizer asks in batch order): an innocent evaluation
+    then finishes normally, while the evaluation that kills its worker breaks the pool a
+    second time and is recorded as failed.
+    """
+
+    def __init__(self, workers: int) -> None:
+        self.workers = int(workers)
+        self._pool = ProcessPoolExecutor(max_workers=self.workers)
+
+    def _restart(self) -> None:
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        self._pool = ProcessPoolExecutor(max_workers=self.workers)
+
+    def _submit(self, fn: Callable[..., Any], args: tuple) -> Any:
+        try:
+            return self._pool.submit(fn, *args)
+        except BrokenProcessPool:
+            self._restart()
+            return self._pool.submit(fn, *args)
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> _RetryFuture:
+        return _RetryFuture(self, fn, args)
+
+    def shutdown(self) -> None:
+        self._pool.shutdown(cancel_futures=True)
+
+
+class _RetryFuture:
+    """Future of :class:`ResilientProcessPool`: one re-submission after a broken pool."""
+
+    def __init__(self, owner: ResilientProcessPool, fn: Callable[..., Any], args: tuple) -> None:
+        self._owner, self._fn, self._args = owner, fn, args
+        self._future = owner._submit(fn, args)
+        self._retried = False
+
+    def result(self, timeout: float | None = None) -> Any:
+        try:
+            return self._future.result(timeout)
+        except BrokenProcessPool:
+            if self._retried:
+                raise
+            self._retried = True
+            self._future = self._owner._submit(self._fn, self._args)
+            return self._future.result(timeout)
 
 
 def project_cheap(problem: ScalingProblem, x: np.ndarray) -> np.ndarray:

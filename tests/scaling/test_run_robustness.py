@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from pymoo.core.problem import Problem
 
 from conftest import tiny_study_text
 from scaling.runner import run_study
@@ -93,3 +94,34 @@ def test_dask_local_cluster_gives_the_same_evaluations(tmp_path: Path) -> None:
                                   host="127.0.0.1", dashboard_address=None) as cluster:
         remote = run_study(study, tmp_path / "dask", scheduler=cluster.scheduler_address)
     _same(_table(local.directory), _table(remote.directory))
+
+
+class _Killer(Problem):
+    """Branin-like objective whose evaluation kills its worker process for x0 > 0.7."""
+
+    def __init__(self) -> None:
+        super().__init__(n_var=2, n_obj=1, xl=np.zeros(2), xu=np.ones(2))
+
+    def _evaluate(self, X, out, *args, **kwargs):
+        if np.any(X[:, 0] > 0.7):
+            os._exit(3)  # the worker process dies mid-evaluation
+        out["F"] = ((X[:, 0] - 0.3) ** 2 + (X[:, 1] - 0.6) ** 2)[:, None]
+
+
+def test_a_dying_worker_costs_only_its_evaluation() -> None:
+    from scaling.optimizer import BayesianOptimizer
+    from scaling.runner import ResilientProcessPool
+
+    pool = ResilientProcessPool(2)
+    try:
+        res = BayesianOptimizer(_Killer(), n_init=8, n_iter=3, batch_size=2, seed=1,
+                                executor=pool).run()
+    finally:
+        pool.shutdown()
+    data = res.data
+    killers = data["x0"] > 0.7
+    assert killers.any() and (~killers).any()
+    # every evaluation that killed its worker is recorded as failed, every other one succeeded
+    assert (data.loc[killers, "status"] == "error").all()
+    assert (data.loc[~killers, "status"] == "ok").all()
+    assert len(data) == 8 + 3 * 2
