@@ -25,12 +25,13 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numpy.typing import NDArray
 
+from solvers.aero.analytic import PointwiseJacobians
 from solvers.aero.base import FluidLoads, FluidModel, SurfaceState
 from solvers.errors import InputError
 from solvers.flow import FlowCondition
 from solvers.panel import PanelSpec
 from solvers.response import Response, sinusoidal_modes
-from solvers.stability import StabilityResult, gep, pep
+from solvers.stability import StabilityResult, gep, pep, shift_invert_gep
 from solvers.structure import StructuralModel
 from solvers.thermal import SurfaceCondition, ThermalLoads, ThermalModel
 from solvers.transfer import Transfer, fluid_points
@@ -130,6 +131,135 @@ class EquilibriumError(RuntimeError):
     """The static aeroelastic equilibrium did not converge (e.g. past a snap-through)."""
 
 
+def _pattern_keys(indptr: NDArray[np.integer], indices: NDArray[np.integer],
+                  n_cols: int) -> NDArray[np.int64]:
+    rows = np.repeat(np.arange(indptr.size - 1, dtype=np.int64), np.diff(indptr))
+    return rows * n_cols + indices.astype(np.int64)
+
+
+def triple_product_operator(L: sp.spmatrix, R: sp.spmatrix,
+                            pattern: tuple[NDArray, NDArray] | None = None
+                            ) -> tuple[sp.csr_matrix, NDArray, NDArray]:
+    """The linear map ``d -> data of L diag(d) R`` on a fixed CSR pattern.
+
+    ``L`` is (m, n_f), ``R`` (n_f, k). Returns ``(T, indptr, indices)`` with ``T`` sparse of
+    shape (nnz, n_f), so ``csr_matrix((T @ d, indices, indptr), (m, k))`` equals
+    ``L @ diag(d) @ R`` (up to round-off: the products are summed in another order). The
+    pattern is ``pattern = (indptr, indices)`` when given (it must contain every entry of
+    the product), else the product's own. The data of a pointwise aerodynamic Jacobian
+    transferred to the structure is linear in the pointwise derivatives, so it costs one
+    sparse mat-vec instead of two sparse matrix products per evaluation.
+    """
+    Lc = sp.coo_matrix(L)
+    Rr = sp.csr_matrix(R)
+    Rr.sort_indices()
+    m, k = Lc.shape[0], Rr.shape[1]
+    counts = np.diff(Rr.indptr)[Lc.col]
+    rep = np.repeat(np.arange(Lc.nnz), counts)
+    start = np.repeat(Rr.indptr[Lc.col], counts)
+    offs = np.arange(rep.size) - np.repeat(np.cumsum(counts) - counts, counts)
+    ridx = start + offs
+    keys = Lc.row[rep].astype(np.int64) * k + Rr.indices[ridx].astype(np.int64)
+    vals = Lc.data[rep] * Rr.data[ridx]
+    f = Lc.col[rep]
+    if pattern is None:
+        uniq = np.unique(keys)
+        rows = uniq // k
+        indices = (uniq % k).astype(np.int32)
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=m))]).astype(
+            np.int32)
+        pkeys = uniq
+    else:
+        indptr, indices = pattern
+        pkeys = _pattern_keys(indptr, indices, k)
+    pos = np.minimum(np.searchsorted(pkeys, keys), pkeys.size - 1)
+    if not np.all(pkeys[pos] == keys):
+        raise ValueError("the product has entries outside the given pattern")
+    T = sp.csr_matrix((vals, (pos, f)), shape=(pkeys.size, Lc.shape[1]))
+    T.sum_duplicates()
+    return T, indptr, indices
+
+
+class _FreePattern:
+    """The free-DOF block of matrices on the structural CSR pattern, by index maps.
+
+    ``sel`` picks the free-free entries (in CSR order of the block), ``tpos`` reorders the
+    block's CSR data into CSC data (the pattern is structurally symmetric), so
+    ``A[free][:, free]`` in CSR or CSC costs one gather.
+    """
+
+    def __init__(self, indptr: NDArray, indices: NDArray, n: int, free: NDArray) -> None:
+        newpos = np.full(n, -1, dtype=np.int64)
+        newpos[free] = np.arange(free.size)
+        rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr))
+        r, c = newpos[rows], newpos[indices]
+        keep = (r >= 0) & (c >= 0)
+        self.sel = np.flatnonzero(keep)
+        r, c = r[keep], c[keep]
+        self.n = int(free.size)
+        self.indices = c.astype(np.int32)
+        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=self.n))]
+                                     ).astype(np.int32)
+        keys = r * self.n + c
+        tkeys = c * self.n + r
+        self.tpos = np.searchsorted(keys, tkeys)
+        if not np.array_equal(keys[self.tpos], tkeys):
+            raise ValueError("the structural pattern is not structurally symmetric")
+
+    def csc_from_block(self, block: Array) -> sp.csc_matrix:
+        """CSC of the block with CSR data ``block``: column j holds the entries (i, j), and
+        with the symmetric pattern its row indices are the CSR column indices of row j."""
+        return sp.csc_matrix((block[self.tpos], self.indices, self.indptr),
+                             shape=(self.n, self.n))
+
+
+def splu_free(A: sp.csc_matrix):
+    """Sparse LU of a free-DOF block ``K - K_A (- sigma M)``.
+
+    SuperLU's symmetric mode with the minimum-degree ordering of ``A^T + A`` (diagonal
+    pivots preferred, threshold 1e-3) -- the pattern is structurally symmetric and the
+    matrix close to symmetric: 3 ms and 2.5x fewer nonzeros than the default COLAMD with
+    partial pivoting (8 ms) on the 8 x 8 shell (measured). The factor is checked on one
+    solve (relative residual <= 1e-10); when the symmetric mode reports a singular factor
+    or fails the check (a pivot the threshold let through), the default LU is used.
+    """
+    try:
+        lu = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=1e-3,
+                       options={"SymmetricMode": True})
+    except RuntimeError:
+        return spla.splu(A)
+    b = np.cos(np.arange(A.shape[0], dtype=float))  # a fixed, nowhere-special vector
+    x = lu.solve(b)
+    if np.all(np.isfinite(x)) and np.linalg.norm(A @ x - b) <= 1e-10 * np.linalg.norm(b):
+        return lu
+    return spla.splu(A)
+
+
+class DeferredMatrix:
+    """A sparse matrix formed on first use: calling it returns the matrix (the thermal
+    Newton resolves a flux derivative only when it needs the Jacobian); ``@``,
+    ``toarray()`` and ``tocsr()`` act on the matrix."""
+
+    def __init__(self, build, shape: tuple[int, int]) -> None:
+        self._build = build
+        self._matrix: sp.csr_matrix | None = None
+        self.shape = shape
+
+    def __call__(self) -> sp.csr_matrix:
+        if self._matrix is None:
+            self._matrix = self._build()
+        return self._matrix
+
+    def __matmul__(self, x):
+        return self() @ x
+
+    def toarray(self) -> Array:
+        return self().toarray()
+
+    def tocsr(self) -> sp.csr_matrix:
+        return self()
+
+
 class PanelModel:
     """A panel in a flow: structure, thermal model, fluid model and transfer (Eq. 5.1).
 
@@ -170,6 +300,56 @@ class PanelModel:
                        if s.external_pressure != 0.0 else np.zeros(self.structure.n_dof))
         self.modes = sinusoidal_modes(panel, self.points)
         self._precond = None  # LU of a recent (K - K_A)_ff, preconditions the Newton solves
+        self._ops: dict[str, object] | None = None  # pointwise-Jacobian operators (lazy)
+        self._last_state: tuple | None = None  # (u, T, K, loads, ...) of the last residual
+
+    def _op(self, name: str):
+        """Operators of the pointwise (diagonal) aerodynamic Jacobians, each built once on
+        first use.
+
+        ``KA_slope``/``KA_w``: d -> data of ``H_SF diag(d) H_FS_slope`` / ``H_SF diag(d) H_FS``
+        on the structural pattern (K_A and C_A, Eq. 5.34, for the solvers); ``KA_slope_own``/
+        ``KA_w_own``: the same on the products' own (compact) patterns, with their
+        ``(T, indptr, indices)``; ``QT_a``/``QT_b``: a, b -> data of ``H_TF diag(a) H_FT`` and
+        ``H_TF diag(b) S H_FT`` on the top thermal nodes (the implicit wall-flux derivative)
+        on ``QT_pattern``; ``free``: the free-DOF block maps of the structural pattern.
+        """
+        ops = self._ops if self._ops is not None else {}
+        self._ops = ops
+        if name in ops:
+            return ops[name]
+        st, tr = self.structure, self.transfer
+        H = {"slope": tr.H_FS_slope, "w": tr.H_FS}
+        if name in ("KA_slope", "KA_w"):
+            ops[name] = triple_product_operator(tr.H_SF, H[name[3:]],
+                                                (st._indptr, st._indices))[0]
+        elif name in ("KA_slope_own", "KA_w_own"):
+            ops[name] = triple_product_operator(tr.H_SF, H[name[3:-4]])
+        elif name in ("QT_a", "QT_b", "QT_pattern"):
+            S = self.points.streamwise_derivative
+            L, Ra, Rb = self._H_TF_top, self._H_FT_top, S @ self._H_FT_top
+            _, ip_a, ix_a = triple_product_operator(L, Ra)
+            _, ip_b, ix_b = triple_product_operator(L, Rb)
+            n_in = L.shape[0]
+            union = sp.csr_matrix((np.ones(ix_a.size), ix_a, ip_a), shape=(n_in, n_in)) + \
+                sp.csr_matrix((np.ones(ix_b.size), ix_b, ip_b), shape=(n_in, n_in))
+            union.sort_indices()
+            qpat = (union.indptr.astype(np.int32), union.indices.astype(np.int32))
+            ops["QT_pattern"] = qpat
+            ops["QT_a"] = triple_product_operator(L, Ra, qpat)[0]
+            ops["QT_b"] = triple_product_operator(L, Rb, qpat)[0]
+        elif name == "free":
+            ops[name] = _FreePattern(st._indptr, st._indices, st.n_dof, st.free_dofs)
+        else:
+            raise KeyError(name)
+        return ops[name]
+
+    def _aero_stiffness_data(self, loads: FluidLoads) -> Array | None:
+        """K_A as data on the structural CSR pattern for a pointwise fluid model, else None."""
+        J = loads.jacobians
+        if not isinstance(J, PointwiseJacobians):
+            return None
+        return self._op("KA_slope") @ J.dp_ds  # dp/dw = 0 (pointwise laws)
 
     def _keep_precond(self, lu) -> None:
         self._precond = lu
@@ -253,6 +433,10 @@ class PanelModel:
     def aero_stiffness(self, loads: FluidLoads) -> sp.csr_matrix | spla.LinearOperator:
         """K_A = dF_S/du = H_SF (dp/dw H_FS + dp/dw_s H_FS_slope) (Eq. 5.34)."""
         tr, J = self.transfer, loads.jacobians
+        if isinstance(J, PointwiseJacobians):
+            T, indptr, indices = self._op("KA_slope_own")
+            n = self.structure.n_dof
+            return sp.csr_matrix((T @ J.dp_ds, indices, indptr), shape=(n, n))
         if all(sp.issparse(J[k]) for k in ("dp_dw", "dp_dws")):
             return (tr.H_SF @ (J["dp_dw"] @ tr.H_FS + J["dp_dws"] @ tr.H_FS_slope)).tocsr()
         n = self.structure.n_dof
@@ -264,6 +448,10 @@ class PanelModel:
     def aero_damping(self, loads: FluidLoads) -> sp.csr_matrix:
         """C_A = dF_S/du_dot = H_SF dp/dw_dot H_FS (Eq. 5.34)."""
         tr = self.transfer
+        if isinstance(loads.jacobians, PointwiseJacobians):
+            T, indptr, indices = self._op("KA_w_own")
+            n = self.structure.n_dof
+            return sp.csr_matrix((T @ loads.jacobians.dp_dv, indices, indptr), shape=(n, n))
         return sp.csr_matrix(tr.H_SF @ (loads.jacobians["dp_dwdot"] @ tr.H_FS))
 
     # -- thermal coupling -------------------------------------------------------------------
@@ -271,12 +459,32 @@ class PanelModel:
         """Upper surface: aerodynamic heat flux implicit in the wall temperature (Eq. 5.31a)
         plus radiation to ``T_rad``; lower surface insulated."""
         H_FT, H_TF = self._H_FT_top, self._H_TF_top
+        cache: list = []
 
         def flux(T_top: Array) -> tuple[Array, sp.csr_matrix]:
-            # nodal heat input Q = H_TF q (Eq. 5.1b) and its derivative, on the thermal pattern
+            # nodal heat input Q = H_TF q (Eq. 5.1b) and its derivative, on the thermal pattern;
+            # the Newton asks twice at the same T (residual, then Jacobian): cached
+            if cache and np.array_equal(cache[0], T_top):
+                return cache[1], cache[2]
             loads = self.fluid_loads(u, H_FT @ T_top, jacobians=True)
-            dQ = H_TF @ sp.csr_matrix(loads.jacobians["dq_dTw"]) @ H_FT
-            return H_TF @ loads.heat_flux, dQ.tocsr()
+            J = loads.jacobians
+            if isinstance(J, PointwiseJacobians):
+                n_top = T_top.size
+
+                def build():  # formed only when the thermal Newton needs its Jacobian
+                    a, b = J.tw_coefficients()
+                    data = self._op("QT_a") @ a
+                    if b is not None:
+                        data = data + self._op("QT_b") @ b
+                    ip, ix = self._op("QT_pattern")
+                    return sp.csr_matrix((data, ix, ip), shape=(n_top, n_top))
+
+                dQ = DeferredMatrix(build, (n_top, n_top))
+            else:
+                dQ = (H_TF @ sp.csr_matrix(J["dq_dTw"]) @ H_FT).tocsr()
+            out = (H_TF @ loads.heat_flux, dQ)
+            cache[:] = [np.array(T_top, copy=True), *out]
+            return out
 
         top = SurfaceCondition(flux=flux, emissivity=self.panel.emissivity, T_rad=self.T_rad,
                                nodal_load=True)
@@ -340,6 +548,8 @@ class PanelModel:
             t0 = time.perf_counter()
             F_I, K = st.force_and_tangent(x, T_s)
             self.timer.structural += time.perf_counter() - t0
+            # the LSA at the converged state reuses the tangent and the fluid loads
+            self._last_state = (x, T, K, loads, self.flow, self.fluid)
             return F_I - load * self.aero_force(loads), K, loads
 
         R, K, loads = residual(u)
@@ -351,10 +561,15 @@ class PanelModel:
             if rnorm <= s.newton_rtol * ref:
                 return u, it
             t0 = time.perf_counter()
-            KA = self.aero_stiffness(loads)
-            KA = load * KA if sp.issparse(KA) else _scaled(KA, load)
             du = np.zeros_like(u)
-            du[free] = self._solve(K, KA, -R[free])
+            KA_data = self._aero_stiffness_data(loads)
+            if KA_data is not None:
+                # pointwise fluid: (K - load K_A) on the structural pattern, data only
+                du[free] = self._solve_free(K.data - load * KA_data, -R[free])
+            else:
+                KA = self.aero_stiffness(loads)
+                KA = load * KA if sp.issparse(KA) else _scaled(KA, load)
+                du[free] = self._solve(K, KA, -R[free])
             self.timer.structural += time.perf_counter() - t0
             u = u + du
             R, K, loads = residual(u)
@@ -364,6 +579,40 @@ class PanelModel:
         raise EquilibriumError(
             f"aeroelastic equilibrium did not converge in {s.newton_max_iter} Newton "
             f"iterations (residual {rnorm:.3g} N vs scale {ref:.3g} N)")
+
+    def _gmres_precond(self, matvec, b: Array) -> Array | None:
+        """GMRES preconditioned by the kept factor; None when it is missing or too weak."""
+        if self._precond is None or self._precond.shape[0] != b.size:
+            return None
+        n = b.size
+        its = [0]
+
+        def count(_):
+            its[0] += 1
+
+        x, info = spla.gmres(spla.LinearOperator((n, n), matvec=matvec, dtype=float), b,
+                             M=spla.LinearOperator((n, n), matvec=self._precond.solve,
+                                                   dtype=float),
+                             rtol=1e-11, atol=0.0, restart=30, maxiter=1,
+                             callback=count, callback_type="pr_norm")
+        # an inexact Newton step is enough: accept 1e-6 relative (GMRES stagnates near
+        # 1e-8 on these badly scaled shell systems)
+        if its[0] <= 20 and np.linalg.norm(matvec(x) - b) <= 1e-6 * np.linalg.norm(b):
+            return x
+        return None
+
+    def _solve_free(self, data: Array, b: Array) -> Array:
+        """:meth:`_solve` for ``K - K_A`` given as data on the structural pattern (pointwise
+        fluid): the free block by index maps, the factor by :func:`splu_free`."""
+        fp = self._op("free")
+        block = data[fp.sel]
+        A = sp.csr_matrix((block, fp.indices, fp.indptr), shape=(fp.n, fp.n))
+        x = self._gmres_precond(A.__matmul__, b)
+        if x is not None:
+            return x
+        self.timer.factorizations += 1
+        self._precond = splu_free(fp.csc_from_block(block))
+        return self._precond.solve(b)
 
     def _solve(self, K: sp.csr_matrix, KA, b: Array) -> Array:
         """Solve ``(K - K_A)_ff x = b`` on the free DOFs.
@@ -387,22 +636,9 @@ class PanelModel:
                 full = np.zeros(n_all)
                 full[free] = x
                 return Kff @ x - (KA @ full)[free]
-        if self._precond is not None and self._precond.shape[0] == b.size:
-            n = b.size
-            its = [0]
-
-            def count(_):
-                its[0] += 1
-
-            x, info = spla.gmres(spla.LinearOperator((n, n), matvec=matvec, dtype=float), b,
-                                 M=spla.LinearOperator((n, n), matvec=self._precond.solve,
-                                                       dtype=float),
-                                 rtol=1e-11, atol=0.0, restart=30, maxiter=1,
-                                 callback=count, callback_type="pr_norm")
-            # an inexact Newton step is enough: accept 1e-6 relative (GMRES stagnates near
-            # 1e-8 on these badly scaled shell systems)
-            if its[0] <= 20 and np.linalg.norm(matvec(x) - b) <= 1e-6 * np.linalg.norm(b):
-                return x
+        x = self._gmres_precond(matvec, b)
+        if x is not None:
+            return x
         self.timer.factorizations += 1
         self._precond = spla.splu(A)
         if sp.issparse(KA):
@@ -422,9 +658,20 @@ class PanelModel:
         t0, fl0 = time.perf_counter(), self.timer.fluid
         st = self.structure
         T_s = self.structural_temperature(T)
-        loads = self.fluid_loads(u, self.wall_temperature(T), jacobians=True)
-        K = st.tangent(u, T_s)
+        last = self._last_state
+        if (last is not None and last[4] is self.flow and last[5] is self.fluid
+                and np.array_equal(last[0], u) and np.array_equal(last[1], T)):
+            K, loads = last[2], last[3]  # the Newton's last residual is at this state
+        else:
+            loads = self.fluid_loads(u, self.wall_temperature(T), jacobians=True)
+            K = st.tangent(u, T_s)
         M = st.mass(T_s)
+        KA_data = self._aero_stiffness_data(loads) if method == "gep" else None
+        if KA_data is not None:
+            res = self._gep_pointwise(K, M, KA_data)
+            self.timer.stability += time.perf_counter() - t0 - (self.timer.fluid - fl0)
+            self.timer.factorizations += 1
+            return res
         KA = self.aero_stiffness(loads)
         free = st.free_dofs
         if not sp.issparse(KA):
@@ -438,6 +685,23 @@ class PanelModel:
         self.timer.stability += time.perf_counter() - t0 - (self.timer.fluid - fl0)
         self.timer.factorizations += 1
         return res
+
+    def _gep_pointwise(self, K: sp.csr_matrix, M: sp.csr_matrix, KA_data: Array
+                       ) -> StabilityResult:
+        """:func:`solvers.stability.gep` (direct solver, default shift) on the free block
+        built by index maps; its factor becomes the Newton preconditioner."""
+        fp = self._op("free")
+        Kb, Mb = K.data[fp.sel], M.data[fp.sel]
+        Mff = sp.csr_matrix((Mb, fp.indices, fp.indptr), shape=(fp.n, fp.n))
+        Kdiag = sp.csr_matrix((Kb, fp.indices, fp.indptr), shape=(fp.n, fp.n)).diagonal()
+        scale = float(np.mean(np.abs(Kdiag) / np.maximum(np.abs(Mff.diagonal()), 1e-300)))
+        sigma = -1e-9 * scale  # as gep's default shift
+        lu = splu_free(fp.csc_from_block((Kb - sigma * Mb) - KA_data[fp.sel]))
+        self._keep_precond(lu)
+        # 2k + 2 Arnoldi vectors: ~15 % fewer shifted solves than ARPACK's default 20 for
+        # k = 6, the same eigenvalues to 1e-14 (measured on the benchmark's states)
+        k = self.settings.lsa_modes
+        return shift_invert_gep(lu.solve, Mff, sigma, count=k, rng=0, ncv=2 * k + 2)
 
 
 def _scaled(op: spla.LinearOperator, factor: float) -> spla.LinearOperator:
@@ -471,18 +735,23 @@ def run_tc(model: PanelModel, progress=None) -> Response:
         u, _ = model.equilibrium(u, T)
         lsa = model.stability(u, T)
         resp.record(0.0, u, T, model, lsa)
+        T_last: Array | None = None
         for n in range(1, n_steps + 1):
             t = n * dt
             T_new, u_new = T, u
-            for _ in range(s.passes):
+            for k in range(s.passes):
                 T_prev, u_prev = T_new, u_new
                 if not model.thermal_frozen:
-                    T_new = model.thermal_step(T, u_new, dt, T_guess=T_new)
+                    # the thermal Newton starts from the linear extrapolation of the last two
+                    # steps (same solution, one Newton iteration fewer on most steps)
+                    guess = T_new if (k > 0 or T_last is None) else 2.0 * T - T_last
+                    T_new = model.thermal_step(T, u_new, dt, T_guess=guess)
                 u_new, _ = model.equilibrium(u_new, T_new)
                 dT = np.max(np.abs(T_new - T_prev)) / max(np.max(np.abs(T_new - T)), 1e-12)
                 du = np.max(np.abs(u_new - u_prev)) / max(np.max(np.abs(u_new)), 1e-12)
                 if dT <= s.pass_tol and du <= s.pass_tol:
                     break
+            T_last = T
             T, u = T_new, u_new
             lsa = model.stability(u, T) if n % s.lsa_every == 0 else None
             resp.record(t, u, T, model, lsa)

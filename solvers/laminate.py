@@ -136,7 +136,23 @@ def level_temperatures(panel: PanelSpec, T: ArrayLike | None) -> Array:
     return arr
 
 
-def laminate(panel: PanelSpec, T: ArrayLike | None = None) -> LaminateState:
+def _wsum(w: Array, X: Array, lead: int) -> Array:
+    """``sum_{m,p} w[m, p] X[..., m, p, ...]`` over the two axes after ``lead`` leading ones
+    (sequential sum over the Simpson points, the order of the former einsum)."""
+    head = (slice(None),) * lead
+    acc = None
+    for a in range(w.shape[0]):  # a handful of Simpson points: explicit sequential sum,
+        for b in range(w.shape[1]):  # far cheaper than a reduction over a middle axis
+            term = X[head + (a, b)] * w[a, b]
+            acc = term if acc is None else acc + term
+    return acc
+
+
+#: Parts :func:`laminate` can be restricted to.
+LAMINATE_PARTS = ("all", "shear", "inertia")
+
+
+def laminate(panel: PanelSpec, T: ArrayLike | None = None, parts: str = "all") -> LaminateState:
     """A, B, D, S, N_T, M_T, I1..I3 of the panel's stack at the given temperatures.
 
     Simpson's rule (Eq. 3.9) on every interval between thermal levels: the end points and
@@ -149,14 +165,24 @@ def laminate(panel: PanelSpec, T: ArrayLike | None = None) -> LaminateState:
     T : float or ndarray of shape P + (n_levels,), optional
         Temperature (K) at the thermal levels ``thermal_levels(panel)``; default: the
         initial temperature (then ``N_T = M_T = 0``).
+    parts : {"all", "shear", "inertia"}
+        ``"shear"`` computes only S, ``"inertia"`` only I1..I3 (the other fields are
+        zero): the structural model needs S alone at the reduced shear quadrature and the
+        mass matrix only the inertia, so they skip the rest.
 
     Returns
     -------
     LaminateState
         Arrays with leading shape ``P`` (``()`` for a scalar or a single profile).
     """
+    if parts not in LAMINATE_PARTS:
+        raise ValueError(f"parts must be one of {LAMINATE_PARTS}, got {parts!r}")
+    want_abd = parts == "all"
+    want_shear = parts in ("all", "shear")
+    want_inertia = parts in ("all", "inertia")
     TL = level_temperatures(panel, T)
     P = TL.shape[:-1]
+    lead = len(P)
     z = thermal_levels(panel)
     owner = layer_of_level_interval(panel)
     T0 = float(panel.initial_temperature)
@@ -182,29 +208,49 @@ def laminate(panel: PanelSpec, T: ArrayLike | None = None) -> LaminateState:
         zk = zs[sel]            # (m, 3)
         wk = wts[sel]           # (m, 3)
         Tk = Ts[..., sel, :]    # P + (m, 3)
-        R = strain_rotation(layer.angle)
-        Rs = shear_rotation(layer.angle)
-        Q, _ = mat.plane_stress_stiffness(Tk)                 # P + (m, 3, 3, 3)
-        Qbar = np.einsum("ji,...jk,kl->...il", R, Q, R)      # Qbar = R^T Q R
-        G, _ = mat.transverse_shear_moduli(Tk)                # P + (m, 3, 2)
-        Gbar = np.einsum("ji,...j,jl->...il", Rs, G, Rs)
-        eps, _ = mat.thermal_strain(Tk, T0)                   # P + (m, 3, 2)
-        eps3 = np.concatenate([eps, np.zeros(eps.shape[:-1] + (1,))], axis=-1)
-        # sigma_T in global axes: R^T Q eps_T(material)
-        sT = np.einsum("ji,...jk,...k->...i", R, Q, eps3)     # P + (m, 3, 3)
-        rho = mat.density(Tk)                                  # P + (m, 3)
         w0 = wk
         w1 = wk * zk
         w2 = wk * zk * zk
-        A += np.einsum("mp,...mpij->...ij", w0, Qbar)
-        B += np.einsum("mp,...mpij->...ij", w1, Qbar)
-        D += np.einsum("mp,...mpij->...ij", w2, Qbar)
-        S += np.einsum("mp,...mpij->...ij", w0, Gbar)
-        NT += np.einsum("mp,...mpi->...i", w0, sT)
-        MT += np.einsum("mp,...mpi->...i", w1, sT)
-        I1 += np.einsum("mp,...mp->...", w0, rho)
-        I2 += np.einsum("mp,...mp->...", w1, rho)
-        I3 += np.einsum("mp,...mp->...", w2, rho)
+        if want_inertia and not want_abd:
+            rho = mat.density(Tk)
+        else:
+            Q, G, rho = mat.lamina_values(Tk)                 # P + (m, 3, 3, 3), (.., 2)
+        if want_shear:
+            Gbar = np.zeros(G.shape + (2,))
+            if layer.angle == 0.0:
+                # Rs = I: Gbar = diag(G13, G23), as R^T diag(G) R gives exactly
+                Gbar[..., 0, 0] = G[..., 0]
+                Gbar[..., 1, 1] = G[..., 1]
+            else:
+                Rs = shear_rotation(layer.angle)
+                Gbar = np.einsum("ji,...j,jl->...il", Rs, G, Rs)
+            S += _wsum(w0, Gbar, lead)
+        if want_abd:
+            Tr = mat.reference_temperature
+            # secant thermal strain (Material.thermal_strain) in material axes
+            e1 = mat.alpha1(Tk) * (Tk - Tr) - mat.alpha1(T0) * (T0 - Tr)
+            e2 = e1 if mat.alpha2 is mat.alpha1 else (
+                mat.alpha2(Tk) * (Tk - Tr) - mat.alpha2(T0) * (T0 - Tr))
+            if layer.angle == 0.0:
+                Qbar = Q  # R = I
+                sT = np.empty(Q.shape[:-1])
+                for i in range(3):
+                    sT[..., i] = Q[..., i, 0] * e1 + Q[..., i, 1] * e2
+            else:
+                R = strain_rotation(layer.angle)
+                Qbar = np.matmul(np.matmul(R.T, Q), R)        # Qbar = R^T Q R
+                # sigma_T in global axes: R^T Q eps_T(material)
+                sT = np.einsum("ji,...j->...i", R, Q[..., 0] * e1[..., None]
+                               + Q[..., 1] * e2[..., None])
+            A += _wsum(w0, Qbar, lead)
+            B += _wsum(w1, Qbar, lead)
+            D += _wsum(w2, Qbar, lead)
+            NT += _wsum(w0, sT, lead)
+            MT += _wsum(w1, sT, lead)
+        if want_inertia:
+            I1 += _wsum(w0, rho, lead)
+            I2 += _wsum(w1, rho, lead)
+            I3 += _wsum(w2, rho, lead)
     return LaminateState(A=A, B=B, D=D, S=SHEAR_CORRECTION * S, NT=NT, MT=MT,
                          I1=I1, I2=I2, I3=I3)
 

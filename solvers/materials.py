@@ -80,6 +80,14 @@ class Property:
         # segment slopes, computed once (the Newton Jacobians ask for them every iteration)
         object.__setattr__(self, "_slopes",
                            np.diff(v) / np.diff(T) if T.size > 1 else np.zeros(0))
+        # derivative lookup by one searchsorted: breakpoints with the last one nudged up so
+        # T == T[-1] lands on the left segment, and the slopes padded with the zero slope
+        # outside the table on both sides (the same values as clip + where)
+        if T.size > 1:
+            bp = T.copy()
+            bp[-1] = np.nextafter(T[-1], np.inf)
+            ext = np.concatenate([[0.0], self._slopes, [0.0]])
+            object.__setattr__(self, "_lookup", (bp, ext))
 
     @classmethod
     def constant(cls, name: str, value: float) -> Property:
@@ -126,10 +134,8 @@ class Property:
         T = np.asarray(T, dtype=float)
         if self.is_constant:
             return np.zeros(T.shape)
-        slopes = self._slopes
-        idx = np.clip(np.searchsorted(self.T, T, side="right") - 1, 0, slopes.size - 1)
-        d = slopes[idx]
-        return np.where((T < self.T[0]) | (T > self.T[-1]), 0.0, d)
+        bp, ext = self._lookup
+        return ext[np.searchsorted(bp, T, side="right")]
 
     def scaled(self, factor: float, name: str | None = None) -> Property:
         """The same table multiplied by ``factor``."""
@@ -212,6 +218,31 @@ class Material:
         dQ[..., 2, 2] = dG12
         return Q, dQ
 
+    def lamina_values(self, T: ArrayLike) -> tuple[Array, Array, Array]:
+        """Q (Eq. 3.8, material axes), [G13, G23] and the density at ``T`` without the
+        temperature derivatives (the laminate integrals need only the values).
+
+        The same numbers as :meth:`plane_stress_stiffness`, :meth:`transverse_shear_moduli`
+        and :attr:`density`, from one evaluation of the property tables.
+        """
+        T = np.asarray(T, dtype=float)
+        E1 = self.E1(T)
+        E2 = E1 if self.E2 is self.E1 else self.E2(T)
+        nu = self.nu12(T)
+        if self.isotropic:
+            G12 = G13 = G23 = E1 / (2.0 * (1.0 + nu))
+        else:
+            G12, G13, G23 = self.G12(T), self.G13(T), self.G23(T)
+        safe_E1 = np.where(E1 > 0.0, E1, 1.0)
+        prod = np.where(E1 > 0.0, nu * nu * E2 / safe_E1, 0.0)
+        D = 1.0 - prod
+        Q = np.zeros(T.shape + (3, 3))
+        Q[..., 0, 0] = E1 / D
+        Q[..., 1, 1] = E2 / D
+        Q[..., 0, 1] = Q[..., 1, 0] = nu * E2 / D
+        Q[..., 2, 2] = G12
+        return Q, np.stack([G13, G23], axis=-1), self.density(T)
+
     def transverse_shear_moduli(self, T: ArrayLike) -> tuple[Array, Array]:
         """[G13, G23] and their derivatives, shape ``T.shape + (2,)``."""
         T = np.asarray(T, dtype=float)
@@ -245,8 +276,12 @@ class Material:
         """Diagonal conductivity [k1, k2, k3] (Eq. 4.2, material axes) and d/dT."""
         T = np.asarray(T, dtype=float)
         props = (self.k1, self.k2, self.k3)
-        return (np.stack([p(T) for p in props], axis=-1),
-                np.stack([p.derivative(T) for p in props], axis=-1))
+        vals: dict[int, tuple[Array, Array]] = {}
+        for p in props:  # an isotropic material shares one table: evaluate it once
+            if id(p) not in vals:
+                vals[id(p)] = (p(T), p.derivative(T))
+        return (np.stack([vals[id(p)][0] for p in props], axis=-1),
+                np.stack([vals[id(p)][1] for p in props], axis=-1))
 
     def heat_capacity(self, T: ArrayLike) -> tuple[Array, Array]:
         """Volumetric heat capacity rho c_p (J/(m^3 K)) and its derivative d/dT."""

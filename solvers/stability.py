@@ -175,7 +175,6 @@ def gep(K: sp.spmatrix, M: sp.spmatrix, K_A: sp.spmatrix | LowRank | None = None
             K_A = LowRank(K_A.U[free], K_A.V[free])
         elif K_A is not None:
             K_A = sp.csr_matrix(K_A)[free][:, free]
-    n = K.shape[0]
     if sigma is None:
         scale = float(np.mean(np.abs(K.diagonal()) / np.maximum(np.abs(M.diagonal()), 1e-300)))
         sigma = -1e-9 * scale
@@ -197,11 +196,24 @@ def gep(K: sp.spmatrix, M: sp.spmatrix, K_A: sp.spmatrix | LowRank | None = None
             solve = gmres_solver(shifted, lu.solve, K_A)
         else:
             raise ValueError(f"unknown solver {solver!r}")
+    return shift_invert_gep(solve, M, sigma, count, rng)
+
+
+def shift_invert_gep(solve, M: sp.spmatrix, sigma: float, count: int = 6,
+                     rng: np.random.Generator | int | None = 0,
+                     ncv: int | None = None) -> StabilityResult:
+    """The ARPACK part of :func:`gep`: eigenvalues of ``(K - K_A) u = lambda_g M u`` nearest
+    ``sigma`` given ``solve``, a solver of ``(K - K_A - sigma M) x = b`` (Eq. 5.36).
+
+    ``ncv``: Arnoldi vectors (ARPACK default ``max(2 k + 1, 20)``)."""
+    n = M.shape[0]
     op = spla.LinearOperator((n, n), matvec=lambda x: solve(M @ x), dtype=float)
     k = min(count, n - 2)
     gen = np.random.default_rng(rng)
+    if ncv is not None:
+        ncv = min(max(ncv, 2 * k + 1), n)
     mu = spla.eigs(op, k=k, which="LM", v0=gen.standard_normal(n), return_eigenvectors=False,
-                   tol=1e-12)
+                   tol=1e-12, ncv=ncv)
     lam_g = sigma + 1.0 / mu  # spectral transformation, Eq. (5.36)
     return _result(_from_lambda_g(lam_g))
 

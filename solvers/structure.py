@@ -278,7 +278,8 @@ class StructuralModel:
         else:
             Te = Tn[self.mesh.elements]                                    # (E, 9, L)
             lam3 = laminate(self.panel, np.einsum("qa,eal->eql", self.q3.N, Te))
-            lam2 = laminate(self.panel, np.einsum("qa,eal->eql", self.q2.N, Te))
+            lam2 = laminate(self.panel, np.einsum("qa,eal->eql", self.q2.N, Te),
+                            parts="shear")  # only S at the reduced shear quadrature
             st = _ThermalState(C=lam3.ABD, R=lam3.thermal_resultants, S=lam2.S)
         self._cache_key = key if key is not None else np.array(Tn, copy=True)
         self._cache_state = st
@@ -405,11 +406,11 @@ class StructuralModel:
         if key in self._mass_cache:
             return self._mass_cache[key]
         if isinstance(Tn, float) or Tn.ndim == 1:
-            lam = laminate(self.panel, Tn)
+            lam = laminate(self.panel, Tn, parts="inertia")
             I1, I2, I3 = (np.asarray(x)[None, None] for x in (lam.I1, lam.I2, lam.I3))
         else:
             lam = laminate(self.panel, np.einsum("qa,eal->eql", self.q3.N,
-                                                 Tn[self.mesh.elements]))
+                                                 Tn[self.mesh.elements]), parts="inertia")
             I1, I2, I3 = lam.I1, lam.I2, lam.I3
         M = self.assemble_matrix(mass_kernel(self.q3, I1, I2, I3))
         if len(self._mass_cache) > 8:

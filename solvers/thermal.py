@@ -107,7 +107,9 @@ class SurfaceCondition:
         2 x 2 Gauss points of shape (n_cells, 4); or a callable ``flux(T_wall) ->
         (q, dq_dT)`` evaluated at the Crank-Nicolson temperature ``T^alpha`` of the surface
         nodes, so an aerodynamic heat flux can be implicit in the wall temperature
-        (its derivative enters the Newton Jacobian, Eq. 4.30b).
+        (its derivative enters the Newton Jacobian, Eq. 4.30b). ``dq_dT`` may also be a
+        zero-argument callable returning it: it is then called only when the Jacobian is
+        needed (a residual-only evaluation skips it).
     emissivity : float
         Emissivity for radiation ``eps sigma (T^4 - T_rad^4)`` leaving the surface; 0 = off.
     T_rad : float
@@ -496,6 +498,7 @@ class ThermalModel:
         self._factor_stale = False
         self._penalty_scale: dict[tuple, float] = {}
         self.factorizations = 0
+        self._scatter_cache: tuple | None = None
 
     # ------------------------------------------------------------------------------------
     # Properties at quadrature points
@@ -513,6 +516,16 @@ class ThermalModel:
         dk = np.zeros((ne, 8, 4))
         for layer, sl, (c, s) in zip(self.panel.layers, self._layer_slices, self._layer_rot):
             mat = layer.material  # a loop over layers (a handful), not elements
+            if not derivative:  # values only (the same numbers, no slope look-ups)
+                Tl = Tq[sl]
+                vals: dict[int, Array] = {}
+                for prop in (mat.k1, mat.k2, mat.k3):
+                    if id(prop) not in vals:
+                        vals[id(prop)] = prop(Tl)
+                kd = np.stack([vals[id(p)] for p in (mat.k1, mat.k2, mat.k3)], axis=-1)
+                rc[sl] = mat.density(Tl) * mat.specific_heat(Tl)
+                k[sl] = _rotate(kd, c, s)
+                continue
             kd, dkd = mat.conductivity(Tq[sl])
             r, dr = mat.heat_capacity(Tq[sl])
             rc[sl] = r
@@ -700,10 +713,13 @@ class ThermalModel:
         J = self._matrix(D)
         return Q, (J + extra if extra is not None else J)
 
-    def _boundary(self, T: Array, loads: ThermalLoads, scale: float
+    def _boundary(self, T: Array, loads: ThermalLoads, scale: float, jacobian: bool = True
                   ) -> tuple[Array, Array, sp.spmatrix | None, float]:
         """Q (n_nodes,), scale * dQ/dT data (nnz,), optional extra sparse dQ/dT (pattern
-        outside the element pattern, scaled) and the magnitude of the load terms."""
+        outside the element pattern, scaled) and the magnitude of the load terms.
+
+        Without ``jacobian`` a flux function's derivative is not formed (D and extra then
+        miss its term; only Q and the magnitude are meaningful)."""
         Q = np.zeros(self.n_nodes)
         D = np.zeros(self.nnz)
         extra: sp.spmatrix | None = None
@@ -722,6 +738,10 @@ class ThermalModel:
                     if q.shape != (n_in,):
                         raise InputError("flux", f"flux function must return shape ({n_in},)")
                     fq = q if bc.nodal_load else self.surface_mass @ q
+                    if not jacobian:
+                        dq = None
+                    elif callable(dq):
+                        dq = dq()
                     if dq is not None:
                         if sp.issparse(dq) or np.ndim(dq) == 2:
                             term = self._surface_matrix_term(dq, off, scale, D,
@@ -764,6 +784,18 @@ class ThermalModel:
         (the Jacobian is then factorized with SuperLU).
         """
         n = self.n_nodes
+        if nodal_load and isinstance(dq, sp.csr_matrix) and dq.has_canonical_format:
+            # a flux Jacobian on a fixed pattern (the coupling's): scatter map cached
+            c = self._scatter_cache
+            if not (c is not None and c[0] == off and c[1] is dq.indptr and c[2] is dq.indices):
+                rows = np.repeat(np.arange(dq.shape[0], dtype=np.int64), np.diff(dq.indptr))
+                gk = (rows + off) * n + dq.indices.astype(np.int64) + off
+                idx = np.minimum(np.searchsorted(self._keys, gk), self.nnz - 1)
+                idx = idx if np.all(self._keys[idx] == gk) else None
+                self._scatter_cache = c = (off, dq.indptr, dq.indices, idx)
+            if c[3] is not None:
+                D += scale * np.bincount(c[3], weights=dq.data, minlength=self.nnz)
+                return None
         Md = sp.coo_matrix(sp.csr_matrix(dq) if nodal_load
                            else self.surface_mass @ sp.csr_matrix(dq))
         Md.sum_duplicates()
@@ -816,7 +848,7 @@ class ThermalModel:
         Ta = T1 if steady else (1.0 - a) * T0 + a * T1
         dT = None if steady else T1 - T0
         Kx, Cx, Jvol = self._volume_terms(Ta, dT, dt, a, jacobian)
-        Q, D, extra, mag = self._boundary(Ta, loads, a)
+        Q, D, extra, mag = self._boundary(Ta, loads, a, jacobian)
         R = Kx - Q
         ref = max(float(np.max(np.abs(Kx))), mag)
         if Cx is not None:
@@ -965,7 +997,9 @@ class ThermalModel:
         modified = self.jacobian_mode == "modified"
         T = T_start.copy()
         fresh_factor = False
-        ev = self._evaluate(T, T_old, dt, alpha, loads, False)
+        # with the full Jacobian the first iteration always forms it at T_start: evaluate it
+        # with the residual once (the same residual, bit for bit) instead of twice
+        ev = self._evaluate(T, T_old, dt, alpha, loads, not modified)
         converged = False
         it = 0
         while it < self.max_iterations:
@@ -983,7 +1017,9 @@ class ThermalModel:
             if use_cached:
                 factor = self._factor
             else:
-                full = self._evaluate(T, T_old, dt, alpha, loads, True)
+                # ev.J is only set by the start evaluation, at the current T
+                full = ev if ev.J is not None else self._evaluate(T, T_old, dt, alpha, loads,
+                                                                  True)
                 assert full.J is not None
                 factor = self._factorize(full.J, full.extra, full.symmetric, key)
                 fresh_factor = True

@@ -14,7 +14,9 @@ precision, not a finite difference); the rest is differentiated analytically.
 """
 from __future__ import annotations
 
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import scipy.sparse as sp
@@ -163,12 +165,24 @@ def eckert_heat_flux(flow: FlowCondition, p_e: ArrayLike, T_w: ArrayLike, x_le: 
 def eckert_with_derivatives(flow: FlowCondition, p_e: Array, T_w: Array, x_le: Array,
                             regime: str) -> tuple[Array, Array, Array]:
     """q and its partials dq/dp_e, dq/dT_w (complex step, machine precision)."""
-    h = _COMPLEX_STEP
     q = eckert_heat_flux(flow, p_e, T_w, x_le, regime)
-    dq_dp = np.imag(eckert_heat_flux(flow, p_e + 1j * h * flow.pressure, T_w, x_le, regime)) / (
-        h * flow.pressure)
-    dq_dT = np.imag(eckert_heat_flux(flow, p_e, T_w + 1j * h, x_le, regime)) / h
+    dq_dp, dq_dT = eckert_derivatives(flow, p_e, T_w, x_le, regime)
     return np.real(q), dq_dp, dq_dT
+
+
+def eckert_derivatives(flow: FlowCondition, p_e: Array, T_w: Array, x_le: Array,
+                       regime: str) -> tuple[Array, Array]:
+    """dq/dp_e and dq/dT_w of the Eckert flux (complex step, machine precision)."""
+    h = _COMPLEX_STEP
+    # both complex steps in one vectorized call (the same numbers as two calls)
+    n = np.size(p_e)
+    pc = np.concatenate([np.asarray(p_e) + 1j * h * flow.pressure,
+                         np.asarray(p_e, dtype=complex)])
+    Tc = np.concatenate([np.asarray(T_w, dtype=complex), np.asarray(T_w) + 1j * h])
+    xc = np.concatenate([np.broadcast_to(x_le, np.shape(p_e)),
+                         np.broadcast_to(x_le, np.shape(p_e))])
+    qc = np.imag(eckert_heat_flux(flow, pc, Tc, xc, regime))
+    return qc[:n] / (h * flow.pressure), qc[n:] / h
 
 
 def adiabatic_wall_temperature(flow: FlowCondition, p_e: ArrayLike, regime: str = "turbulent"
@@ -180,6 +194,91 @@ def adiabatic_wall_temperature(flow: FlowCondition, p_e: ArrayLike, regime: str 
 
 
 # -- the fluid model -------------------------------------------------------------------
+class PointwiseJacobians(Mapping):
+    """The Jacobians of a pointwise model, kept as their diagonals.
+
+    A read-only mapping with the keys of :data:`solvers.aero.base.JACOBIAN_KEYS`; the sparse
+    ``(n, n)`` matrices are built on first access (the same matrices as before). The
+    coupling reads the diagonals directly (a pointwise Jacobian is diagonal, except the
+    effective-shape wall-temperature term ``diag(a) + diag(b) S``), so the hot path never
+    builds sparse matrices.
+
+    Attributes
+    ----------
+    dp_ds, dp_dv : ndarray (n,)
+        dp/d(slope) and dp/d(normal velocity).
+    dq_dpe, dq_dT : ndarray (n,)
+        Partials of the heat flux w.r.t. the edge pressure and the wall temperature;
+        computed on first access when ``heat_derivatives`` (a callable returning both) is
+        given instead (the structural Newton and the LSA never need them).
+    d_s_dT, d_s_dTs : ndarray (n,) or None
+        Partials of the effective-shape slope w.r.t. T_w and dT_w/ds (None: no effective
+        shape); ``S`` the streamwise-derivative operator.
+    """
+
+    def __init__(self, n: int, dp_ds: Array, dp_dv: Array, dq_dpe: Array | None,
+                 dq_dT: Array | None, d_s_dT: Array | None = None,
+                 d_s_dTs: Array | None = None, S: sp.spmatrix | None = None,
+                 heat_derivatives=None) -> None:
+        self.n = n
+        self.dp_ds, self.dp_dv = dp_ds, dp_dv
+        self._dq = None if dq_dpe is None else (dq_dpe, dq_dT)
+        self._heat_derivatives = heat_derivatives
+        self.d_s_dT, self.d_s_dTs, self.S = d_s_dT, d_s_dTs, S
+        self._built: dict[str, object] | None = None
+
+    def _heat(self) -> tuple[Array, Array]:
+        if self._dq is None:
+            self._dq = self._heat_derivatives()
+        return self._dq
+
+    @property
+    def dq_dpe(self) -> Array:
+        return self._heat()[0]
+
+    @property
+    def dq_dT(self) -> Array:
+        return self._heat()[1]
+
+    @property
+    def effective_shape(self) -> bool:
+        return self.d_s_dT is not None
+
+    def tw_coefficients(self) -> tuple[Array, Array | None]:
+        """``dq/dT_w = diag(a) + diag(b) S``: (a, b); b None without the effective shape."""
+        if not self.effective_shape:
+            return self.dq_dT, None
+        f = self.dq_dpe * self.dp_ds
+        return self.dq_dT + f * self.d_s_dT, f * self.d_s_dTs
+
+    def _build(self) -> dict[str, object]:
+        if self._built is None:
+            n = self.n
+            zero = sp.csr_matrix((n, n))
+            dp_dTw: object = zero
+            if self.effective_shape:
+                dp_dTw = sp.diags(self.dp_ds) @ (sp.diags(self.d_s_dT)
+                                                 + sp.diags(self.d_s_dTs) @ self.S)
+            Dq = sp.diags(self.dq_dpe)
+            self._built = {
+                "dp_dw": zero, "dp_dws": sp.diags(self.dp_ds).tocsr(),
+                "dp_dwdot": sp.diags(self.dp_dv).tocsr(), "dp_dTw": sp.csr_matrix(dp_dTw),
+                "dq_dw": zero, "dq_dws": (Dq @ sp.diags(self.dp_ds)).tocsr(),
+                "dq_dwdot": (Dq @ sp.diags(self.dp_dv)).tocsr(),
+                "dq_dTw": (sp.diags(self.dq_dT) + Dq @ sp.csr_matrix(dp_dTw)).tocsr(),
+            }
+        return self._built
+
+    def __getitem__(self, key: str) -> object:
+        return self._build()[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._build())
+
+    def __len__(self) -> int:
+        return 8
+
+
 class AnalyticFluid(FluidModel):
     """Pointwise analytical fluid model.
 
@@ -219,8 +318,7 @@ class AnalyticFluid(FluidModel):
         velocity = np.asarray(state.velocity, float)
         T_w = np.asarray(state.wall_temperature, float)
         S = points.streamwise_derivative
-        zero = sp.csr_matrix((n, n))
-        dp_dTw: object = zero
+        d_s_dT = d_s_dTs = None
         if self.pressure_model == "ls":
             p, dp_ds, dp_dv = linearized_supersonic_pressure(flow, slope, velocity)
         else:
@@ -234,24 +332,24 @@ class AnalyticFluid(FluidModel):
             p, dp_dmn = piston_pressure(mn, flow.pressure, flow.gamma, self.pressure_model)
             dp_ds = dp_dmn * flow.mach
             dp_dv = dp_dmn / flow.speed_of_sound
-            if self.effective_shape and jacobians:
-                # d(delta_s)/dT_w = diag(d_s_dT) + diag(d_s_dTs) S  (chain rule through S T_w)
-                dp_dTw = sp.diags(dp_ds) @ (sp.diags(d_s_dT) + sp.diags(d_s_dTs) @ S)
+            # effective shape: d(delta_s)/dT_w = diag(d_s_dT) + diag(d_s_dTs) S (chain rule
+            # through S T_w), so dp/dT_w = diag(dp_ds) (diag(d_s_dT) + diag(d_s_dTs) S)
+        heat_derivatives = None
         if self.heating == "eckert":
-            q, dq_dpe, dq_dT = eckert_with_derivatives(
-                flow, flow.pressure + p, T_w, points.x_le, self.regime)
+            p_e = flow.pressure + p
+            q = np.real(eckert_heat_flux(flow, p_e, T_w, points.x_le, self.regime))
+            dq_dpe = dq_dT = None  # on demand (only the thermal Jacobian needs them)
+            heat_derivatives = partial(eckert_derivatives, flow, p_e, T_w, points.x_le,
+                                       self.regime)
         else:
             q, dq_dpe, dq_dT = np.zeros(n), np.zeros(n), np.zeros(n)
         loads = FluidLoads(pressure=p, heat_flux=q)
         if jacobians:
-            Dq = sp.diags(dq_dpe)
-            loads.jacobians = {
-                "dp_dw": zero, "dp_dws": sp.diags(dp_ds).tocsr(),
-                "dp_dwdot": sp.diags(dp_dv).tocsr(), "dp_dTw": sp.csr_matrix(dp_dTw),
-                "dq_dw": zero, "dq_dws": (Dq @ sp.diags(dp_ds)).tocsr(),
-                "dq_dwdot": (Dq @ sp.diags(dp_dv)).tocsr(),
-                "dq_dTw": (sp.diags(dq_dT) + Dq @ sp.csr_matrix(dp_dTw)).tocsr(),
-            }
+            eff = self.effective_shape and self.pressure_model != "ls"
+            loads.jacobians = PointwiseJacobians(  # type: ignore[assignment]
+                n, np.asarray(dp_ds, float), np.asarray(dp_dv, float), dq_dpe, dq_dT,
+                d_s_dT if eff else None, d_s_dTs if eff else None, S if eff else None,
+                heat_derivatives=heat_derivatives)
         return loads
 
 
