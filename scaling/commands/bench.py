@@ -6,6 +6,10 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import time
+from collections.abc import Callable
+
+import numpy as np
 
 #: Modules providing benchmark targets (each has ``register_bench(subparsers)``).
 BENCH_MODULES: tuple[str, ...] = ("scaling.commands.bench_bo",
@@ -22,3 +26,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     for name in BENCH_MODULES:
         importlib.import_module(name).register_bench(targets)
     parser.set_defaults(func=lambda args: (parser.print_help(), 2)[1])
+
+
+def median_seconds(fn: Callable[[], object], repeat: int) -> float:
+    """Median wall time (s) of ``repeat`` calls of ``fn`` after one warm-up call."""
+    fn()
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return float(np.median(times))

@@ -18,6 +18,7 @@ from importlib import resources
 
 import numpy as np
 
+from scaling.commands.bench import median_seconds
 from solvers.errors import InputError
 
 
@@ -36,13 +37,7 @@ def _factorization_seconds(model, u, T, repeat: int = 7) -> float:
     """Median time of one sparse factorization of the structural tangent at (u, T)."""
     st = model.structure
     K = st.tangent(u, model.structural_temperature(T))
-    st.factor(K)  # warm-up (orderings)
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        st.factor(K)
-        times.append(time.perf_counter() - t)
-    return float(np.median(times))
+    return median_seconds(lambda: st.factor(K), repeat)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
-from collections.abc import Callable
 
 import numpy as np
 
+from scaling.commands.bench import median_seconds
 from solvers.errors import InputError
 
 PERMC_SPECS = ("COLAMD", "MMD_AT_PLUS_A", "NATURAL")
@@ -29,16 +28,6 @@ def register_bench(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--repeat", type=int, default=7, help="timed repetitions (default 7)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=run)
-
-
-def _median(fn: Callable[[], object], repeat: int) -> float:
-    fn()  # warm-up
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return float(np.median(times))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -60,24 +49,24 @@ def run(args: argparse.Namespace) -> int:
     u[model.constrained_dofs] = 0.0
     T = 300.2   # below buckling (0.41 K) for this panel: the tangent is positive definite
     model.force_and_tangent(u, T)
-    t_asm = _median(lambda: model.force_and_tangent(u, T), args.repeat)
-    t_force = _median(lambda: model.internal_force(u, T), args.repeat)
+    t_asm = median_seconds(lambda: model.force_and_tangent(u, T), args.repeat)
+    t_force = median_seconds(lambda: model.internal_force(u, T), args.repeat)
     _, K = model.force_and_tangent(u, T)
     solver = model.solver
     fact: dict[str, float] = {}
     try:
-        fact["banded_cholesky"] = _median(lambda: solver.banded(K.data), args.repeat)
+        fact["banded_cholesky"] = median_seconds(lambda: solver.banded(K.data), args.repeat)
     except np.linalg.LinAlgError:
         pass
     for spec in PERMC_SPECS:
-        fact[f"splu_{spec}"] = _median(lambda s=spec: solver.splu(K.data, s, False),
+        fact[f"splu_{spec}"] = median_seconds(lambda s=spec: solver.splu(K.data, s, False),
                                        args.repeat)
-        fact[f"splu_{spec}_symmetric"] = _median(lambda s=spec: solver.splu(K.data, s, True),
+        fact[f"splu_{spec}_symmetric"] = median_seconds(lambda s=spec: solver.splu(K.data, s, True),
                                                  args.repeat)
     best = min(fact, key=fact.__getitem__)
     fac = solver.factor(K)
     b = rng.standard_normal(model.n_dof)
-    t_solve = _median(lambda: fac.solve(b), args.repeat)
+    t_solve = median_seconds(lambda: fac.solve(b), args.repeat)
     out = {"mesh": [n, n], "n_dof": model.n_dof, "bandwidth": solver.bandwidth,
            "assembly_s": t_asm, "internal_force_s": t_force, "factorization_s": fact,
            "fastest_factorization": best, "solve_s": t_solve,

@@ -17,12 +17,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
-from collections.abc import Callable
 
 import numpy as np
 import scipy.sparse.linalg as spla
 
+from scaling.commands.bench import median_seconds
 from solvers.errors import InputError
 
 
@@ -40,16 +39,6 @@ def register_bench(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--repeat", type=int, default=7, help="timed repetitions (default 7)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=run)
-
-
-def _median(fn: Callable[[], object], repeat: int) -> float:
-    fn()  # warm-up
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return float(np.median(times))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -83,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
     lin_loads = ThermalLoads(top=SurfaceCondition(flux=1e5))
     T_lin = lin.simulate(None, dt, 3, lin_loads).T
     f0 = lin.factorizations
-    results["step_constant_reused_factor"] = _median(
+    results["step_constant_reused_factor"] = median_seconds(
         lambda: lin.step(T_lin, dt, lin_loads), args.repeat)
     reused = lin.factorizations == f0
 
@@ -93,12 +82,12 @@ def run(args: argparse.Namespace) -> int:
     T_nl = full.simulate(None, dt, 3, nl_loads).T
     T_nl = T_nl + 0.01 * rng.standard_normal(T_nl.size)
     f0 = full.factorizations
-    results["step_nonlinear_full_newton"] = _median(
+    results["step_nonlinear_full_newton"] = median_seconds(
         lambda: full.step(T_nl, dt, nl_loads), args.repeat)
     fact_per_step = (full.factorizations - f0) / (args.repeat + 1)
     mod = ThermalModel(panel((inc, core, inc)), jacobian="modified")
     mod.simulate(None, dt, 3, nl_loads)
-    results["step_nonlinear_modified_newton"] = _median(
+    results["step_nonlinear_modified_newton"] = median_seconds(
         lambda: mod.step(T_nl, dt, nl_loads), args.repeat)
 
     # one factorization of the step Jacobian, each back end
@@ -107,15 +96,15 @@ def run(args: argparse.Namespace) -> int:
     Jlin = lin._evaluate(T_lin, T_lin, dt, 0.5, lin_loads, True).J
     A = full._matrix(J).tocsc()
     with _blas_threads(1):
-        results["factor_banded_cholesky_constant"] = _median(
+        results["factor_banded_cholesky_constant"] = median_seconds(
             lambda: lin._banded.cholesky(Jlin), args.repeat)
-        results["factor_banded_lu"] = _median(lambda: full._banded.lu(J), args.repeat)
+        results["factor_banded_lu"] = median_seconds(lambda: full._banded.lu(J), args.repeat)
         for spec in ("MMD_AT_PLUS_A", "COLAMD"):
-            results[f"factor_splu_{spec}"] = _median(
+            results[f"factor_splu_{spec}"] = median_seconds(
                 lambda sp_=spec: spla.splu(A, permc_spec=sp_), args.repeat)
         fac = full._banded.lu(J)
         b = rng.standard_normal(full.n_nodes)
-        results["solve_banded_lu"] = _median(lambda: fac.solve(b), args.repeat)
+        results["solve_banded_lu"] = median_seconds(lambda: fac.solve(b), args.repeat)
 
     splu_best = min(v for k, v in results.items() if k.startswith("factor_splu"))
     ratios = {
