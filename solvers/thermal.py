@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+from abc import ABC, abstractmethod
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -238,11 +239,12 @@ def _blas_threads(n: int | None):
     return _CONTROLLER[0].limit(limits=n, user_api="blas")
 
 
-class _Factor:
+class _Factor(ABC):
     """A factorized Jacobian: ``solve(b)`` in the original node ordering."""
 
-    def solve(self, b: Array) -> Array:  # pragma: no cover - interface
-        raise NotImplementedError
+    @abstractmethod
+    def solve(self, b: Array) -> Array:
+        """Solve with the factorized matrix."""
 
 
 class _BandedCholesky(_Factor):
