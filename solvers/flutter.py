@@ -14,16 +14,24 @@ into positive damping; it is refined by bisection.
 
 With first-order piston theory the aerodynamic stiffness is linear in lambda, so it is
 assembled once for lambda = 1 and scaled.
+
+Time domain (``lco_amplitude``, ``lco_onset``): loosely coupled S2 runs (Sec. 5.3.1) of the
+heated panel released from a small sinusoidal deflection at fixed lambda; the limit-cycle
+amplitude is half the peak-to-peak centre deflection over the tail of the run, and the
+onset is the zero of a straight-line fit of amplitude^2 against lambda (the normal form of
+a supercritical Hopf bifurcation, ``A^2 ~ (lambda - lambda_cr)``), as the dissertation's
+"time domain" column of Sec. 7.2.3.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from solvers.aero.analytic import AnalyticFluid
-from solvers.coupling import CouplingSettings, EquilibriumError, PanelModel
+from solvers.coupling import CouplingSettings, EquilibriumError, PanelModel, run_lc
 from solvers.errors import InputError
 from solvers.flow import FlowCondition
 from solvers.laminate import laminate
@@ -153,6 +161,99 @@ class FlutterAnalysis:
             return flat, True, self.u_flat
         return self._lsa(u, lam, method), True, u
 
+    # -- time domain (S2 transients) -----------------------------------------------
+    def _transient_model(self, lam: float, periods: float, dt: float | None,
+                         initial_deflection: float) -> tuple[PanelModel, float]:
+        """S2 model at lambda with the uniform rise and a frozen thermal field; (model, dt)."""
+        T1 = 2.0 * math.pi / self.omega_1
+        step = T1 / 100.0 if dt is None else float(dt)
+        if not (step > 0 and periods > 0):
+            raise InputError("lco", "dt and periods must be > 0")
+        settings = CouplingSettings(time_step=step, duration=periods * T1, lsa_modes=1,
+                                    keep_fields=False, initial_temperature_rise=self.delta_T,
+                                    initial_deflection=initial_deflection)
+        # purely aeroelastic: no heating and no radiation, so the thermal field stays frozen
+        # at the uniform rise (PanelModel.thermal_frozen)
+        panel = dataclasses.replace(self.panel, emissivity=0.0)
+        model = PanelModel(panel, self._flow(lam), AnalyticFluid(self.aero, heating="none"),
+                           settings, structure=self.structure)
+        return model, step
+
+    def lco_amplitude(self, lam: float, *, periods: float = 40.0,
+                      dt: float | None = None, initial_deflection: float = 0.01,
+                      tail: float = 0.25, rho_bar: float = 0.8) -> float:
+        """Limit-cycle amplitude (over the thickness) of an S2 transient at ``lambda``.
+
+        Parameters
+        ----------
+        lam : float
+            Nondimensional dynamic pressure.
+        periods : float
+            Run length in periods ``T1 = 2 pi / omega_1`` of the unheated panel's first mode.
+        dt : float, optional
+            Time step (s); default ``T1 / 100``. At ``T1 / 50`` the S2 interface energy
+            error (Sec. 5.3.3) acts as negative damping of the nearly undamped flutter mode:
+            on the 8 x 8 panel at T_cr the runs at lambda = 330 and 338 grew (LSA onset
+            340.8); at ``T1 / 100`` they decay.
+        initial_deflection : float
+            Amplitude of the initial ``sin sin`` deflection in thicknesses (the perturbation).
+        tail : float
+            Fraction of the run, counted from its end, over which the amplitude is measured.
+        rho_bar : float
+            Generalized-alpha spectral radius at infinity. Default 0.8: with rho_bar = 1
+            (no algorithmic dissipation) the loosely coupled S2 run of the 8 x 8 panel at
+            ``T1 / 50`` grew without bound even below the LSA onset (the explicit aerodynamic
+            load feeds the undamped high-frequency bending modes); 0.8 damps those strongly
+            while the algorithmic damping of the flutter mode (``omega dt ~ 0.1``) is
+            O((omega dt)^3).
+
+        Returns
+        -------
+        float
+            Half the peak-to-peak centre deflection / h over the tail window; ~0 when the
+            perturbation decays (flat or post-buckled static equilibrium), inf when the run
+            diverges.
+        """
+        model, _ = self._transient_model( lam, periods, dt, initial_deflection)
+        resp = run_lc(model, "s2", rho_bar=rho_bar, stop_on_snap=False)
+        if resp.status == "failed":
+            return float("inf")
+        w = np.asarray(resp.center_deflection) / self.panel.thickness
+        return lco_amplitude_from_signal(np.asarray(resp.times), w, tail)
+
+
+    def lco_onset(self, lo: float, hi: float, *, n: int = 4,
+                   threshold: float = 1e-3, **kwargs) -> LCOOnset:
+        """Time-domain flutter onset from ``n`` S2 runs at evenly spaced lambda in [lo, hi].
+
+        The amplitude^2 of the runs with a limit cycle is fitted by a straight line in lambda
+        (supercritical Hopf normal form) and its zero is the onset. ``lo`` and ``hi`` should
+        bracket a range a few percent above the onset, where the limit cycle settles within
+        the run (right at the onset the approach to the cycle is arbitrarily slow).
+
+        Parameters
+        ----------
+        lo, hi : float
+            Lambda range of the runs.
+        n : int
+            Number of runs (>= 2).
+        threshold : float
+            Amplitude (over h) below which a run counts as having no limit cycle.
+        **kwargs
+            Passed to :meth:`FlutterAnalysis.lco_amplitude`.
+
+        Returns
+        -------
+        LCOOnset
+        """
+        if n < 2 or not hi > lo:
+            raise InputError("lco", "need n >= 2 and hi > lo")
+        lams = np.linspace(lo, hi, n)
+        amps = np.array([self.lco_amplitude(float(x), **kwargs) for x in lams])
+        fin = np.isfinite(amps)
+        onset = onset_from_amplitudes(lams[fin], amps[fin], threshold)
+        return LCOOnset(onset, [(float(x), float(a)) for x, a in zip(lams, amps)])
+
     # -- sweep ---------------------------------------------------------------------------
     def sweep(self, lam_max: float = 1000.0, step: float = 10.0, rtol: float = 1e-4
               ) -> FlutterResult:
@@ -198,3 +299,56 @@ class FlutterAnalysis:
             else:
                 hi = mid
         return 0.5 * (lo + hi)
+
+
+def lco_amplitude_from_signal(times: np.ndarray, w: np.ndarray, tail: float = 0.25) -> float:
+    """Half the peak-to-peak value of ``w`` over the last ``tail`` fraction of the record.
+
+    Parameters
+    ----------
+    times : ndarray of shape (n,)
+        Sample times (ascending).
+    w : ndarray of shape (n,)
+        Signal (e.g. the centre deflection over the thickness).
+    tail : float
+        Fraction (0, 1] of the time span, counted from its end, that is examined.
+
+    Returns
+    -------
+    float
+        ``(max - min) / 2`` of the samples in the tail window (a static offset, e.g. a
+        post-buckled equilibrium, does not count as amplitude).
+    """
+    t = np.asarray(times, dtype=float)
+    x = np.asarray(w, dtype=float)
+    if t.shape != x.shape or t.size < 2:
+        raise InputError("lco", "times and signal must be equal-length arrays of >= 2 samples")
+    if not 0.0 < tail <= 1.0:
+        raise InputError("lco.tail", "must be in (0, 1]")
+    window = x[t >= t[-1] - tail * (t[-1] - t[0])]
+    return 0.5 * float(window.max() - window.min())
+
+
+def onset_from_amplitudes(lams: np.ndarray, amps: np.ndarray, threshold: float = 1e-3
+                          ) -> float | None:
+    """Zero of the least-squares line ``A^2 = c (lambda - lambda_0)`` through the runs with a
+    limit cycle (amplitude above ``threshold``); None with fewer than two such runs."""
+    lam = np.asarray(lams, dtype=float)
+    a = np.asarray(amps, dtype=float)
+    keep = a > threshold
+    if np.count_nonzero(keep) < 2:
+        return None
+    slope, icpt = np.polyfit(lam[keep], a[keep] ** 2, 1)
+    if not slope > 0.0:
+        return None
+    return float(-icpt / slope)
+
+
+@dataclass(frozen=True)
+class LCOOnset:
+    """Time-domain flutter onset: the amplitude curve and the fitted onset."""
+
+    lambda_onset: float | None
+    curve: list[tuple[float, float]]
+
+

@@ -23,6 +23,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--step", type=float, default=10.0, help="sweep step in lambda")
     p.add_argument("--mach", type=float, default=10.0,
                    help="Mach number (enters the aerodynamic damping only)")
+    p.add_argument("--time-domain", action="store_true", dest="time_domain",
+                   help="also run S2 transients for the LCO amplitude curve and its onset")
+    p.add_argument("--lco-points", type=int, default=3,
+                   help="S2 runs of the LCO curve (with --time-domain; default 3)")
+    p.add_argument("--lco-span", type=float, default=0.02,
+                   help="the runs cover lambda_cr * [1 + span/4, 1 + span] (default 0.02: "
+                   "the Hopf fit needs runs just above the onset)")
+    p.add_argument("--lco-periods", type=float, default=40.0,
+                   help="run length in first-mode periods (default 40)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=run)
 
@@ -36,6 +45,18 @@ def run(args: argparse.Namespace) -> int:
     fa = FlutterAnalysis(panel, args.ratio, args.aero, mach=args.mach)
     res = fa.sweep(lam_max=args.lambda_max, step=args.step)
     data = res.to_dict()
+    if args.time_domain:
+        if args.lco_points < 2 or not args.lco_span > 0 or not args.lco_periods > 0:
+            raise InputError("--lco-points/--lco-span/--lco-periods",
+                             "need >= 2 points, span > 0 and periods > 0")
+        if res.lambda_cr is None:
+            data["lco_onset"], data["lco_curve"] = None, []
+        else:
+            lco = fa.lco_onset(res.lambda_cr * (1.0 + 0.25 * args.lco_span),
+                               res.lambda_cr * (1.0 + args.lco_span), n=args.lco_points,
+                               periods=args.lco_periods)
+            data["lco_onset"] = lco.lambda_onset
+            data["lco_curve"] = [[lam, amp] for lam, amp in lco.curve]
     if args.json:
         print(json.dumps(data))
         return 0
@@ -47,5 +68,10 @@ def run(args: argparse.Namespace) -> int:
     if res.divergence_range is not None:
         lo, hi = res.divergence_range
         print(f"flat state divergent (thermally buckled) for lambda in [{lo:g}, {hi:.2f}]")
+    if args.time_domain:
+        onset = data["lco_onset"]
+        print("time-domain LCO onset: " + ("none" if onset is None else f"{onset:.2f}"))
+        for lam, amp in data["lco_curve"]:
+            print(f"  lambda = {lam:8.2f}   LCO amplitude w/h = {amp:.4f}")
     print(f"delta T = {res.delta_T:.4g} K (T_cr = {res.critical_delta_T:.4g} K)")
     return 0
