@@ -30,30 +30,43 @@ from scaling.store import EvaluationStore
 
 
 # --------------------------------------------------------------- inner optimization
-class _Surface(Acquisition):
-    """A model-free 2-D test acquisition with an analytic gradient (maximized)."""
-
-    def __init__(self):  # no model
-        self.model = None
+class _SurfaceModel:
+    """A noise-free "surrogate" whose mean is a 2-D test surface with an analytic gradient
+    (several local maxima; the global one near (0.18, 0.78)) and whose sigma is zero."""
 
     @staticmethod
     def f(X):
         x, y = X[:, 0], X[:, 1]
-        # several local maxima; global one near (0.18, 0.78)
-        return (np.exp(-((x - 0.18) ** 2 + (y - 0.78) ** 2) / 0.01) + 0.8 * np.exp(
-            -((x - 0.7) ** 2 + (y - 0.3) ** 2) / 0.02) + 0.3 * np.sin(7 * x) * np.cos(5 * y))
+        g1 = np.exp(-((x - 0.18) ** 2 + (y - 0.78) ** 2) / 0.01)
+        g2 = 0.8 * np.exp(-((x - 0.7) ** 2 + (y - 0.3) ** 2) / 0.02)
+        val = g1 + g2 + 0.3 * np.sin(7 * x) * np.cos(5 * y)
+        dx = -2 * (x - 0.18) / 0.01 * g1 - 2 * (x - 0.7) / 0.02 * g2 \
+            + 2.1 * np.cos(7 * x) * np.cos(5 * y)
+        dy = -2 * (y - 0.78) / 0.01 * g1 - 2 * (y - 0.3) / 0.02 * g2 \
+            - 1.5 * np.sin(7 * x) * np.sin(5 * y)
+        return val, np.stack([dx, dy], axis=1)
 
-    def __call__(self, X):
-        return self.f(np.atleast_2d(X))
+    def predict_moments(self, X):
+        val, _ = self.f(X)
+        return val[:, None], np.zeros((len(X), 1))
 
-    def _from_moments(self, mu, sigma):  # pragma: no cover - unused
-        raise NotImplementedError
+    def predict_with_gradients(self, X):
+        val, grad = self.f(X)
+        return val[:, None], np.zeros((len(X), 1)), grad[:, None, :], np.zeros((len(X), 1, 2))
 
-    def value_and_gradient(self, X):
-        X = np.atleast_2d(X)
-        h = 1e-7
-        g = np.stack([(self.f(X + h * e) - self.f(X - h * e)) / (2 * h) for e in np.eye(2)], 1)
-        return self.f(X), g
+
+class _Surface(Acquisition):
+    """The surface itself as a maximized acquisition: C = mu (dC/dmu = 1, dC/dsigma = 0)."""
+
+    def __init__(self):
+        super().__init__(_SurfaceModel())
+
+    @staticmethod
+    def f(X):
+        return _SurfaceModel.f(np.atleast_2d(X))[0]
+
+    def _from_moments(self, mu, sigma):
+        return mu[:, 0], np.ones_like(mu), np.zeros_like(sigma)
 
 
 def _grid(n=801):
@@ -414,3 +427,13 @@ def test_batch_of_two_halves_wall_time_on_two_workers():
             runs[q] = (time.perf_counter() - t0, res.hypervolume_history()[-1])
     assert runs[2][0] <= 0.6 * runs[1][0], runs
     assert runs[2][1] == pytest.approx(runs[1][1], rel=0.05), runs
+
+
+def test_test_surface_gradient_matches_central_differences():
+    # the oracle of the inner-optimization tests: its analytic gradient (1e-6 relative)
+    acq = _Surface()
+    X = np.random.default_rng(0).uniform(0, 1, (20, 2))
+    _, g = acq.value_and_gradient(X)
+    h = 1e-6
+    fd = np.stack([(acq.f(X + h * e) - acq.f(X - h * e)) / (2 * h) for e in np.eye(2)], 1)
+    assert np.allclose(g, fd, rtol=1e-6, atol=1e-6 * np.abs(fd).max())
