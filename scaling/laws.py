@@ -60,7 +60,8 @@ ANALYTICAL_EXPONENTS: dict[str, float] = {
     "h": -1.0, "L": -1.0, "L_le": -1.0, "p_inf": 0.0, "delta_T": 0.0, "M": 0.0, "p0": 0.0,
     "T0": 0.0, "T_inf": 0.0, "T_rad": 0.0, "emissivity": 0.0, "p_ext": 0.0}
 #: Analytical exponent of the model time step by time scaling (Eqs. 9.3, 9.5/9.6).
-TIME_EXPONENTS: dict[str, float] = {"fourier": -2.0, "structural": -1.0}
+TIME_EXPONENTS: dict[str, float] = {"fourier": -2.0, "fourier_thickness": -2.0,
+                                    "structural": -1.0}
 #: Name of the derived time-step law.
 TIME_STEP = "time_step"
 #: Relative distance to a bound (of the span) below which a value is pinned.
@@ -302,7 +303,7 @@ def analytical_laws(study: Any) -> dict[str, tuple[float | None, float | None]]:
     study : scaling.study.Study
         Any point of the sweep (the prototype and the model template do not depend on xi).
     """
-    from scaling.similarity import analytical_scaling, fourier_time_scale, reference_quantities
+    from scaling.similarity import analytical_scaling, reference_quantities, time_scale
 
     spec = study.spec
     proto = spec.prototype
@@ -322,8 +323,9 @@ def analytical_laws(study: Any) -> dict[str, tuple[float | None, float | None]]:
             if spec.time_scaling == "structural":
                 coef[TIME_STEP] = an.time_step                              # Eq. (9.3)
             else:
-                coef[TIME_STEP] = spec.simulation.time_step * fourier_time_scale(
-                    reference_quantities(proto), reference_quantities(an.model), xi=1.0)
+                coef[TIME_STEP] = spec.simulation.time_step * time_scale(   # (9.6)/(6.5)
+                    reference_quantities(proto), reference_quantities(an.model),
+                    spec.time_scaling)
         except (ValueError, ArithmeticError, TypeError) as exc:
             warnings.warn(f"analytical laws unavailable: {exc}", RuntimeWarning, stacklevel=2)
     overrides = dict(study.raw.laws.analytical) if study.raw is not None else {}

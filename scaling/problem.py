@@ -6,8 +6,9 @@ tunnel (names of :func:`scaling.similarity.apply_design`: ``p0``, ``T0``, ``M``,
 evaluation simulates the model with the compact aerothermoelastic simulator and compares
 its nondimensional response with the prototype's (simulated once and cached) at matched
 nondimensional times: the model's time step follows from the prototype's by the Fourier
-number (Eq. 6.5, quasi-steady problems) or by the structural time (Eq. 9.3, transient
-aeroelastic problems), and both runs take the same number of steps.
+number (Eqs. 9.5-9.6 with the length scale, or Eq. 6.5 with the thickness; quasi-steady
+problems) or by the structural time (Eq. 9.3, transient aeroelastic problems), and both
+runs take the same number of steps.
 
 Objectives (Eq. 6.4), written as relative RMS errors over the time samples so that 0.1
 reads "10 %":
@@ -38,9 +39,8 @@ import numpy as np
 from pymoo.core.problem import Problem
 
 from scaling.optimizer import CheapConstraint
-from scaling.similarity import (Configuration, apply_design, comparison_records, compare,
-                                fourier_time_scale, reference_quantities,
-                                structural_time_scale)
+from scaling.similarity import (TIME_SCALINGS, Configuration, apply_design,
+                                comparison_records, compare, reference_quantities, time_scale)
 from solvers.aero.analytic import make_fluid_model
 from solvers.coupling import CouplingSettings, PanelModel, run_lc, run_tc
 from solvers.errors import InputError
@@ -112,7 +112,8 @@ class ScalingSpec:
         the geometric scale.
     objectives : tuple of str
     simulation : Simulation
-    time_scaling : {"fourier", "structural"}
+    time_scaling : {"fourier", "fourier_thickness", "structural"}
+        :data:`scaling.similarity.TIME_SCALINGS`: Eqs. 9.5-9.6, Eq. 6.5 or Eq. 9.3.
     projection : {"center", "modal"}
     equalities : tuple of str
         Cheap equality constraints (:data:`EQUALITY_CONSTRAINTS`).
@@ -138,8 +139,8 @@ class ScalingSpec:
         if bad or not self.objectives:
             raise InputError("study.objectives", f"must be a non-empty subset of "
                              f"{', '.join(OBJECTIVES)}; got {list(self.objectives)}")
-        if self.time_scaling not in ("fourier", "structural"):
-            raise InputError("study.time_scaling", "must be 'fourier' or 'structural'")
+        if self.time_scaling not in TIME_SCALINGS:
+            raise InputError("study.time_scaling", f"must be one of {', '.join(TIME_SCALINGS)}")
         if self.projection not in ("center", "modal"):
             raise InputError("study.projection", "must be 'center' or 'modal'")
         for eq in self.equalities:
@@ -249,12 +250,9 @@ class ScalingProblem(Problem):
         return apply_design(self.spec.model, self.design(x))
 
     def model_time_step(self, config: Configuration) -> float:
-        """Model time step at matched nondimensional time (Eq. 6.5 or 9.3)."""
-        ref_m = reference_quantities(config)
-        dt_p = self.spec.simulation.time_step
-        if self.spec.time_scaling == "structural":
-            return dt_p * structural_time_scale(self._ref_p, ref_m)
-        return dt_p * fourier_time_scale(self._ref_p, ref_m)
+        """Model time step at matched nondimensional time (Eqs. 9.6, 6.5 or 9.3)."""
+        return self.spec.simulation.time_step * time_scale(
+            self._ref_p, reference_quantities(config), self.spec.time_scaling)
 
     def simulate_model(self, x: Sequence[float], keep_fields: bool = False
                        ) -> tuple[Configuration, Response]:

@@ -79,6 +79,8 @@ __all__ = [
     "fourier_time_scale",
     "log_mismatch",
     "matched_time",
+    "time_scale",
+    "TIME_SCALINGS",
     "parameter_names",
     "reference_quantities",
     "relative_difference",
@@ -198,6 +200,9 @@ class ReferenceQuantities:
         Thickness-averaged volumetric heat capacity at T_T, J/(m^3 K) (Eq. 4.12a / h).
     conductivity : float
         k at T_T (Eq. 4.12b), W/(m K).
+    solid_rho_cp, solid_conductivity : float
+        The same with homogenized layers (honeycomb core, stiffeners) replaced by their
+        cell-wall material: the material reference of the Fourier time scale, Eq. (9.5).
     thermal_time : float
         ``rho_cp h^2 / k`` (s): the time at which Fo = 1.
     structural_time : float
@@ -219,6 +224,8 @@ class ReferenceQuantities:
     mass_per_area: float
     rho_cp: float
     conductivity: float
+    solid_rho_cp: float
+    solid_conductivity: float
     thermal_time: float
     structural_time: float
     temperatures: ReferenceTemperatures
@@ -245,20 +252,27 @@ def _thermal_force_per_kelvin(panel: PanelSpec, T: float) -> float:
     return total
 
 
-def _thermal_properties(panel: PanelSpec, T: float,
-                        axis: Literal["thickness", "x"]) -> tuple[float, float]:
-    """Thickness-averaged rho c_p and the series conductivity (Eq. 4.12) at T."""
+def _thermal_properties(panel: PanelSpec, T: float, axis: Literal["thickness", "x"],
+                        solid: bool = False) -> tuple[float, float]:
+    """Thickness-averaged rho c_p and the series conductivity (Eq. 4.12) at T.
+
+    ``solid=True`` evaluates a homogenized layer (honeycomb core, smeared stiffeners) with
+    its cell-wall material (:attr:`solvers.materials.Material.base`).
+    """
     h = panel.thickness
     comp = 2 if axis == "thickness" else 0
     rc = 0.0
     resistance = 0.0
     for layer in panel.layers:
-        cap, _ = layer.material.heat_capacity(T)
-        k, _ = layer.material.conductivity(T)
+        material = layer.material
+        if solid and material.base is not None:
+            material = material.base
+        cap, _ = material.heat_capacity(T)
+        k, _ = material.conductivity(T)
         rc += float(cap) * layer.thickness
         k_layer = float(k[comp])
         if k_layer <= 0.0:
-            raise InputError(f"{layer.material.name}.conductivity",
+            raise InputError(f"{material.name}.conductivity",
                              f"must be > 0 for the reference conductivity (Eq. 4.12b); got "
                              f"{k_layer:g}")
         resistance += layer.thickness / k_layer
@@ -292,13 +306,15 @@ def reference_quantities(config: Configuration, *,
         raise InputError("panel.layers", f"bending stiffness D_xx must be > 0; got {D:g}")
     n_per_K = _thermal_force_per_kelvin(panel, TS)
     rho_cp, k = _thermal_properties(panel, TT, conductivity_axis)
+    solid_rho_cp, solid_k = _thermal_properties(panel, TT, conductivity_axis, solid=True)
     I = float(lam.I1)
     return ReferenceQuantities(
         length=L, thickness=h, A_xx=float(lam.A[0, 0]), B_xx=float(lam.B[0, 0]), D_xx=D,
         S_xx=float(lam.S[0, 0]), N_Tx_per_K=n_per_K, N_Tx=n_per_K * TS,
         M_Tx=n_per_K * TS * h,
         N_Tx_delta=None if config.delta_T is None else n_per_K * float(config.delta_T),
-        mass_per_area=I, rho_cp=rho_cp, conductivity=k,
+        mass_per_area=I, rho_cp=rho_cp, conductivity=k, solid_rho_cp=solid_rho_cp,
+        solid_conductivity=solid_k,
         thermal_time=rho_cp * h * h / k, structural_time=math.sqrt(I * L**4 / D),
         temperatures=temps)
 
@@ -323,6 +339,8 @@ PARAMETERS: dict[str, ParameterInfo] = {p.name: p for p in (
                   "delta_T"),
     ParameterInfo("I_L4/(Dxx_t2)", "I L^4 / (D_xx t^2)", "3.26a, 9.1b", "time"),
     ParameterInfo("Fo", "k t / (rho c_p h^2)", "4.11a, 6.3a", "time"),
+    ParameterInfo("Fo_L", "k_s t / ((rho c_p)_s L^2), cell-wall material (kept by Eq. 9.5)",
+                  "9.5, 9.6", "time"),
     ParameterInfo("Vt/L", "V_inf t / L", "2.15a, 6.1b", "time"),
     ParameterInfo("Bi_F", "(k_f / k) Re_0 Pr_0 V^2 / (c_p T_T)", "6.2b"),
     ParameterInfo("Re_0", "rho_inf V_inf L / mu(T_F)", "2.14b"),
@@ -381,6 +399,7 @@ def similarity_parameters(config: Configuration, *,
         t = float(config.time)
         out["I_L4/(Dxx_t2)"] = ref.mass_per_area * L**4 / (D * t * t)
         out["Fo"] = ref.conductivity * t / (ref.rho_cp * h * h)
+        out["Fo_L"] = ref.solid_conductivity * t / (ref.solid_rho_cp * L * L)
         out["Vt/L"] = V * t / L
     out.update({
         "Bi_F": (k_f / ref.conductivity) * re0 * flow.prandtl * V * V / (flow.cp * temps.thermal),
@@ -601,33 +620,64 @@ def structural_time_scale(prototype: ReferenceQuantities, model: ReferenceQuanti
 
 
 def fourier_time_scale(prototype: ReferenceQuantities, model: ReferenceQuantities, *,
-                       xi: float | None = None) -> float:
+                       xi: float | None = None,
+                       rule: Literal["length", "thickness"] = "length") -> float:
     """``dt_m / dt_p`` keeping the Fourier number equal.
 
-    Eq. (6.5): ``(k_p (rho c_p)_m / (k_m (rho c_p)_p)) (h_m / h_p)^2``; with ``xi`` given,
-    Eqs. (9.5)-(9.6) replace ``(h_m / h_p)^2`` by ``1 / xi^2`` (thickness scaled with the
-    length).
+    ``rule="length"`` (default), Eqs. (9.5)-(9.6):
+    ``(1/xi^2) k_p (rho c_p)_m / ((rho c_p)_p k_m)`` with ``xi = L_p / L_m`` (the actual
+    lengths unless ``xi`` is given) and the *material* reference properties: Eq. (4.12) over
+    the layup with a homogenized core evaluated with its cell-wall material
+    (``solid_rho_cp``, ``solid_conductivity``). This is the dissertation's reading: Table 9.4
+    lists the honeycomb sandwich as Inconel 718 throughout, Table 9.5 gives the two
+    materials' properties for this ratio, and Sec. 9.2.1.2 states that a 160-s prototype
+    response needs less than 40 s of tunnel time for ``xi >= 2``, i.e. a material ratio
+    near one (Inconel 718 / Ti 6242: 1.024). The effective through-thickness values of the
+    sandwich (0.27 W/(m K), 4.3e5 J/(m^3 K) at 300 K) would instead shorten the model's
+    test to ~1 % of that and leave it unheated.
+
+    ``rule="thickness"``, Eq. (6.5): the effective layup properties (Eq. 4.12) and
+    ``(h_m / h_p)^2``.
     """
-    material = (prototype.conductivity * model.rho_cp) / (model.conductivity * prototype.rho_cp)
-    if xi is None:
+    if rule == "thickness":
+        material = ((prototype.conductivity * model.rho_cp)
+                    / (model.conductivity * prototype.rho_cp))
         return material * (model.thickness / prototype.thickness) ** 2
-    return material / _positive("xi", xi, "-") ** 2
+    if rule != "length":
+        raise InputError("time_scaling", f"unknown Fourier rule {rule!r}")
+    material = ((prototype.solid_conductivity * model.solid_rho_cp)
+                / (model.solid_conductivity * prototype.solid_rho_cp))
+    ratio = (model.length / prototype.length if xi is None
+             else 1.0 / _positive("xi", xi, "-"))
+    return material * ratio**2
+
+
+#: Time-scaling rules of a scaling study: the Fourier number with the length scale
+#: (Eqs. 9.5-9.6), with the thickness (Eq. 6.5), or the structural time (Eq. 9.3).
+TIME_SCALINGS = ("fourier", "fourier_thickness", "structural")
+
+
+def time_scale(prototype: ReferenceQuantities, model: ReferenceQuantities,
+               rule: str = "fourier") -> float:
+    """``dt_m / dt_p`` by one of :data:`TIME_SCALINGS`."""
+    if rule == "fourier":
+        return fourier_time_scale(prototype, model, rule="length")
+    if rule == "fourier_thickness":
+        return fourier_time_scale(prototype, model, rule="thickness")
+    if rule == "structural":
+        return structural_time_scale(prototype, model)
+    raise InputError("time_scaling", f"must be one of {', '.join(TIME_SCALINGS)}; got {rule!r}")
 
 
 def matched_time(prototype: Configuration, model: Configuration, time: float,
-                 rule: Literal["fourier", "structural"] = "fourier") -> float:
+                 rule: str = "fourier") -> float:
     """Model time (s) at the same nondimensional time as ``time`` on the prototype.
 
-    ``rule="fourier"`` keeps Fo equal (Eq. 6.5; Eqs. 9.5-9.6 when ``h`` scales with
-    ``1/xi``), ``rule="structural"`` keeps ``I L^4 / (D_xx t^2)`` equal (Eq. 9.3), both with
-    the actual reference quantities of the two configurations.
+    ``rule`` is one of :data:`TIME_SCALINGS` (see :func:`time_scale`), applied with the
+    actual reference quantities of the two configurations.
     """
-    ref_p, ref_m = reference_quantities(prototype), reference_quantities(model)
-    if rule == "fourier":
-        return fourier_time_scale(ref_p, ref_m) * float(time)
-    if rule == "structural":
-        return structural_time_scale(ref_p, ref_m) * float(time)
-    raise InputError("time_scaling", f"must be 'fourier' or 'structural'; got {rule!r}")
+    return time_scale(reference_quantities(prototype), reference_quantities(model),
+                      rule) * float(time)
 
 
 def log_mismatch(prototype: Configuration | Mapping[str, float], model: Configuration,

@@ -3,7 +3,8 @@
 Public keys (documented in the README, used by the shipped ``studies/*.toml``)::
 
     [study]        name, description, kind ("quasi_steady" | "aeroelastic"), objectives,
-                   xi, time_scaling ("fourier" | "structural"), projection ("center" | "modal")
+                   xi, time_scaling ("fourier" | "fourier_thickness" | "structural"),
+                   projection ("center" | "modal")
     [prototype]    case (path of a case file, relative to the study), delta_T,
                    temperature_independent, mach, altitude (override the case's flight
                    condition: ``mach`` alone keeps the case's static p and T, ``altitude``
@@ -84,7 +85,7 @@ class StudySection(_Strict):
     objectives: Annotated[list[Literal["J_u", "J_T", "J_s"]], Field(min_length=1, max_length=2)
                           ] = ["J_u", "J_T"]
     xi: Annotated[float, Field(ge=1.0, le=100.0)] = 1.0
-    time_scaling: Literal["fourier", "structural"] = "fourier"
+    time_scaling: Literal["fourier", "fourier_thickness", "structural"] = "fourier"
     projection: Literal["center", "modal"] = "center"
 
 
@@ -262,6 +263,7 @@ def constant_material(m: mat.Material, T: float) -> mat.Material:
         m, density=c(m.density), E1=c(m.E1), E2=c(m.E2), nu12=c(m.nu12), G12=c(m.G12),
         G13=c(m.G13), G23=c(m.G23), alpha1=c(m.alpha1), alpha2=c(m.alpha2), k1=c(m.k1),
         k2=c(m.k2), k3=c(m.k3), specific_heat=c(m.specific_heat),
+        base=None if m.base is None else constant_material(m.base, T),
         description=f"{m.name} at {T:g} K (temperature independent)")
 
 

@@ -173,6 +173,9 @@ class Material:
     isotropic: bool = False
     description: str = ""
     extras: dict[str, float] = field(default_factory=dict)
+    #: The solid (cell-wall) material of a homogenized core or stiffener layer; ``None``
+    #: for a solid material. Used for the Fourier-number reference of Eq. (9.5).
+    base: Material | None = None
 
     # -- structural -----------------------------------------------------------------
     def _moduli(self, T: Array) -> tuple[Array, ...]:
@@ -411,7 +414,7 @@ def homogenized_stiffener(base: Material, t1: float, l1: float, t2: float, l2: f
         k3=base.k1.scaled(c3), specific_heat=base.specific_heat,
         reference_temperature=base.reference_temperature,
         description=f"stiffeners of {base.name} homogenized (Eq. 8.10): c1={c1:.4g}, c2={c2:.4g}",
-        extras={"c1": c1, "c2": c2, "c3": c3})
+        extras={"c1": c1, "c2": c2, "c3": c3}, base=base)
 
 
 def _shear_modulus_property(base: Material) -> Property:
@@ -494,4 +497,4 @@ def honeycomb_core(base: Material, relative_density: float, cell_size: float,
         reference_temperature=base.reference_temperature,
         description=(f"{base.name} honeycomb core, rho_rel={relative_density:g}, D={cell_size:g} m,"
                      f" L={core_thickness:g} m (Gibson-Ashby shear, Swann-Pittman conductivity)"),
-        extras={"relative_density": relative_density, "radiation_factor": F})
+        extras={"relative_density": relative_density, "radiation_factor": F}, base=base)

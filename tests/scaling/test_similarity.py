@@ -246,3 +246,31 @@ def test_matched_time_and_log_mismatch(sec9_1):
     doubled = dataclasses.replace(a.model, delta_T=2 * a.delta_T)
     e = log_mismatch(similarity_parameters(proto), doubled, ["DeltaT_NTx_L2/Dxx"])
     assert e[0] == pytest.approx(math.log(2.0), rel=1e-12)
+
+
+def test_fourier_length_rule_uses_the_cell_wall_material_of_a_honeycomb_core() -> None:
+    # Sec. 9.2 sandwich (Table 9.4: Inconel 718 sheets and Inconel 718 honeycomb): the
+    # Eq. (9.5) reference is Inconel 718 itself (Table 9.5 at 300 K), whereas the effective
+    # Eq. (4.12) conductivity is dominated by the core (Swann-Pittman: 0.27 W/(m K)).
+    case = load_case(REPO / "studies/cases/sec9_2_prototype.toml")
+    proto = Configuration(case.panel, case.flow)
+    ref = reference_quantities(proto)
+    assert ref.solid_conductivity == pytest.approx(11.71, rel=1e-3)
+    assert ref.solid_rho_cp == pytest.approx(8220.0 * 418.4, rel=1e-3)
+    assert ref.conductivity < 0.05 * ref.solid_conductivity
+    # a Ti 6242 plate of a quarter the length: Eq. (9.6) = material ratio / 16
+    model = Configuration(_plate(TI6242, 0.004, L=0.25), case.flow)
+    ref_m = reference_quantities(model)
+    material = (11.71 * 4540.0 * 459.4) / (6.937 * 8220.0 * 418.4)
+    scale = fourier_time_scale(ref, ref_m)
+    assert scale == pytest.approx(material / 16.0, rel=2e-3)
+    assert fourier_time_scale(ref, ref_m, xi=4.0) == pytest.approx(scale, rel=1e-12)
+    assert matched_time(proto, model, 160.0) == pytest.approx(160.0 * scale, rel=1e-12)
+    # the matched times keep the length-based Fourier number Fo_L equal
+    fo_p = similarity_parameters(dataclasses.replace(proto, time=1.0), names=["Fo_L"])
+    fo_m = similarity_parameters(dataclasses.replace(model, time=scale), names=["Fo_L"])
+    assert fo_m["Fo_L"] == pytest.approx(fo_p["Fo_L"], rel=1e-12)
+    # Eq. (6.5) with the layups' effective properties and (h_m / h_p)^2 instead
+    thick = fourier_time_scale(ref, ref_m, rule="thickness")
+    assert thick == pytest.approx(ref.conductivity * ref_m.rho_cp / (ref_m.conductivity
+                                  * ref.rho_cp) * (0.004 / 0.018) ** 2, rel=1e-12)

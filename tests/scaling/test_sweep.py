@@ -120,6 +120,61 @@ def test_sweep_interrupted_then_resumed_completes_without_repeating(tmp_path: Pa
     assert title == "Scaling laws" and "data:image/png;base64," in html and "<table>" in html
 
 
+def test_sweep_killed_with_sigkill_resumes_to_the_uninterrupted_result(tmp_path: Path) -> None:
+    # A real kill -9 of `hypate run` in the middle of the second point, then --resume:
+    # every point completes and each point's evaluations equal an uninterrupted sweep's
+    # (nothing finished is evaluated again, nothing is lost).
+    import os
+    import signal
+    import sqlite3
+    import subprocess
+    import sys
+    import time
+
+    text = TINY_SWEEP.replace("iterations = 1", "iterations = 3")
+    path = tmp_path / "sweep.toml"
+    path.write_text(text)
+
+    def cli(*args: str) -> list[str]:
+        return [sys.executable, "-m", "scaling.cli", "run", str(path), *args]
+
+    def count(store: Path) -> int:
+        if not store.exists():
+            return 0
+        try:
+            with sqlite3.connect(f"file:{store}?mode=ro", uri=True, timeout=1.0) as con:
+                return int(con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0])
+        except sqlite3.Error:
+            return 0
+
+    whole = tmp_path / "whole"
+    subprocess.run(cli("--out", str(whole)), check=True, capture_output=True, timeout=600)
+    killed = tmp_path / "killed"
+    proc = subprocess.Popen(cli("--out", str(killed)), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    store = killed / "xi_3" / STORE_NAME
+    deadline = time.monotonic() + 300
+    while count(store) < 2 and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    if proc.poll() is not None:
+        pytest.fail("the sweep finished before it could be killed; enlarge it")
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=30)
+    first = _rows(killed / "xi_2" / STORE_NAME)
+    partial = _rows(store)
+    assert 2 <= len(partial) < len(_rows(whole / "xi_3" / STORE_NAME))
+    assert not (killed / "xi_4").exists() or count(killed / "xi_4" / STORE_NAME) == 0
+    subprocess.run(cli("--out", str(killed), "--resume"), check=True, capture_output=True,
+                   timeout=600)
+    for label in ("xi_2", "xi_3", "xi_4"):
+        a, b = _rows(killed / label / STORE_NAME), _rows(whole / label / STORE_NAME)
+        assert [r[:2] for r in a] == [r[:2] for r in b], label
+        assert np.allclose([r[2] for r in a], [r[2] for r in b], rtol=1e-9), label
+        assert (killed / label / "design_point.json").exists()
+    assert _rows(killed / "xi_2" / STORE_NAME) == first  # the finished point untouched
+    assert _rows(store)[:len(partial)] == partial
+
+
 def interrupting_free(counter):
     def progress(done, budget, evaluation) -> None:
         counter["total"] += 1
