@@ -395,6 +395,61 @@ def load_sweep(run_dir: str | Path) -> SweepRun:
                     records=records)
 
 
+def load_runs(run_dirs: Sequence[str | Path]) -> SweepRun:
+    """Several single-study run directories (``design_point.json`` each, e.g. the Sec. 9.2.2
+    studies ``sec9_2_2_xi{2..5}``) read back as one sweep; a single sweep directory is read
+    with :func:`load_sweep`.
+
+    The runs must share the prototype, the model template and the design variables (their
+    studies may differ only in ``xi``, name, description and optimizer settings); the laws'
+    options and the analytical table come from the first run's study file.
+
+    Raises
+    ------
+    InputError
+        A directory without ``design_point.json``, a missing study file, or runs of
+        different scaling problems.
+    """
+    from scaling.study import load_study, study_data
+    from solvers.errors import InputError
+
+    dirs = [Path(d) for d in run_dirs]
+    if len(dirs) == 1 and (dirs[0] / SWEEP_JSON).is_file():
+        return load_sweep(dirs[0])
+    points: list[DesignPoint] = []
+    records: list[dict[str, Any]] = []
+    reference: dict[str, Any] | None = None
+    for d in dirs:
+        path = d / "design_point.json"
+        if not path.is_file():
+            raise InputError("RUN_DIR", f"{d} holds neither a sweep ({SWEEP_JSON}) nor a "
+                             "finished run (design_point.json)")
+        rec = json.loads(path.read_text())
+        try:
+            data = study_data(load_study(rec["study_path"]))
+        except (KeyError, OSError) as exc:
+            raise InputError("RUN_DIR", f"{d}: the run's study file is unavailable: {exc}") \
+                from exc
+        problem = {k: data.get(k) for k in ("prototype", "model", "tunnel", "variables",
+                                             "simulation", "constraints")}
+        problem["kind"] = data["study"].get("kind")
+        if reference is None:
+            reference, first = problem, data
+        elif problem != reference:
+            raise InputError("RUN_DIR", f"{d} is a different scaling problem from {dirs[0]} "
+                             "(prototype, model, tunnel, variables or simulation differ)")
+        rec = {**rec, "label": rec.get("study", d.name), "status": "done"}
+        records.append(rec)
+        if (point := _point_from_record(rec)) is not None:
+            points.append(point)
+    if len({p.xi for p in points}) != len(points):
+        raise InputError("RUN_DIR", "two runs at the same geometric scale xi")
+    points.sort(key=lambda p: p.xi)
+    first = dict(first)
+    first.pop("sweep", None)
+    return SweepRun(directory=dirs[0], study_data=first, points=points, records=records)
+
+
 def laws_of_run(run: SweepRun) -> list[ScalingLaw]:
     """The refined laws of a sweep run, with the study's ``[laws]`` options and its
     analytical table."""

@@ -1,7 +1,8 @@
 """``hypate laws RUN_DIR [--predict XI] [--evaluate] [--json]``: refined scaling laws.
 
-Fits the design points of a sweep run (``hypate run`` of a study with ``[sweep] xi``) as
-power laws of the geometric scale and compares them with the analytical laws
+Fits the design points of a sweep run (``hypate run`` of a study with ``[sweep] xi``), or
+of several single-study runs of one scaling problem at different scales
+(``hypate laws runs/xi2 runs/xi3 runs/xi4``), as power laws of the geometric scale and compares them with the analytical laws
 (:mod:`scaling.laws`, Sec. 6.1.3, Fig. 9.4/9.12); ``--predict XI`` gives the design the
 refined laws predict at a new scale and its similarity table, ``--evaluate`` simulates it.
 """
@@ -12,7 +13,7 @@ import json
 import math
 from pathlib import Path
 
-from scaling.laws import laws_json, laws_of_run, laws_table, load_sweep, predict
+from scaling.laws import laws_json, laws_of_run, laws_table, load_runs, predict
 from solvers.errors import InputError
 
 
@@ -21,7 +22,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="Fit the design points of a sweep run against the "
                        "geometric scale xi as power laws c xi^k, next to the analytical "
                        "exponents; optionally predict (and evaluate) the design at a new xi.")
-    p.add_argument("run_dir", metavar="RUN_DIR", help="run directory of a sweep study")
+    p.add_argument("run_dir", metavar="RUN_DIR", nargs="+",
+                   help="run directory of a sweep study, or several run directories of one "
+                   "scaling problem at different xi")
     p.add_argument("--predict", type=float, metavar="XI", help="predict the design at scale XI")
     p.add_argument("--evaluate", action="store_true",
                    help="simulate the predicted design (J_u, J_T)")
@@ -51,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--predict", f"XI must be a scale >= 1; got {args.predict:g}")
     if args.evaluate and args.predict is None:
         raise InputError("--evaluate", "needs --predict XI")
-    run_ = load_sweep(Path(args.run_dir))
+    run_ = load_runs([Path(d) for d in args.run_dir])
     laws = laws_of_run(run_)
     prediction = None
     if args.predict is not None:

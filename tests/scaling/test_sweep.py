@@ -231,3 +231,51 @@ def test_condition_points_labels_and_prototypes(tmp_path: Path) -> None:
     flows = [study_at(study, p).spec.prototype.flow for p in pts]
     assert flows[0].pressure != flows[1].pressure and flows[1].mach == 5.5
     assert np.isclose(study_at(study, pts[1]).spec.xi, 2.0)
+
+
+def test_laws_from_several_single_study_runs(tmp_path: Path, capsys) -> None:
+    # `hypate laws DIR_xi2 DIR_xi3 DIR_xi4`: independent runs of one scaling problem at
+    # three scales give the same kind of law as a sweep; a different problem is refused.
+    import contextlib
+    import io
+
+    from scaling.laws import is_pinned, load_runs
+    from scaling.runner import run_study
+
+    dirs = []
+    for xi in (2.0, 3.0, 4.0):
+        path = tmp_path / f"xi{xi:g}.toml"
+        path.write_text(tiny_study_text(name=f"tiny_xi{xi:g}", xi=xi, initial=3,
+                                        iterations=1))
+        dirs.append(tmp_path / f"run_xi{xi:g}")
+        run_study(load_study(path), dirs[-1])
+    run = load_runs(dirs)
+    assert [p.xi for p in run.points] == [2.0, 3.0, 4.0]
+    for p, d in zip(run.points, dirs):
+        point = json.loads((d / "design_point.json").read_text())
+        assert p.design == pytest.approx(point["design"], rel=1e-12)
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert main(["laws", *map(str, dirs), "--predict", "5", "--json"]) == 0
+    doc = json.loads(buf.getvalue())
+    h = next(law for law in doc["laws"] if law["variable"] == "h")
+    assert h["analytical_exponent"] == -1.0
+    # log-linear least squares through the points that are not pinned at a bound
+    free = [(p.xi, p.design["h"]) for p in run.points
+            if not is_pinned(p.design["h"], (0.001, 0.01))]
+    assert h["at_bound"] == (len(free) < 3)
+    if len(free) >= 2:
+        k = np.polyfit(np.log([x for x, _ in free]), np.log([v for _, v in free]), 1)[0]
+        assert h["exponent"] == pytest.approx(k, rel=1e-9)
+    else:
+        assert h["exponent"] is None
+    assert doc["prediction"]["xi"] == 5.0
+    # a different problem (other h bounds) cannot be mixed in
+    other = tmp_path / "other.toml"
+    other.write_text(tiny_study_text(name="other", xi=5.0, initial=3, iterations=1)
+                     .replace("h = [0.001, 0.01]", "h = [0.002, 0.01]"))
+    run_study(load_study(other), tmp_path / "run_other")
+    assert main(["laws", *map(str, dirs), str(tmp_path / "run_other")]) == 2
+    assert "different scaling problem" in capsys.readouterr().err
+    # a directory that holds no run
+    assert main(["laws", str(tmp_path)]) == 2
