@@ -16,6 +16,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from scaling.laws import laws_of_run, load_runs
+from scaling.problem import ScalingProblem
 from scaling.runner import run_study
 from scaling.similarity import analytical_scaling
 from scaling.study import load_study, parse_study, study_data
@@ -101,6 +103,22 @@ def test_sec9_2_2_pareto_set_holds_a_design_below_10_percent(xi: int, tmp_path_f
     assert isinstance(dp["active_constraints"], list)  # Table 9.8 style report
 
 
+@pytest.mark.slow
+def test_sec9_2_2_thickness_follows_the_analytical_line_and_L_le_departs(tmp_path_factory
+                                                                        ) -> None:
+    # Fig. 9.12 / Table 9.8: h ~ xi^-1 (Eq. 9.2a) holds approximately, L_le does not.
+    # Measured: h exponent -0.58, 95 % interval [-1.23, 0.07]; L_le on a bound at 3 of 4.
+    runs = [_run_dir(f"sec9_2_2_xi{xi}", tmp_path_factory) for xi in (2, 3, 4, 5)]
+    laws = {law.variable: law for law in laws_of_run(load_runs(runs))}
+    h = laws["h"].fit
+    assert h.exponent_low <= -1.0 <= h.exponent_high
+    assert -1.5 < h.exponent < -0.3
+    points = load_runs(runs).points
+    L_p = 1.0  # prototype leading-edge length (Sec. 9.2.1.1)
+    ratio = [p.design["L_le"] / (L_p / p.xi) for p in points]
+    assert max(abs(np.log(r)) for r in ratio) > np.log(2.0)  # far off the 1/xi line
+
+
 def test_sec9_2_2_coarse_finds_a_similar_model(tmp_path) -> None:
     # xi = 4 on 4 x 4 meshes, 8 steps of 20 s, 12 + 24 evaluations (seed 0).
     # Measured: J_u 9.8 %, J_T 8.8 % at the design point.
@@ -114,6 +132,14 @@ def test_sec9_2_2_coarse_finds_a_similar_model(tmp_path) -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("tunnel", ["wt5", "wt6", "wt7"])
 def test_sec9_2_3_case2_beats_case1(tunnel: str, tmp_path_factory) -> None:
-    case1 = _best_minmax(_run_dir(f"sec9_2_3_case1_{tunnel}", tmp_path_factory))
-    case2 = _best_minmax(_run_dir(f"sec9_2_3_case2_{tunnel}", tmp_path_factory))
+    runs = {case: _run_dir(f"sec9_2_3_case{case}_{tunnel}", tmp_path_factory)
+            for case in (1, 2)}
+    case1, case2 = _best_minmax(runs[1]), _best_minmax(runs[2])
     assert case2 < case1, (case1, case2)
+    # the Eq. (9.7) equality holds exactly for every proposed design (cheap constraint)
+    for case, run in runs.items():
+        problem = ScalingProblem(load_study(STUDIES / f"sec9_2_3_case{case}_{tunnel}.toml").spec)
+        (con,) = problem.cheap_constraints()
+        ev = pd.read_csv(run / "evaluations.csv")
+        X = ev[problem.spec.names].to_numpy(float)
+        assert max(abs(float(con.fun(x)[0])) for x in X) < 1e-8
