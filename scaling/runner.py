@@ -275,7 +275,7 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
         n_iter=opt.iterations, batch_size=opt.batch_size, v=opt.v, weights=weights,
         cheap_constraints=problem.cheap_constraints(), executor=executor,
         timeout=opt.timeout, store=store_path, initial_samples=None,
-        seed=run_seed, callback=callback)
+        seed=run_seed, callback=callback, output_transform=opt.transform)
     t0 = time.perf_counter()
     try:
         result = optimizer.run()

@@ -19,7 +19,7 @@ Public keys (documented in the README, used by the shipped ``studies/*.toml``)::
     [fixed]        NAME = value (design values that are not optimized)
     [constraints]  equality = ["T_inf"]
     [optimizer]    approach, acquisition, v, weights, initial_samples, iterations,
-                   batch_size, seed, classical_seed, timeout
+                   batch_size, seed, classical_seed, transform ("none" | "log"), timeout
     [sweep]        one optimization per sweep point into sub-directories of one run
                    directory (``hypate run``; Sec. 9.1.3, 9.2.2, 9.2.4):
                    xi = [2, 3, 4]            geometric scales (sub-directories ``xi_2`` ...)
@@ -191,6 +191,7 @@ class OptimizerSection(_Strict):
     batch_size: Annotated[int, Field(ge=1, le=64)] = 1
     seed: Annotated[int, Field(ge=0)] = 0
     classical_seed: bool = True
+    transform: Literal["none", "log"] = "none"
     timeout: PosFloat | None = None
 
 

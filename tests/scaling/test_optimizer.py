@@ -373,6 +373,29 @@ def test_convergence_stop():
     assert len(res.data) < 46
 
 
+def test_log_output_transform_models_ln_f_and_keeps_the_optimum():
+    # The surrogate sees ln F: the context's best value is ln(min F) and the model
+    # interpolates ln F at the samples; Branin (F >= 0.398) is still solved.
+    seen = []
+
+    def factory(model, ctx):
+        seen.append((ctx.best_f, model))
+        from scaling.acquisition import LowerConfidenceBound
+        return LowerConfidenceBound(model, v=2.0)
+
+    opt = BayesianOptimizer(Branin(), acquisition=factory, n_init=10, n_iter=25, seed=0,
+                            output_transform="log")
+    res = opt.run()
+    F = res.F[:, 0]
+    best_f, model = seen[-1]
+    assert best_f == pytest.approx(np.log(F[:-1].min()), rel=1e-12)
+    mu, _ = model.predict_moments(res.X[:-1])
+    assert np.allclose(mu[:, 0], np.log(F[:-1]), atol=1e-4)
+    assert res.best_history()[-1] - Branin.optimum <= 1e-2
+    with pytest.raises(ValueError):
+        BayesianOptimizer(Branin(), output_transform="sqrt")
+
+
 def test_bad_settings_raise():
     with pytest.raises(ValueError):
         BayesianOptimizer(Branin(), acquisition="hvlcb")
