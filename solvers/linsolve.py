@@ -15,7 +15,8 @@ happened (:attr:`Factor.positive_definite`). ``hypate bench structure`` measures
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Callable, Sequence
 from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, field
 
@@ -194,3 +195,65 @@ def is_positive_definite(solver: PatternSolver, K: sp.csr_matrix) -> bool:
     except np.linalg.LinAlgError:
         return False
     return True
+
+
+def gmres(matvec: Callable[[Array], Array], psolve: Callable[[Array], Array], b: Array,
+          rtol: float, max_iter: int) -> tuple[Array, float, int]:
+    """Right-preconditioned GMRES from ``x = 0`` without restarts, for a few iterations with
+    a good preconditioner (a factor of a nearby matrix, Eq. 5.45).
+
+    Solves ``A x = b`` by minimizing ``||b - A P^-1 y||`` over the Krylov space of
+    ``A P^-1`` and ``x = P^-1 y``; the residual is the true one (not preconditioned).
+    Classical Gram-Schmidt with one reorthogonalization (two matrix products per step,
+    orthogonal to round-off), Givens rotations for the small least-squares problem.
+
+    Parameters
+    ----------
+    matvec, psolve : callable
+        ``A @ x`` and ``P^-1 @ x``.
+    b : ndarray of shape (n,)
+    rtol : float
+        Stop once the (recurrence) residual norm is <= ``rtol ||b||``.
+    max_iter : int
+
+    Returns
+    -------
+    x, residual estimate relative to ``||b||``, iterations
+    """
+    b = np.asarray(b, dtype=float)
+    beta = float(np.linalg.norm(b))
+    if beta == 0.0:
+        return np.zeros_like(b), 0.0, 0
+    m = int(max_iter)
+    V = np.empty((m + 1, b.size))
+    Z = np.empty((m, b.size))
+    R = np.zeros((m, m))              # the triangularized Hessenberg matrix
+    cs, sn = np.zeros(m), np.zeros(m)
+    g = np.zeros(m + 1)
+    g[0] = beta
+    V[0] = b / beta
+    k = 0
+    for j in range(m):
+        Z[j] = psolve(V[j])
+        w = matvec(Z[j])
+        Vj = V[: j + 1]
+        h = Vj @ w
+        w = w - h @ Vj
+        h2 = Vj @ w
+        w -= h2 @ Vj
+        h += h2
+        hn = float(np.linalg.norm(w))
+        for i in range(j):  # previous rotations on the new column (j <= max_iter scalars)
+            h[i], h[i + 1] = cs[i] * h[i] + sn[i] * h[i + 1], -sn[i] * h[i] + cs[i] * h[i + 1]
+        d = math.hypot(float(h[j]), hn)
+        cs[j], sn[j] = (1.0, 0.0) if d == 0.0 else (h[j] / d, hn / d)
+        h[j] = d
+        R[: j + 1, j] = h
+        g[j + 1] = -sn[j] * g[j]
+        g[j] = cs[j] * g[j]
+        k = j + 1
+        if abs(g[k]) <= rtol * beta or hn == 0.0:
+            break
+        V[k] = w / hn
+    y = sla.solve_triangular(R[:k, :k], g[:k], check_finite=False)
+    return y @ Z[:k], abs(float(g[k])) / beta, k

@@ -142,8 +142,9 @@ def membrane_bending_B(q: Quadrature, ue: Array | None, kx: float, ky: float) ->
 def generalized_strain(q: Quadrature, ue: Array, kx: float, ky: float,
                        nonlinear: bool = True) -> Array:
     """(eps0, chi) at the quadrature points, Eq. (3.2), shape (n_elem, n_qp, 6)."""
-    g = np.einsum("eqai,eak->eqki", q.dN, ue)              # gradients (E, q, 5, 2)
-    w = np.einsum("qa,ea->eq", q.N, ue[..., 2])
+    # gradients (E, q, 5, 2); matmul, 4x faster than the equivalent einsum
+    g = np.matmul(q.dN.transpose(0, 1, 3, 2), ue[:, None]).transpose(0, 1, 3, 2)
+    w = ue[..., 2] @ q.N.T
     e = np.empty(g.shape[:2] + (6,))
     e[..., 0] = g[..., 0, 0] + kx * w
     e[..., 1] = g[..., 1, 1] + ky * w
@@ -188,6 +189,61 @@ def btdb(B: Array, C: Array, wdet: Array) -> Array:
     E, nq, m, n = B.shape
     CB = np.matmul(C * wdet[..., None, None], B)           # (E, q, m, 45)
     return np.matmul(B.reshape(E, nq * m, n).transpose(0, 2, 1), CB.reshape(E, nq * m, n))
+
+
+def von_karman_w_B(q: Quadrature, ue: Array) -> Array:
+    """The nonlinear part ``Lw`` of Eq. (3.32) on the w DOFs: ``membrane_bending_B(q, ue)``
+    minus ``membrane_bending_B(q, None)`` is zero except rows (eps_x, eps_y, gamma_xy) and
+    the w columns, where it is ``(w_x N_a,x, w_y N_a,y, w_y N_a,x + w_x N_a,y)``.
+
+    Returns
+    -------
+    ndarray of shape (n_elem, n_qp, 3, 9)
+    """
+    Nx, Ny = q.dN[..., 0], q.dN[..., 1]
+    w = ue[:, None, :, 2, None]                                        # (E, 1, 9, 1)
+    wx, wy = np.matmul(Nx[..., None, :], w)[..., 0], np.matmul(Ny[..., None, :], w)[..., 0]
+    BL = np.empty(Nx.shape[:2] + (3, NNODE))
+    BL[:, :, 0] = wx * Nx
+    BL[:, :, 1] = wy * Ny
+    BL[:, :, 2] = wy * Nx + wx * Ny
+    return BL
+
+
+def btdb_von_karman(K0: Array, B0: Array, Cw: Array, BL: Array) -> Array:
+    """``sum_q B^T Cw B`` for ``B = B0 + BL`` (Eq. 3.50's ``(L1 + Lw)^T C (L1 + Lw)``
+    with bending; ``Cw = wdet C``) from its linear part ``K0``: with ``BL`` nonzero only in
+    the membrane rows and w columns (:func:`von_karman_w_B`),
+
+        B^T Cw B = B0^T Cw B0 + G + G^T + BL^T Cw_mm BL,   G = (BL^T Cw_m) B0,
+
+    where ``_m`` keeps the membrane rows: about a fifth of the products of :func:`btdb`.
+
+    Parameters
+    ----------
+    K0 : ndarray of shape (E, 45, 45)
+        The linear part ``btdb(B0, C, wdet)`` (plus any constant term, e.g. shear).
+    B0 : ndarray of shape (E, q, 6, 45)
+    Cw : ndarray broadcastable to (E, q, 6, 6)
+    BL : ndarray of shape (E, q, 3, 9)
+
+    Returns
+    -------
+    ndarray of shape (E, 45, 45), a new array.
+    """
+    E, nq = BL.shape[:2]
+    Cw = np.broadcast_to(Cw, (E, nq, 6, 6))
+    P = np.matmul(BL.transpose(0, 1, 3, 2), Cw[:, :, :3, :]).transpose(0, 2, 1, 3)  # a,q,j
+    G = np.matmul(P.reshape(E, NNODE, nq * 6), B0.reshape(E, nq * 6, NNODE * NDOF))
+    H = np.matmul(P[..., :3].reshape(E, NNODE, nq * 3),
+                  BL.reshape(E, nq * 3, NNODE))                             # (E, 9, 9)
+    Ke = K0.copy()
+    K5 = Ke.reshape(E, NNODE, NDOF, NNODE, NDOF)
+    G5 = G.reshape(E, NNODE, NNODE, NDOF)                                   # [e, a, b, k]
+    K5[:, :, 2, :, :] += G5                                                 # rows (a, w)
+    K5[:, :, :, :, 2] += G5.transpose(0, 2, 3, 1)                           # columns (a, w)
+    K5[:, :, 2, :, 2] += H
+    return Ke
 
 
 def geometric_kernel(q: Quadrature, N_res: Array) -> Array:

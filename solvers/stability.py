@@ -14,12 +14,15 @@ GMRES preconditioned by it (Eqs. 5.44-5.45); both give the same result as a dire
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numpy.typing import NDArray
+
+from solvers.linsolve import single_threaded_blas
 
 Array = NDArray[np.float64]
 CArray = NDArray[np.complex128]
@@ -201,21 +204,44 @@ def gep(K: sp.spmatrix, M: sp.spmatrix, K_A: sp.spmatrix | LowRank | None = None
 
 def shift_invert_gep(solve, M: sp.spmatrix, sigma: float, count: int = 6,
                      rng: np.random.Generator | int | None = 0,
-                     ncv: int | None = None) -> StabilityResult:
+                     ncv: int | None = None, v0: Array | None = None,
+                     on_vectors: Callable[[CArray], None] | None = None) -> StabilityResult:
     """The ARPACK part of :func:`gep`: eigenvalues of ``(K - K_A) u = lambda_g M u`` nearest
     ``sigma`` given ``solve``, a solver of ``(K - K_A - sigma M) x = b`` (Eq. 5.36).
 
-    ``ncv``: Arnoldi vectors (ARPACK default ``max(2 k + 1, 20)``)."""
+    ``ncv``: Arnoldi vectors (ARPACK default ``max(2 k + 1, 20)``). ``v0``: Arnoldi start
+    vector (default random from ``rng``); :func:`start_vector` of the eigenvectors of a
+    nearby problem saves about a fifth of the shifted solves. ``on_vectors``: receives the
+    eigenvectors, complex (n, k) (then computed; the eigenvalues are the same to ARPACK's
+    tolerance either way)."""
     n = M.shape[0]
     op = spla.LinearOperator((n, n), matvec=lambda x: solve(M @ x), dtype=float)
     k = min(count, n - 2)
-    gen = np.random.default_rng(rng)
+    if v0 is None or v0.shape != (n,) or not np.any(v0):
+        v0 = np.random.default_rng(rng).standard_normal(n)
     if ncv is not None:
         ncv = min(max(ncv, 2 * k + 1), n)
-    mu = spla.eigs(op, k=k, which="LM", v0=gen.standard_normal(n), return_eigenvectors=False,
-                   tol=1e-12, ncv=ncv)
+    # one BLAS thread: ARPACK's dense work is small, and with OpenBLAS threads on a busy
+    # machine the eigenvector extraction alone took 50 ms instead of 1 ms (measured)
+    with single_threaded_blas():
+        if on_vectors is None:
+            mu = spla.eigs(op, k=k, which="LM", v0=v0, return_eigenvectors=False, tol=1e-12,
+                           ncv=ncv)
+        else:
+            mu, vectors = spla.eigs(op, k=k, which="LM", v0=v0, return_eigenvectors=True,
+                                    tol=1e-12, ncv=ncv)
+            on_vectors(vectors)
     lam_g = sigma + 1.0 / mu  # spectral transformation, Eq. (5.36)
     return _result(_from_lambda_g(lam_g))
+
+
+def start_vector(vectors: CArray) -> Array:
+    """An Arnoldi start vector for the next of a sequence of nearby eigenproblems: the sum
+    of the real and imaginary parts of the (normalized) eigenvectors ``vectors`` (n, k)
+    wanted last time -- a vector in their invariant subspace with a component along each.
+    """
+    V = vectors / np.maximum(np.linalg.norm(vectors, axis=0), 1e-300)
+    return np.sum(V.real + V.imag, axis=1)
 
 
 def pep(K: sp.spmatrix, M: sp.spmatrix, C: sp.spmatrix | None = None,

@@ -44,8 +44,9 @@ from solvers.laminate import LaminateState, laminate
 from solvers.linsolve import Factor, PatternSolver
 from solvers.mesh import ShellMesh, panel_mesh
 from solvers.panel import PanelSpec, thermal_levels
-from solvers.shell_element import (NDOF, NNODE, Quadrature, btdb, generalized_strain,
-                                   geometric_kernel, mass_kernel, membrane_bending_B, shear_B)
+from solvers.shell_element import (NDOF, NNODE, Quadrature, btdb, btdb_von_karman,
+                                   generalized_strain, geometric_kernel, mass_kernel,
+                                   membrane_bending_B, shear_B, von_karman_w_B)
 
 Array = NDArray[np.float64]
 TemperatureLike = float | ArrayLike | None
@@ -63,6 +64,9 @@ class _ThermalState:
     C: Array   # (E|1, 9|1, 6, 6)  [[A, B], [B, D]]
     R: Array   # (E|1, 9|1, 6)     (N_T, M_T)
     S: Array   # (E|1, 4|1, 2, 2)
+    I: tuple[Array, Array, Array]  # (E|1, 9|1) inertia I1, I2, I3 (Eq. 3.38)
+    # u-independent kernel parts, formed on first use (StructuralModel._linear_tangent)
+    linear: dict = field(default_factory=dict)
 
 
 class StructuralModel:
@@ -261,27 +265,36 @@ class StructuralModel:
         raise InputError("temperature", f"expected a scalar or shape (n_levels,)=({self.n_levels},),"
                          f" (n_nodes,)=({self.n_nodes},) or (n_nodes, n_levels), got {arr.shape}")
 
+    def _cached_thermal(self, Tn: Array | float) -> _ThermalState | None:
+        """The cached laminate data when they are for the normalized temperature ``Tn``."""
+        if self._cache_state is None:
+            return None
+        ck = self._cache_key
+        if isinstance(Tn, float):
+            return self._cache_state if isinstance(ck, float) and ck == Tn else None
+        if isinstance(ck, np.ndarray) and ck.shape == np.shape(Tn) and np.array_equal(ck, Tn):
+            return self._cache_state
+        return None
+
     def _thermal(self, T: TemperatureLike) -> _ThermalState:
         Tn = self.nodal_temperature(T)
-        key: object = Tn if isinstance(Tn, float) else None
-        if self._cache_state is not None:
-            ck = self._cache_key
-            if key is not None and isinstance(ck, float) and ck == key:
-                return self._cache_state
-            if key is None and isinstance(ck, np.ndarray) and ck.shape == np.shape(Tn) \
-                    and np.array_equal(ck, Tn):
-                return self._cache_state
+        cached = self._cached_thermal(Tn)
+        if cached is not None:
+            return cached
         if isinstance(Tn, float) or Tn.ndim == 1:
             lam = laminate(self.panel, Tn)
             st = _ThermalState(C=lam.ABD[None, None], R=lam.thermal_resultants[None, None],
-                               S=lam.S[None, None])
+                               S=lam.S[None, None],
+                               I=tuple(np.asarray(x)[None, None] for x in (lam.I1, lam.I2,
+                                                                           lam.I3)))
         else:
             Te = Tn[self.mesh.elements]                                    # (E, 9, L)
             lam3 = laminate(self.panel, np.einsum("qa,eal->eql", self.q3.N, Te))
             lam2 = laminate(self.panel, np.einsum("qa,eal->eql", self.q2.N, Te),
                             parts="shear")  # only S at the reduced shear quadrature
-            st = _ThermalState(C=lam3.ABD, R=lam3.thermal_resultants, S=lam2.S)
-        self._cache_key = key if key is not None else np.array(Tn, copy=True)
+            st = _ThermalState(C=lam3.ABD, R=lam3.thermal_resultants, S=lam2.S,
+                               I=(lam3.I1, lam3.I2, lam3.I3))
+        self._cache_key = Tn if isinstance(Tn, float) else np.array(Tn, copy=True)
         self._cache_state = st
         return st
 
@@ -300,10 +313,25 @@ class StructuralModel:
             raise ValueError(f"u must have shape ({self.n_dof},), got {u.shape}")
         return u[self.edofs].reshape(-1, NNODE, NDOF)
 
+    def _linear_tangent(self, st: _ThermalState) -> Array:
+        """``btdb(B0, C) + btdb(Bs, S)`` (E, 45, 45), the u-independent part of the element
+        tangent, formed once per temperature field (a coupled step evaluates several
+        tangents at one temperature)."""
+        if "K0" not in st.linear:
+            st.linear["K0"] = (btdb(self._B0, st.C, self.q3.wdet)
+                               + btdb(self._Bs, st.S, self.q2.wdet))
+        return st.linear["K0"]
+
     def _kernel(self, u: Array | None, T: TemperatureLike, force: bool, tangent: bool,
                 nonlinear: bool = True, geometric: bool = True,
                 thermal: bool = True) -> tuple[Array | None, Array | None]:
-        """Element internal forces (E, 45) and tangents (E, 45, 45)."""
+        """Element internal forces (E, 45) and tangents (E, 45, 45).
+
+        ``B = B0 + BL`` (Eq. 3.32): the linear operator ``B0`` is fixed and the von Karman
+        part ``BL`` lives on the membrane rows and w columns only, so the force is
+        ``B0^T s + BL^T s_m`` and the tangent the cached ``B0^T C B0`` plus a rank-9 update
+        per quadrature point (:func:`solvers.shell_element.btdb_von_karman`).
+        """
         st = self._thermal(T)
         E = self.mesh.n_elem
         q3, q2 = self.q3, self.q2
@@ -311,8 +339,7 @@ class StructuralModel:
         if ue is None:
             ue = np.zeros((E, NNODE, NDOF))
         nl = nonlinear and u is not None
-        B = (membrane_bending_B(q3, ue, self.kx, self.ky).reshape(E, 9, 6, NNODE * NDOF)
-             if nl else self._B0)
+        BL = von_karman_w_B(q3, ue) if nl else None                        # (E, 9, 3, 9)
         e6 = generalized_strain(q3, ue, self.kx, self.ky, nonlinear=nl)
         stress = np.einsum("...ij,...j->...i", st.C, e6)                   # (E, 9, 6)
         if thermal:
@@ -321,10 +348,20 @@ class StructuralModel:
         gam = np.einsum("eqia,ea->eqi", self._Bs, ue.reshape(E, -1))      # (E, 4, 2)
         if force:
             shear = np.einsum("...ij,...j->...i", st.S, gam)
-            fe = (np.einsum("eqia,eqi->ea", B, stress * q3.wdet[..., None])
-                  + np.einsum("eqia,eqi->ea", self._Bs, shear * q2.wdet[..., None]))
+            # sum_q B^T s as one (1 x 6q) (6q x 45) product per element
+            sw = stress * q3.wdet[..., None]
+            ss = shear * q2.wdet[..., None]
+            fe = (np.matmul(sw.reshape(E, 1, -1), self._B0.reshape(E, -1, NNODE * NDOF))
+                  + np.matmul(ss.reshape(E, 1, -1), self._Bs.reshape(E, -1, NNODE * NDOF))
+                  )[:, 0]
+            if nl:
+                fe.reshape(E, NNODE, NDOF)[:, :, W] += np.matmul(
+                    np.ascontiguousarray(sw[..., :3]).reshape(E, 1, -1),
+                    BL.reshape(E, -1, NNODE))[:, 0]
         if tangent:
-            Ke = btdb(B, st.C, q3.wdet) + btdb(self._Bs, st.S, q2.wdet)
+            K0 = self._linear_tangent(st)
+            Ke = (btdb_von_karman(K0, self._B0, st.C * q3.wdet[..., None, None], BL) if nl
+                  else K0.copy())
             if geometric:
                 Kg = geometric_kernel(q3, stress[..., :3])
                 Ke.reshape(E, NNODE, NDOF, NNODE, NDOF)[:, :, W, :, W] += Kg
@@ -405,7 +442,10 @@ class StructuralModel:
         key = Tn if isinstance(Tn, float) else (np.asarray(Tn).tobytes())
         if key in self._mass_cache:
             return self._mass_cache[key]
-        if isinstance(Tn, float) or Tn.ndim == 1:
+        cached = self._cached_thermal(Tn)
+        if cached is not None:  # the stiffness at this temperature evaluated the inertia
+            I1, I2, I3 = cached.I
+        elif isinstance(Tn, float) or Tn.ndim == 1:
             lam = laminate(self.panel, Tn, parts="inertia")
             I1, I2, I3 = (np.asarray(x)[None, None] for x in (lam.I1, lam.I2, lam.I3))
         else:

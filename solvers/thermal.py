@@ -47,7 +47,7 @@ except ImportError:  # pragma: no cover
     ThreadpoolController = None
 
 from solvers.errors import InputError
-from solvers.materials import STEFAN_BOLTZMANN
+from solvers.materials import STEFAN_BOLTZMANN, Material
 from solvers.panel import PanelSpec
 from solvers.thermal_mesh import HexMesh, build_hex_mesh
 
@@ -425,6 +425,19 @@ class ThermalModel:
                               for m in range(len(panel.layers))]
         self._layer_rot = [(math.cos(layer.angle), math.sin(layer.angle))
                            for layer in panel.layers]
+        # layers of one material at one angle (e.g. the two face sheets of a sandwich) have
+        # their properties looked up together: (material, rotation, element rows)
+        groups: dict[tuple[int, float], list[int]] = {}
+        for m, layer in enumerate(panel.layers):
+            groups.setdefault((id(layer.material), float(layer.angle)), []).append(m)
+        self._material_groups: list[tuple[Material, tuple[float, float], slice | IntArray]] = []
+        for members in groups.values():
+            rows: slice | IntArray = (self._layer_slices[members[0]] if len(members) == 1
+                                      else np.concatenate([np.arange(
+                                          self._layer_slices[m].start,
+                                          self._layer_slices[m].stop) for m in members]))
+            self._material_groups.append((panel.layers[members[0]].material,
+                                          self._layer_rot[members[0]], rows))
         props = ("k1", "k2", "k3", "density", "specific_heat")
         self.constant_properties = all(
             getattr(layer.material, p).is_constant for layer in panel.layers for p in props)
@@ -516,10 +529,9 @@ class ThermalModel:
         drc = np.zeros((ne, 8))
         k = np.empty((ne, 8, 4))
         dk = np.zeros((ne, 8, 4))
-        for layer, sl, (c, s) in zip(self.panel.layers, self._layer_slices, self._layer_rot):
-            mat = layer.material  # a loop over layers (a handful), not elements
+        for mat, (c, s), sl in self._material_groups:  # a handful of layer groups
+            Tl = Tq[sl]
             if not derivative:  # values only (the same numbers, no slope look-ups)
-                Tl = Tq[sl]
                 vals: dict[int, Array] = {}
                 for prop in (mat.k1, mat.k2, mat.k3):
                     if id(prop) not in vals:
@@ -528,13 +540,12 @@ class ThermalModel:
                 rc[sl] = mat.density(Tl) * mat.specific_heat(Tl)
                 k[sl] = _rotate(kd, c, s)
                 continue
-            kd, dkd = mat.conductivity(Tq[sl])
-            r, dr = mat.heat_capacity(Tq[sl])
+            kd, dkd = mat.conductivity(Tl)
+            r, dr = mat.heat_capacity(Tl)
             rc[sl] = r
             k[sl] = _rotate(kd, c, s)
-            if derivative:
-                drc[sl] = dr
-                dk[sl] = _rotate(dkd, c, s)
+            drc[sl] = dr
+            dk[sl] = _rotate(dkd, c, s)
         return rc, drc, k, dk
 
     def conductivity_tensor(self, layer: int, T: ArrayLike) -> Array:
@@ -986,17 +997,22 @@ class ThermalModel:
         return factor
 
     def _newton(self, T_start: Array, T_old: Array | None, dt: float | None, alpha: float,
-                loads: ThermalLoads) -> StepResult:
+                loads: ThermalLoads, jacobian: str | None = None,
+                contraction: float | None = None) -> StepResult:
         with _blas_threads(self.blas_threads):
-            return self._newton_iterations(T_start, T_old, dt, alpha, loads)
+            return self._newton_iterations(T_start, T_old, dt, alpha, loads,
+                                           jacobian or self.jacobian_mode,
+                                           self.contraction if contraction is None
+                                           else float(contraction))
 
     def _newton_iterations(self, T_start: Array, T_old: Array | None, dt: float | None,
-                           alpha: float, loads: ThermalLoads) -> StepResult:
+                           alpha: float, loads: ThermalLoads, jacobian: str,
+                           contraction: float) -> StepResult:
         """Newton-Raphson with backtracking line search on ||R||_2 (Sec. 4.2.4)."""
         f0 = self.factorizations
         nodes, _ = self._prescribed(loads)
         key = (dt, alpha, hash(np.sort(nodes).tobytes()))
-        modified = self.jacobian_mode == "modified"
+        modified = jacobian == "modified"
         T = T_start.copy()
         fresh_factor = False
         # with the full Jacobian the first iteration always forms it at T_start: evaluate it
@@ -1043,7 +1059,7 @@ class ThermalModel:
                 s = min(0.5 * s, max(0.1 * s, phi0 / curv))
             else:
                 self._factor_stale = True  # no descent: refresh a frozen Jacobian
-            if use_cached and phit > self.contraction**2 * phi0:
+            if use_cached and phit > contraction**2 * phi0:
                 self._factor_stale = True  # slow contraction: refactor next iteration
             T = T + s * delta
             ev = trial
@@ -1062,7 +1078,9 @@ class ThermalModel:
     # Solvers
     # ------------------------------------------------------------------------------------
     def step(self, T_old: ArrayLike, dt: float, loads: ThermalLoads, *, alpha: float = 0.5,
-             T_guess: ArrayLike | None = None) -> StepResult:
+             T_guess: ArrayLike | None = None,
+             jacobian: Literal["full", "modified"] | None = None,
+             contraction: float | None = None) -> StepResult:
         """One Crank-Nicolson step, Eq. (4.28), solved by Newton-Raphson with line search.
 
         The residual is
@@ -1088,18 +1106,24 @@ class ThermalModel:
             alpha-bar in (0, 1]; 1/2 is Crank-Nicolson, 1 backward Euler.
         T_guess : ndarray of shape (n_nodes,), optional
             Newton start (default ``T_old``).
+        jacobian, contraction : optional
+            Override the model's ``jacobian`` mode and ``contraction`` for this step (the
+            same solution to ``rtol``/``xtol``; a caller marching smooth steps keeps the
+            last step's factorization with ``"modified"`` and a strict ``contraction``).
 
         Returns
         -------
         StepResult
         """
+        if jacobian not in (None, "full", "modified"):
+            raise InputError("jacobian", "must be 'full' or 'modified'")
         T0 = self._check_T(T_old)
         if not (dt > 0.0 and math.isfinite(dt)):
             raise InputError("time_step", "must be > 0 (s)")
         if not (0.0 < alpha <= 1.0):
             raise InputError("alpha", "alpha-bar must be in (0, 1]")
         start = T0 if T_guess is None else self._check_T(T_guess)
-        return self._newton(start, T0, float(dt), float(alpha), loads)
+        return self._newton(start, T0, float(dt), float(alpha), loads, jacobian, contraction)
 
     def steady(self, loads: ThermalLoads, T_guess: ArrayLike | None = None) -> StepResult:
         """Steady state ``K_T(T) T = Q_T(T)`` (Eq. 4.27 without the capacity term).

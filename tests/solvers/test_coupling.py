@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 from scaling.cli import main
 from solvers.aero.analytic import make_fluid_model
@@ -118,3 +119,137 @@ duration = 2.0
     assert data["status"] == "completed"
     assert data["times"] == [0.0, 1.0, 2.0]
     assert (tmp_path / "out" / "response.npz").is_file()
+
+
+# -- the TC hot path: predictors, pre-ordered factor, warm-started LSA (issue 6) -------------
+def test_extrapolate_is_exact_for_polynomials_of_its_order() -> None:
+    from solvers.coupling import extrapolate
+
+    t = np.arange(4.0)
+    a, b, c = np.array([1.0, -2.0]), np.array([0.5, 3.0]), np.array([-0.25, 0.125])
+    x = [a + b * ti + c * ti**2 for ti in t]
+    # quadratic from three states, newest first: x(3) to round-off
+    np.testing.assert_allclose(extrapolate([x[2], x[1], x[0]]), x[3], rtol=1e-14)
+    lin = [a + b * ti for ti in t]
+    np.testing.assert_allclose(extrapolate([lin[2], lin[1]]), lin[3], rtol=1e-14)
+    one = extrapolate([x[0]])
+    assert np.array_equal(one, x[0]) and one is not x[0]
+
+
+def test_equilibrium_from_a_prediction_is_the_same_equilibrium() -> None:
+    m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), CouplingSettings())
+    T0 = m.thermal.initial_state()
+    u0, _ = m.equilibrium(np.zeros(m.structure.n_dof), T0 + 60.0)
+    T1 = T0 + 80.0
+    ref, it_ref = m.equilibrium(u0, T1)
+    calls: list[int] = []
+    newton = m._newton
+
+    def counted(u, T, load):
+        calls.append(1)
+        return newton(u, T, load)
+
+    m._newton = counted  # type: ignore[method-assign]
+    # a good prediction (0.05 % of the step off): the same equilibrium to the Newton
+    # tolerance, in fewer iterations
+    near = u0 + 1.0005 * (ref - u0)
+    x, it = m.equilibrium(u0, T1, guess=near)
+    assert np.linalg.norm(x - ref) <= 1e-7 * np.linalg.norm(ref)
+    assert it < it_ref and len(calls) == 1
+    # a prediction whose correction exceeds its own step is not trusted: the solution
+    # restarts from u (two Newton runs) and is again the same equilibrium
+    calls.clear()
+    poor = u0 + 1e-3 * (ref - u0)
+    x, _ = m.equilibrium(u0, T1, guess=poor)
+    assert len(calls) == 2
+    assert np.linalg.norm(x - ref) <= 1e-7 * np.linalg.norm(ref)
+
+
+def test_pre_ordered_free_factor_equals_the_minimum_degree_factor() -> None:
+    from solvers.coupling import splu_free
+
+    m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), CouplingSettings())
+    st = m.structure
+    u = np.zeros(st.n_dof)
+    u[2::5] = 0.003 * np.sin(math.pi * st.mesh.x) * np.sin(math.pi * st.mesh.y)
+    T = m.thermal.initial_state() + 150.0
+    loads = m.fluid_loads(u, m.wall_temperature(T), jacobians=True)
+    K = st.tangent(u, m.structural_temperature(T))
+    fp = m._op("free")
+    block = (K.data - m._aero_stiffness_data(loads))[fp.sel]
+    lu = fp.factor(block)
+    ref = splu_free(fp.csc_from_block(block))
+    # the ordering is MMD(A^T + A), applied beforehand: the same fill ...
+    assert lu.lu.L.nnz == ref.L.nnz and lu.lu.U.nnz == ref.U.nnz
+    # ... and the same solution to round-off (1e-12 relative)
+    b = np.random.default_rng(0).standard_normal(fp.n)
+    x = lu.solve(b)
+    assert np.linalg.norm(x - ref.solve(b)) <= 1e-12 * np.linalg.norm(x)
+    A = sp.csr_matrix((block, fp.indices, fp.indptr), shape=(fp.n, fp.n))
+    assert np.linalg.norm(A @ x - b) <= 1e-10 * np.linalg.norm(b)
+    X = lu.solve(np.column_stack([b, 2 * b]))  # several right-hand sides
+    assert np.linalg.norm(X[:, 1] - 2 * x) <= 1e-12 * np.linalg.norm(2 * x)
+
+
+def test_warm_started_lsa_equals_a_cold_one() -> None:
+    # the LSA of the next state starts ARPACK from the last modes (Eq. 5.36): the same
+    # eigenvalues as a fresh model's LSA at that state, to ARPACK's tolerance (1e-10)
+    s = CouplingSettings()
+    warm = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), s)
+    cold = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), s)
+    T0 = warm.thermal.initial_state()
+    u1, _ = warm.equilibrium(np.zeros(warm.structure.n_dof), T0 + 50.0)
+    warm.stability(u1, T0 + 50.0)
+    assert warm._lsa_start is not None
+    u2, _ = warm.equilibrium(u1, T0 + 60.0)
+    a = warm.stability(u2, T0 + 60.0)
+    b = cold.stability(u2, T0 + 60.0)
+    assert np.allclose(a.lambda_p, b.lambda_p, rtol=1e-10, atol=0.0)
+    assert a.status == b.status
+
+
+def test_tc_states_are_the_equilibria_without_predictors() -> None:
+    # run_tc predicts u and T by extrapolation; every recorded state must still be the
+    # equilibrium reached from the previous state without a prediction (Eq. 5.31b) and the
+    # thermal step from the previous temperature (Eq. 5.31a), to the Newton tolerances
+    s = CouplingSettings(time_step=1.0, duration=5.0)
+    m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), s)
+    r = run_tc(m)
+    assert r.status == "completed"
+    ref = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), s)
+    for n in (3, 5):  # steps with two and three states of history
+        T = ref.thermal_step(r.T[n - 1], r.u[n - 1], 1.0)
+        assert np.max(np.abs(T - r.T[n])) <= 1e-8 * np.max(np.abs(r.T[n]))
+        u, _ = ref.equilibrium(r.u[n - 1], r.T[n])
+        assert np.linalg.norm(u - r.u[n]) <= 1e-7 * np.linalg.norm(r.u[n])
+
+
+def test_a_rejected_prediction_leaves_the_solution_path_unchanged() -> None:
+    # near a limit point the loss of the equilibrium is the snap-through signal: after a
+    # failed or rejected prediction the solution from u must start exactly as without one,
+    # i.e. with the same preconditioner (the LSA factor of the last state), and end at the
+    # same equilibrium
+    s = CouplingSettings()
+    m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), s)
+    T0 = m.thermal.initial_state()
+    u0, _ = m.equilibrium(np.zeros(m.structure.n_dof), T0 + 60.0)
+    ref, _ = m.equilibrium(u0, T0 + 80.0)
+    seen: list[object] = []
+    newton = m._newton
+
+    def spy(u, T, load):
+        seen.append(m._precond)
+        return newton(u, T, load)
+
+    m._newton = spy  # type: ignore[method-assign]
+    # "too short": converges, but its correction exceeds its step from u0 (rejected);
+    # "diverging": a Jacobian far from the kept factor (GMRES fails, a new factor is made),
+    # then no convergence in 30 iterations
+    for g in ((1.0 + 1e-3) * u0, u0 + 0.2 * np.sin(np.arange(u0.size))):
+        m.stability(u0, T0 + 60.0)  # the LSA factor preconditions the next Newton
+        seen.clear()
+        f0 = m.timer.factorizations
+        x, _ = m.equilibrium(u0, T0 + 80.0, guess=g)
+        assert len(seen) >= 2 and seen[1] is seen[0]
+        assert np.linalg.norm(x - ref) <= 1e-7 * np.linalg.norm(ref)
+    assert m.timer.factorizations > f0  # the diverging attempt did refactor

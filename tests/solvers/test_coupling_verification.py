@@ -143,12 +143,22 @@ def test_newton_update_gmres_and_low_rank_match_direct() -> None:
 
 
 # -- 2./3. time and energy accuracy of S1/S2 (Sec. 7.3.2.2, Eqs. 7.10-7.11; Sec. 5.3.3) ---------
-# Pre-snap horizon 0.512 s, steps 4, 2, 1, 0.5 ms (S1 diverges at 8 ms on this 20-element
-# strip), rho_bar = 0.5 so the high modes excited by the start have decayed by the
-# comparison time at every step size (with rho_bar = 0.9, 0.9^(t/dt) is not negligible at
-# 4 ms and the differences are not polynomial in dt). ~1 min per scheme.
+# Comparison at t = 0.512 s (pre-snap; the snap is at ~2.02 s) with steps 1, 0.5, 0.25,
+# 0.125 ms, rho_bar = 0.9 and the smooth start (flow ramped on over 0.2 s, run_lc's
+# ramp_time). Why not the dissertation's 0.1-12.8 ms at 2.048 s: the benchmark's transient
+# carries physically excited oscillations of bending modes 2-5 (155-966 rad/s; identical in
+# S1, S2 and at every step) whose generalized-alpha phase error ~ omega^3 dt^2 t / 12 is
+# O(1) rad for these steps; the impulsive start excites all of them (mode 5 with ~1e-4 h),
+# and with the smooth start mode 3 still grows to ~1e-3 h near 0.5-0.6 s and mode 4 near
+# 1.4 s. Measured with the smooth start (rates from step triples dt, dt/2, dt/4): at
+# 0.512 s every rate is 1.88-2.00 from dt = 1 ms down; at 1.0 s 1.85-2.09 from 0.5 ms down
+# (but S2's p, q errors exceed S1's by 4-12 %); at 1.5 s only the 0.25/0.125/0.0625 ms
+# triple gives 1.93-2.01, coarser ones -1.3 to 3.3. With the impulsive start the rates at
+# 0.512 s are 0.5-2.8 for the same 1-0.125 ms steps. See studies/ch7_time_accuracy.py.
+# ~1.5 min for both schemes.
 HORIZON = 0.512
-STEPS = (0.004, 0.002, 0.001, 0.0005)
+STEPS = (0.001, 0.0005, 0.00025, 0.000125)
+RAMP = 0.2
 
 
 @pytest.fixture(scope="module")
@@ -157,10 +167,11 @@ def accuracy_runs():
     for scheme in ("s1", "s2"):
         for dt in STEPS:
             m = _benchmark(dt, HORIZON, keep_fields=True)
-            r = run_lc(m, scheme, rho_bar=0.5, record_every=m.settings.n_steps,
-                       stop_on_snap=False, record_energy=True)
+            r = run_lc(m, scheme, rho_bar=0.9, record_every=m.settings.n_steps,
+                       stop_on_snap=False, record_energy=True, ramp_time=RAMP)
             assert r.status == "completed"
-            out[scheme, dt] = r
+            assert r.times[-1] == pytest.approx(HORIZON)
+            out[scheme, dt] = (m, r)
     return out
 
 
@@ -168,38 +179,82 @@ def _fitted_exponent(dts, values) -> float:
     return float(np.polyfit(np.log(dts), np.log(values), 1)[0])
 
 
+def _mean_energy(runs, scheme: str) -> np.ndarray:
+    # mean |dE| per step over the last quarter of the horizon (Sec. 5.3.3)
+    return np.array([np.nanmean(np.abs(np.asarray(runs[scheme, dt][1].artificial_energy)[
+        int(round(0.75 * HORIZON / dt)):])) for dt in STEPS])
+
+
 @pytest.mark.slow
 def test_artificial_energy_order_s1(accuracy_runs) -> None:
-    # Eq. (5.23): dE per step O(dt^3) for S1; mean |dE| over the last quarter of the horizon
-    E = [np.nanmean(np.abs(np.asarray(accuracy_runs["s1", dt].artificial_energy)[
-        int(0.75 * HORIZON / dt):])) for dt in STEPS]
-    assert _fitted_exponent(STEPS, E) == pytest.approx(3.0, abs=0.5)  # measured 2.9-3.0
+    # Eq. (5.23): dE per step O(dt^3) for S1. Measured: fitted 2.99, pairwise 2.98, 3.00, 3.00
+    E = _mean_energy(accuracy_runs, "s1")
+    assert _fitted_exponent(STEPS, E) == pytest.approx(3.0, abs=0.15)
+    assert np.all(np.abs(np.log2(E[:-1] / E[1:]) - 3.0) <= 0.25)
 
 
 @pytest.mark.slow
 def test_artificial_energy_order_s2(accuracy_runs) -> None:
-    # Eq. (5.24): O(dt^4) for S2. Measured (rho_bar 0.5): fitted 3.95, pairwise 4.3, 3.9, 3.6
-    # (the finest pair trends below 4; with rho_bar 0.9 the fit is ~3.3)
-    E = [np.nanmean(np.abs(np.asarray(accuracy_runs["s2", dt].artificial_energy)[
-        int(0.75 * HORIZON / dt):])) for dt in STEPS]
-    assert _fitted_exponent(STEPS, E) == pytest.approx(4.0, abs=0.5)
+    # Eq. (5.24): O(dt^4) for S2. Measured: fitted 3.99, pairwise 3.98, 3.99, 4.00 (with the
+    # impulsive start the fit was 3.3 at rho_bar 0.9: the unresolved high modes, above)
+    E = _mean_energy(accuracy_runs, "s2")
+    assert _fitted_exponent(STEPS, E) == pytest.approx(4.0, abs=0.15)
+    assert np.all(np.abs(np.log2(E[:-1] / E[1:]) - 4.0) <= 0.25)
+
+
+def _field(model, resp, field: str) -> np.ndarray:
+    # displacement: the normal displacement on the fluid points, u_F = H_FS u (Eq. 5.1c)
+    if field == "u":
+        return model.transfer.H_FS @ resp.u[-1]
+    return np.asarray(getattr(resp, field)[-1])
 
 
 def _errors(runs, scheme: str, field: str) -> np.ndarray:
-    f = [np.asarray(getattr(runs[scheme, dt], field)[-1]) for dt in STEPS]
+    f = [_field(*runs[scheme, dt], field) for dt in STEPS]
     return np.array([np.linalg.norm(f[i + 1] - f[i]) for i in range(len(f) - 1)])
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="measured rates at t = 0.512 s are not yet in "
-                   "1.7-2.3 for every field/step pair and S2's error is not below S1's at "
-                   "every step; open in issue 6")
-def test_time_accuracy_rates_and_s2_below_s1(accuracy_runs) -> None:
-    # Eq. (7.10): eps_i = ||f(dt_(i+1)) - f(dt_i)|| / eps_ref, eps_ref from S1 (Eq. 7.11)
+@pytest.mark.parametrize("field", ["u", "T", "pressure", "heat_flux"])
+def test_time_accuracy_rates_and_s2_below_s1(accuracy_runs, field: str) -> None:
+    # Eq. (7.10): eps_i = ||f(dt_(i+1)) - f(dt_i)|| / eps_ref, eps_ref from S1 (Eq. 7.11).
+    # Measured rates (S1; S2): u 1.99, 2.00; 1.95, 1.99 -- T 1.95, 1.98; 1.88, 1.95 --
+    # p 1.98, 2.00; 1.94, 1.99 -- q 1.98, 2.00; 1.94, 1.99. eps_S2/eps_S1: u 0.86-0.89,
+    # T 0.23-0.24, p and q 0.67-0.70 (the generalized-alpha error common to both schemes
+    # dominates u, p and q at this time; the dissertation's ~0.1 holds in the early regime,
+    # test_time_accuracy_early_coupling_error_regime). The ordering depends on rho_bar here:
+    # 1.0 gives the same ratios, 0.5 gives u 1.12-1.15 (rates 1.87-1.99 for every rho_bar).
+    e1, e2 = _errors(accuracy_runs, "s1", field), _errors(accuracy_runs, "s2", field)
+    e1, e2 = e1 / e1[0], e2 / e1[0]
+    for e in (e1, e2):
+        rates = np.log2(e[:-1] / e[1:])
+        assert np.all((rates >= 1.7) & (rates <= 2.3)), (field, rates)
+    assert np.all(e2 < e1), (field, e2 / e1)
+
+
+def test_time_accuracy_early_coupling_error_regime() -> None:
+    # fast variant: t = 0.128 s, smooth start over 0.1 s, steps 4, 2, 1, 0.5 ms. This early
+    # the structural response is still resolved by every step, and the coupling error
+    # dominates S1: S2's errors in u, p and q are ~1/30 of S1's (Sec. 7.3.2.2: "approximately
+    # one order of magnitude smaller"), T's about half. Measured rates (S1; S2): u 2.01, 2.00;
+    # 1.95, 1.85 -- T 1.98, 1.98; 2.04, 2.02 -- p, q 2.01, 2.00; 2.15, 1.90. With S2's wall
+    # velocity taken as 1.5 v^n - 0.5 v^(n-1) (v at t^(n+1/2), the defect fixed in run_lc)
+    # S2's u, p, q rates were 1.24-1.48 and its ratios to S1 0.06-0.16.
+    horizon, steps = 0.128, (0.004, 0.002, 0.001, 0.0005)
+    fields = {}
+    for scheme in ("s1", "s2"):
+        for dt in steps:
+            m = _benchmark(dt, horizon, keep_fields=True)
+            r = run_lc(m, scheme, rho_bar=0.9, record_every=m.settings.n_steps,
+                       stop_on_snap=False, ramp_time=0.1)
+            assert r.status == "completed" and r.times[-1] == pytest.approx(horizon)
+            fields[scheme, dt] = {"u": m.transfer.H_FS @ r.u[-1], "T": r.T[-1],
+                                  "pressure": r.pressure[-1], "heat_flux": r.heat_flux[-1]}
     for field in ("u", "T", "pressure", "heat_flux"):
-        e1, e2 = _errors(accuracy_runs, "s1", field), _errors(accuracy_runs, "s2", field)
-        e1, e2 = e1 / e1[0], e2 / e1[0]
-        for e in (e1, e2):
-            rates = np.log2(e[:-1] / e[1:])
-            assert np.all((rates >= 1.7) & (rates <= 2.3)), (field, rates)
-        assert np.all(e2 < e1), field
+        e = {s: np.array([np.linalg.norm(fields[s, b][field] - fields[s, a][field])
+                          for a, b in zip(steps[:-1], steps[1:])]) for s in ("s1", "s2")}
+        for s in ("s1", "s2"):
+            rates = np.log2(e[s][:-1] / e[s][1:])
+            assert np.all((rates >= 1.7) & (rates <= 2.3)), (field, s, rates)
+        ratio = e["s2"] / e["s1"]
+        assert np.all(ratio < (0.6 if field == "T" else 0.1)), (field, ratio)

@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
-from solvers.stability import LowRank, classify, gep, pep
+from solvers.stability import LowRank, classify, gep, pep, shift_invert_gep, start_vector
 
 
 def _system(n: int = 40, c: float = 0.0):
@@ -82,3 +83,43 @@ def test_classify_table_5_1() -> None:
     assert classify(np.array([0.0 + 10j]))[0] == "neutral"
     assert classify(np.array([0.3 + 10j, -0.1 + 5j]))[0] == "flutter"
     assert classify(np.array([2.0 + 0j, 0.3 + 10j]))[0] == "divergence"
+
+
+def test_shift_invert_warm_start_gives_the_same_eigenpairs() -> None:
+    # a nonsymmetric GEP (skew coupling below coalescence) and a nearby one (2 % stiffer):
+    # the eigenvectors of the first start the Arnoldi process of the second (Eq. 5.36)
+    rng = np.random.default_rng(4)
+    n = 200
+    k = np.linspace(1.0, 8.0, n) ** 2 * 100.0
+    M = sp.diags(rng.uniform(1.0, 2.0, n)).tocsr()
+    KA = sp.random(n, n, density=0.02, random_state=4, format="csr") * 5.0
+    KA = (KA - KA.T).tocsr()
+    sigma = -1e-6
+    found: list[np.ndarray] = []
+    first = shift_invert_gep(spla.splu((sp.diags(k) - KA - sigma * M).tocsc()).solve, M, sigma,
+                             count=6, on_vectors=found.append)
+    V = found[0]
+    K2 = sp.diags(1.02 * k) - KA
+    solve2 = spla.splu((K2 - sigma * M).tocsc()).solve
+    cold = shift_invert_gep(solve2, M, sigma, count=6)
+    warm = shift_invert_gep(solve2, M, sigma, count=6, v0=start_vector(V))
+    assert np.allclose(warm.lambda_p, cold.lambda_p, rtol=1e-11, atol=0.0)
+    # the vectors handed out are eigenvectors of the first problem: with
+    # lambda_g = -lambda_p^2 (Eq. 5.35), ||(K - K_A) v - lambda_g M v|| <= 1e-9 ||K v||
+    lam_g = np.sort_complex(-first.lambda_p ** 2)
+    K1 = (sp.diags(k) - KA).tocsr()
+    for j in range(V.shape[1]):
+        v = V[:, j]
+        rq = (v.conj() @ (K1 @ v)) / (v.conj() @ (M @ v))
+        assert np.min(np.abs(lam_g - rq)) <= 1e-9 * abs(rq)
+        assert np.linalg.norm(K1 @ v - rq * (M @ v)) <= 1e-9 * np.linalg.norm(K1 @ v)
+
+
+def test_start_vector_lies_in_the_span_of_the_modes() -> None:
+    rng = np.random.default_rng(6)
+    V = rng.standard_normal((50, 4)) + 1j * rng.standard_normal((50, 4))
+    v0 = start_vector(V)
+    basis = np.hstack([V.real, V.imag])
+    coef, *_ = np.linalg.lstsq(basis, v0, rcond=None)
+    assert v0.dtype == np.float64
+    assert np.linalg.norm(basis @ coef - v0) <= 1e-12 * np.linalg.norm(v0)

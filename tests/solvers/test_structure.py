@@ -177,6 +177,49 @@ def test_tangent_matches_central_differences_at_general_state():
     np.testing.assert_allclose(Kp, Kp.T, atol=1e-10 * np.abs(Kp).max())
 
 
+def test_von_karman_split_of_the_element_tangent_equals_the_full_product():
+    # B = B0 + BL (Eq. 3.32): the cached B0^T C B0 plus the w-column update must equal
+    # btdb of the full nonlinear operator (round-off only: 1e-13 relative), on a doubly
+    # curved panel (B0 has w entries k_x N, k_y N) with a non-uniform temperature
+    from solvers.shell_element import (btdb, btdb_von_karman, membrane_bending_B,
+                                       von_karman_w_B)
+
+    panel = PanelSpec(layers=(Layer(library_material("ti6242"), 2e-3, 0.0, 2),),
+                      length=0.5, width=0.4, mesh=(3, 2), radius_x=2.0, radius_y=-3.0)
+    model = StructuralModel(panel)
+    rng = np.random.default_rng(3)
+    T = 320.0 + 250.0 * rng.random((model.n_nodes, thermal_levels(panel).size))
+    u = 1e-3 * rng.standard_normal(model.n_dof)
+    ue = model._element_dofs(u)
+    E = model.mesh.n_elem
+    q = model.q3
+    full = membrane_bending_B(q, ue, model.kx, model.ky)
+    lin = membrane_bending_B(q, None, model.kx, model.ky)
+    BL = von_karman_w_B(q, ue)
+    diff = (full - lin).reshape(E, 9, 6, 9, 5)
+    assert np.array_equal(np.delete(diff, 2, axis=4), np.zeros_like(np.delete(diff, 2, axis=4)))
+    assert not np.any(diff[:, :, 3:])
+    np.testing.assert_allclose(diff[:, :, :3, :, 2], BL, rtol=0, atol=1e-15 * np.abs(BL).max())
+    st = model._thermal(T)
+    B0, B = lin.reshape(E, 9, 6, 45), full.reshape(E, 9, 6, 45)
+    ref = btdb(B, st.C, q.wdet)
+    split = btdb_von_karman(btdb(B0, st.C, q.wdet), B0, st.C * q.wdet[..., None, None], BL)
+    assert np.abs(split - ref).max() <= 1e-13 * np.abs(ref).max()
+
+
+def test_mass_reuses_the_inertia_of_the_stiffness_evaluation():
+    # the laminate data cached by a tangent at T hold I1..I3 (Eq. 3.38) at the same points:
+    # the mass from them is the mass computed from scratch, bit for bit
+    panel = PanelSpec(layers=(Layer(library_material("inconel718"), 1e-3, 0.0, 2),),
+                      mesh=(2, 2))
+    T = 300.0 + 400.0 * np.random.default_rng(1).random(
+        (StructuralModel(panel).n_nodes, thermal_levels(panel).size))
+    warm, cold = StructuralModel(panel), StructuralModel(panel)
+    for Ti in (T, 650.0):  # a field and a uniform temperature
+        warm.tangent(np.zeros(warm.n_dof), Ti)
+        assert np.array_equal(warm.mass(Ti).toarray(), cold.mass(Ti).toarray())
+
+
 def test_thermal_load_and_pressure_load_consistency():
     # F_I(0, T) = -F_T(T) (Eq. 3.36); the pressure load integrates to p * area in w.
     panel = PanelSpec(layers=(Layer(_inconel(), 2e-3, 0.0, 2),), length=0.6, width=0.4,

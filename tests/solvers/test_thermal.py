@@ -354,6 +354,48 @@ def test_modified_newton_matches_full_newton():
     assert mod.factorizations < full.factorizations
 
 
+def test_step_newton_override_matches_full_newton():
+    # a march with the chord override of step() (the coupled scheme's choice) converges to
+    # the same temperatures as full Newton, to the Newton tolerance (1e-8 relative), with
+    # far fewer factorizations; the model's own mode is left unchanged
+    panel = _nonlinear_panel((2, 2))
+    loads = ThermalLoads(top=SurfaceCondition(flux=1e5, emissivity=0.8, T_rad=300.0))
+    full, chord = ThermalModel(panel), ThermalModel(panel)
+    T_f = T_c = np.full(full.n_nodes, 400.0)
+    for _ in range(20):
+        T_f = full.step(T_f, 0.5, loads).T
+        res = chord.step(T_c, 0.5, loads, jacobian="modified", contraction=0.03)
+        assert res.converged
+        T_c = res.T
+    np.testing.assert_allclose(T_c, T_f, rtol=1e-8)
+    assert chord.factorizations < full.factorizations / 2
+    assert chord.jacobian_mode == "full"
+    with pytest.raises(InputError):
+        chord.step(T_c, 0.5, loads, jacobian="quasi")
+
+
+def test_layers_of_one_material_evaluated_together_give_the_same_residual():
+    # face sheets of one material object (looked up together) vs. two equal objects (looked
+    # up layer by layer): the same residual and Jacobian, bit for bit
+    import copy
+
+    inc = library_material("inconel718")
+    core = honeycomb_core(inc, relative_density=0.016, cell_size=0.0048, core_thickness=0.016)
+    shared = PanelSpec(layers=(Layer(inc, 1e-3, 0.0, 1), Layer(core, 0.016, 0.0, 2),
+                               Layer(inc, 1e-3, 0.0, 1)), mesh=(2, 2))
+    apart = PanelSpec(layers=(Layer(inc, 1e-3, 0.0, 1), Layer(core, 0.016, 0.0, 2),
+                              Layer(copy.deepcopy(inc), 1e-3, 0.0, 1)), mesh=(2, 2))
+    a, b = ThermalModel(shared), ThermalModel(apart)
+    assert len(a._material_groups) == 2 and len(b._material_groups) == 3
+    T_old = 300.0 + 500.0 * np.random.default_rng(2).random(a.n_nodes)
+    T_new = T_old + 20.0
+    loads = ThermalLoads(top=SurfaceCondition(flux=2e5, emissivity=0.85, T_rad=250.0))
+    assert np.array_equal(a.residual(T_new, T_old, 0.5, loads),
+                          b.residual(T_new, T_old, 0.5, loads))
+    assert np.array_equal(a.jacobian(T_new, T_old, 0.5, loads).toarray(),
+                          b.jacobian(T_new, T_old, 0.5, loads).toarray())
+
+
 # ------------------------------------------------------------------------------------------
 # Outputs and inputs
 # ------------------------------------------------------------------------------------------
