@@ -154,7 +154,10 @@ def run(config: Config | None = None) -> Result:
         for name, val in dp.get("objectives", {}).items():
             rows.append((f"Table {table} {col} {name} at the design point (%)",
                          "< 10" if table == "9.8" else None, 100.0 * float(val),
-                         "Fig. 9.9 / Sec. 9.2.2: response errors < 10 %"))
+                         {"9.8": "Fig. 9.9 / Sec. 9.2.2: response errors < 10 %",
+                          "9.9": "Fig. 9.13 Case 1: no good design in any realistic tunnel",
+                          "9.10": "Fig. 9.13 Case 2: approximate similarity in every tunnel",
+                          }.get(table, "")))
         active = dp.get("active_constraints") or []
         rows.append((f"Table {table} {col} active constraints", None, ", ".join(active) or "-"))
     if not rows:  # nothing given: the dissertation's columns alone
