@@ -55,6 +55,20 @@ def tiny_study_text(name: str = "tiny", xi: float = 4.0, mesh: int = 2, steps: i
                              iterations=iterations, seed=seed, sections=sections, tail=tail)
 
 
+def stored_evaluations(store: Path) -> int:
+    """Rows in a run's SQLite store, read-only (0 while it does not exist or is locked):
+    polled by the kill-and-resume tests while the run writes."""
+    import sqlite3
+
+    if not store.exists():
+        return 0
+    try:
+        with sqlite3.connect(f"file:{store}?mode=ro", uri=True, timeout=1.0) as con:
+            return int(con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0])
+    except sqlite3.Error:
+        return 0
+
+
 @pytest.fixture
 def repo_root() -> Path:
     return REPO

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import os
 import signal
-import sqlite3
 import subprocess
 import sys
 import time
@@ -14,7 +13,7 @@ import pandas as pd
 import pytest
 from pymoo.core.problem import Problem
 
-from conftest import tiny_study_text
+from conftest import stored_evaluations, tiny_study_text
 from scaling.runner import run_study
 from scaling.study import load_study
 
@@ -26,16 +25,6 @@ def _study(tmp_path: Path) -> Path:
     path = tmp_path / "robust.toml"
     path.write_text(STUDY)
     return path
-
-
-def _rows(store: Path) -> int:
-    if not store.exists():
-        return 0
-    try:
-        with sqlite3.connect(f"file:{store}?mode=ro", uri=True, timeout=1.0) as con:
-            return int(con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0])
-    except sqlite3.Error:
-        return 0
 
 
 def _table(run: Path) -> pd.DataFrame:
@@ -65,13 +54,13 @@ def test_sigkill_and_resume_equals_uninterrupted_run(tmp_path: Path) -> None:
                             stderr=subprocess.DEVNULL)
     store = killed / "evaluations.sqlite"
     deadline = time.monotonic() + 300
-    while _rows(store) < 5 and proc.poll() is None and time.monotonic() < deadline:
+    while stored_evaluations(store) < 5 and proc.poll() is None and time.monotonic() < deadline:
         time.sleep(0.02)
     if proc.poll() is not None:
         pytest.fail("the run finished before it could be killed; enlarge the study")
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait(timeout=30)
-    done_before = _rows(store)
+    done_before = stored_evaluations(store)
     assert 5 <= done_before < len(_table(whole))
     subprocess.run(_cli(str(study), "--out", str(killed), "--resume"), check=True,
                    capture_output=True, timeout=600)

@@ -126,10 +126,11 @@ def test_sweep_killed_with_sigkill_resumes_to_the_uninterrupted_result(tmp_path:
     # (nothing finished is evaluated again, nothing is lost).
     import os
     import signal
-    import sqlite3
     import subprocess
     import sys
     import time
+
+    from conftest import stored_evaluations as count
 
     text = TINY_SWEEP.replace("iterations = 1", "iterations = 3")
     path = tmp_path / "sweep.toml"
@@ -137,15 +138,6 @@ def test_sweep_killed_with_sigkill_resumes_to_the_uninterrupted_result(tmp_path:
 
     def cli(*args: str) -> list[str]:
         return [sys.executable, "-m", "scaling.cli", "run", str(path), *args]
-
-    def count(store: Path) -> int:
-        if not store.exists():
-            return 0
-        try:
-            with sqlite3.connect(f"file:{store}?mode=ro", uri=True, timeout=1.0) as con:
-                return int(con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0])
-        except sqlite3.Error:
-            return 0
 
     whole = tmp_path / "whole"
     subprocess.run(cli("--out", str(whole)), check=True, capture_output=True, timeout=600)
