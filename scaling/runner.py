@@ -182,10 +182,11 @@ def _seed_designs(study: Study, problem: ScalingProblem, classical: dict[str, An
     """Classical baseline first (if enabled), then the caller's seeds (duplicates dropped)."""
     out: list[tuple[np.ndarray, str]] = []
     if classical and classical.get("x") is not None and study.optimizer.classical_seed:
-        out.append((np.asarray(classical["x"], float), "seed: classical baseline"))
+        # the GP design matches monomial similarity parameters, not the Eq. (9.7) equality
+        out.append((project_cheap(problem, classical["x"]), "seed: classical baseline"))
     span = np.asarray(problem.xu, float) - np.asarray(problem.xl, float)
     for x, why in seeds or ():
-        x = np.asarray(x, float)
+        x = project_cheap(problem, x)
         if any(np.max(np.abs(x - y) / span) < 1e-9 for y, _ in out):
             continue
         out.append((x, why))

@@ -88,3 +88,21 @@ def test_run_writes_public_outputs_and_resume_adds_nothing(tmp_path: Path, capsy
     assert main(["run", str(path), "--out", str(out), "--resume"]) == 0
     assert len(pd.read_csv(out / "evaluations.csv")) == n
     shutil.rmtree(out)
+
+
+def test_every_evaluated_design_satisfies_the_cheap_equality(tmp_path: Path) -> None:
+    # Eq. (9.7) T_w/T_inf equality: the classical seed, the initial sample and every BO
+    # proposal satisfy it to 1e-8 (the GP design is projected onto it before evaluation).
+    from scaling.problem import ScalingProblem
+    from scaling.runner import run_study
+
+    text = tiny_study_text(name="eq", initial=3, iterations=2,
+                           sections='[constraints]\nequality = ["T_inf"]\n')
+    study = load_study(_tiny(tmp_path, text))
+    run_study(study, tmp_path / "run")
+    problem = ScalingProblem(study.spec)
+    (con,) = problem.cheap_constraints()
+    ev = pd.read_csv(tmp_path / "run" / "evaluations.csv")
+    assert (ev.iteration == -1).sum() == 1  # the classical seed was evaluated
+    X = ev[study.spec.names].to_numpy(float)
+    assert max(abs(float(con.fun(x)[0])) for x in X) < 1e-8
