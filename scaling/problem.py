@@ -14,7 +14,12 @@ Objectives (Eq. 6.4), written as relative RMS errors over the time samples so th
 reads "10 %":
 
 * ``J_u``: nondimensional deflection -- centre deflection / thickness (``projection =
-  "center"``, Sec. 9.2.1.1) or the sinusoidal modal coordinates / thickness (``"modal"``);
+  "center"``, Sec. 9.2.1.1), the sinusoidal modal coordinates / thickness (``"modal"``), or
+  the whole nodal displacement field nondimensionalized as in Eq. (3.17b) --
+  ``(u, v, w) / h`` and ``(psi_x, psi_y) L / h`` -- with the in-plane ``(u, v)``, transverse
+  ``w`` and rotation fields weighted equally (``"fields"``: the in-plane field, which scales
+  with ``h / L`` at matched ``lambda_F`` and thermal load, makes the thickness identifiable;
+  both meshes must have the same node grid);
 * ``J_T``: volume-mean temperature / stagnation temperature (Sec. 9.2.1.1);
 * ``J_s = sqrt(J_u^2 + J_T^2)`` (Eq. 9.8) for single-objective studies.
 
@@ -51,6 +56,10 @@ OBJECTIVES = ("J_u", "J_T", "J_s")
 #: Largest |deflection| / thickness of a meaningful response: beyond it the von Karman
 #: (moderate rotation) shell model no longer holds and the run counts as diverged.
 MAX_DEFLECTION = 50.0
+#: Projections of the structural response for J_u.
+PROJECTIONS = ("center", "modal", "fields")
+#: DOF groups of the "fields" projection (DOF order u, v, w, psi_x, psi_y per node).
+FIELD_GROUPS = {"in-plane": (0, 1), "transverse": (2,), "rotation": (3, 4)}
 #: Cheap equality constraints available (Eq. 9.7).
 EQUALITY_CONSTRAINTS = ("T_inf",)
 
@@ -114,7 +123,7 @@ class ScalingSpec:
     simulation : Simulation
     time_scaling : {"fourier", "fourier_thickness", "structural"}
         :data:`scaling.similarity.TIME_SCALINGS`: Eqs. 9.5-9.6, Eq. 6.5 or Eq. 9.3.
-    projection : {"center", "modal"}
+    projection : {"center", "modal", "fields"}
     equalities : tuple of str
         Cheap equality constraints (:data:`EQUALITY_CONSTRAINTS`).
     xi : float
@@ -141,8 +150,8 @@ class ScalingSpec:
                              f"{', '.join(OBJECTIVES)}; got {list(self.objectives)}")
         if self.time_scaling not in TIME_SCALINGS:
             raise InputError("study.time_scaling", f"must be one of {', '.join(TIME_SCALINGS)}")
-        if self.projection not in ("center", "modal"):
-            raise InputError("study.projection", "must be 'center' or 'modal'")
+        if self.projection not in PROJECTIONS:
+            raise InputError("study.projection", f"must be one of {', '.join(PROJECTIONS)}")
         for eq in self.equalities:
             if eq not in EQUALITY_CONSTRAINTS:
                 raise InputError("constraints.equality", f"unknown constraint {eq!r}; "
@@ -194,13 +203,34 @@ def relative_rms(model: np.ndarray, prototype: np.ndarray) -> float:
     return num / den if den > 0.0 else num
 
 
+def _field_series(resp: Response) -> np.ndarray:
+    """Nodal displacements nondimensionalized by Eq. (3.17b), shape (n_t, n_nodes, 5)."""
+    if not resp.u:
+        raise ModelFailure("the 'fields' projection needs the displacement fields "
+                           "(keep_fields)")
+    U = np.asarray(resp.u, dtype=float)
+    U = U.reshape(len(U), -1, 5) / resp.thickness
+    U[..., 3:] *= resp.length
+    return U
+
+
 def response_errors(model: Response, prototype: Response, projection: str = "center"
                     ) -> dict[str, float]:
     """J_u, J_T, J_s (Eqs. 6.4, 9.8) at matched nondimensional times (same step index)."""
     n = min(len(model.times), len(prototype.times))
-    um, Tm = _series(model, projection)
-    up, Tp = _series(prototype, projection)
-    J_u = relative_rms(um[1:n], up[1:n])
+    if projection == "fields":
+        Um, Up = _field_series(model), _field_series(prototype)
+        if Um.shape[1:] != Up.shape[1:]:
+            raise ModelFailure(f"'fields' projection: model and prototype meshes differ "
+                               f"({Um.shape[1]} and {Up.shape[1]} nodes)")
+        errs = [relative_rms(Um[1:n][..., list(k)], Up[1:n][..., list(k)])
+                for k in FIELD_GROUPS.values()]
+        J_u = float(np.sqrt(np.mean(np.square(errs))))
+    else:
+        um, up = _series(model, projection)[0], _series(prototype, projection)[0]
+        J_u = relative_rms(um[1:n], up[1:n])
+    Tm = np.asarray(model.mean_temperature) / model.stagnation_temperature
+    Tp = np.asarray(prototype.mean_temperature) / prototype.stagnation_temperature
     J_T = relative_rms(Tm[1:n], Tp[1:n])
     return {"J_u": J_u, "J_T": J_T, "J_s": math.hypot(J_u, J_T)}
 
@@ -231,7 +261,8 @@ class ScalingProblem(Problem):
         """The prototype's response (simulated once, then cached)."""
         if self._prototype_response is None:
             resp = simulate_configuration(self.spec.prototype, self.spec.simulation,
-                                          self.spec.simulation.time_step)
+                                          self.spec.simulation.time_step,
+                                          keep_fields=self.spec.projection == "fields")
             if resp.status == "failed":
                 raise InputError("prototype", f"the prototype simulation failed: {resp.message}")
             self._prototype_response = resp
@@ -264,7 +295,7 @@ class ScalingProblem(Problem):
     def errors(self, x: Sequence[float]) -> dict[str, float]:
         """J_u, J_T, J_s of one design; raises :class:`ModelFailure` when not comparable."""
         proto = self.prototype_response
-        _, resp = self.simulate_model(x)
+        _, resp = self.simulate_model(x, keep_fields=self.spec.projection == "fields")
         n_p = len(proto.times)
         if resp.status == "failed" or len(resp.times) < 2:
             raise ModelFailure(f"model simulation failed: {resp.message}")

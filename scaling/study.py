@@ -4,7 +4,7 @@ Public keys (documented in the README, used by the shipped ``studies/*.toml``)::
 
     [study]        name, description, kind ("quasi_steady" | "aeroelastic"), objectives,
                    xi, time_scaling ("fourier" | "fourier_thickness" | "structural"),
-                   projection ("center" | "modal")
+                   projection ("center" | "modal" | "fields")
     [prototype]    case (path of a case file, relative to the study), delta_T,
                    temperature_independent, mach, altitude (override the case's flight
                    condition: ``mach`` alone keeps the case's static p and T, ``altitude``
@@ -86,7 +86,7 @@ class StudySection(_Strict):
                           ] = ["J_u", "J_T"]
     xi: Annotated[float, Field(ge=1.0, le=100.0)] = 1.0
     time_scaling: Literal["fourier", "fourier_thickness", "structural"] = "fourier"
-    projection: Literal["center", "modal"] = "center"
+    projection: Literal["center", "modal", "fields"] = "center"
 
 
 class PrototypeSection(_Strict):

@@ -94,3 +94,27 @@ def test_model_time_step_scales_by_fourier_number() -> None:
     ratio = (thick.model_time_step(thick.model_configuration(x2))
              / thick.model_time_step(cfg))
     assert ratio == pytest.approx(4.0, rel=1e-9)
+
+
+def test_fields_projection_resolves_the_thickness() -> None:
+    # Along the curve where lambda_F and the thermal load match the prototype (p ~ h^3,
+    # Delta T ~ h^2), h/L is left to the damping and shear terms: J_u on the modal
+    # coordinates barely moves, while the in-plane field u/h (which scales with h/L,
+    # Eq. 3.17b) makes a 10 % thicker model clearly dissimilar.
+    # Measured (4 x 4, 40 steps): modal 0.13 % -> 0.40 %, fields 1.10 % -> 6.19 %.
+    modal = _coarse_91(2)
+    fields = ScalingProblem(dataclasses.replace(modal.spec, projection="fields"))
+    an = analytical_scaling(modal.spec.prototype, modal.spec.model, 2.0)
+
+    def x(f: float) -> np.ndarray:
+        return np.array([an.thickness * f, an.pressure * f**3, an.delta_T * f**2])
+
+    J0, J1 = fields.errors(x(1.0))["J_u"], fields.errors(x(1.1))["J_u"]
+    assert J0 < 0.02 and J1 > 4.0 * J0
+    m0, m1 = modal.errors(x(1.0))["J_u"], modal.errors(x(1.1))["J_u"]
+    assert (J1 - J0) > 5.0 * (m1 - m0)
+    # the groups are the Eq. (3.17b) fields: a response compared with itself is exact
+    proto = fields.prototype_response
+    assert fields.spec.projection == "fields" and len(proto.u) == len(proto.times)
+    from scaling.problem import response_errors
+    assert response_errors(proto, proto, "fields")["J_u"] == 0.0
