@@ -186,14 +186,11 @@ def simulate_configuration(config: Configuration, sim: Simulation, time_step: fl
     return run_lc(model, "s2", rho_bar=sim.rho_bar, record_every=1, stop_on_snap=False)
 
 
-def _series(resp: Response, projection: str) -> tuple[np.ndarray, np.ndarray]:
-    """Nondimensional deflection (n_t, k) and temperature (n_t,) histories."""
+def _series(resp: Response, projection: str) -> np.ndarray:
+    """Nondimensional deflection history (n_t, k): modal coordinates or centre w / h."""
     if projection == "modal":
-        u = np.asarray(resp.modal)
-    else:
-        u = np.asarray(resp.center_deflection)[:, None] / resp.thickness
-    T = np.asarray(resp.mean_temperature) / resp.stagnation_temperature
-    return u, T
+        return np.asarray(resp.modal)
+    return np.asarray(resp.center_deflection)[:, None] / resp.thickness
 
 
 def relative_rms(model: np.ndarray, prototype: np.ndarray) -> float:
@@ -227,7 +224,7 @@ def response_errors(model: Response, prototype: Response, projection: str = "cen
                 for k in FIELD_GROUPS.values()]
         J_u = float(np.sqrt(np.mean(np.square(errs))))
     else:
-        um, up = _series(model, projection)[0], _series(prototype, projection)[0]
+        um, up = _series(model, projection), _series(prototype, projection)
         J_u = relative_rms(um[1:n], up[1:n])
     Tm = np.asarray(model.mean_temperature) / model.stagnation_temperature
     Tp = np.asarray(prototype.mean_temperature) / prototype.stagnation_temperature
