@@ -111,3 +111,19 @@ def standard_parser(description: str):
     p.add_argument("--coarse", action="store_true", help="the coarse (test) configuration")
     p.add_argument("--out", default=None, help="directory for NAME.csv / NAME.md")
     return p
+
+
+def publish(df: pd.DataFrame, out: str | Path | None, name: str, title: str) -> list[Path]:
+    """Print the table (:func:`show`) and write it into ``out`` (:func:`write_table`)."""
+    show(df, title)
+    return write_table(df, out, name, title)
+
+
+def simple_main(doc: str, run, config, name: str, title: str,
+                argv: list[str] | None = None) -> None:
+    """``main()`` of a script with only ``--coarse`` / ``--out``: run ``config()`` (or
+    ``config.coarse()``) and publish ``run(...).table`` as ``name``."""
+    args = standard_parser(doc.splitlines()[0]).parse_args(argv)
+    res = run(config.coarse() if args.coarse else config())
+    publish(res.table, args.out, name, title)
+

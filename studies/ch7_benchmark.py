@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from studies._table import show, side_by_side, standard_parser, write_table
+from studies._table import side_by_side, simple_main
 
 CASE = Path(__file__).resolve().parent / "cases" / "sec7_3_benchmark.toml"
 #: Snap-through onset (s): Table 8.2 AM case 2 (= the Sec. 7.3 benchmark).
@@ -134,11 +134,8 @@ def run(config: Config | None = None) -> Result:
 
 def main(argv: list[str] | None = None) -> None:
     """``python -m studies.ch7_benchmark [--coarse] [--out DIR]``."""
-    args = standard_parser(__doc__.splitlines()[0]).parse_args(argv)
-    res = run(Config.coarse() if args.coarse else Config())
-    title = "Sec. 7.3: aerothermoelastic benchmark (2D Al 7075 panel, M = 4)"
-    show(res.table, title)
-    write_table(res.table, args.out, "ch7_benchmark", title)
+    simple_main(__doc__, run, Config, "ch7_benchmark",
+                "Sec. 7.3: aerothermoelastic benchmark (2D Al 7075 panel, M = 4)", argv)
 
 
 if __name__ == "__main__":

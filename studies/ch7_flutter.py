@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import pandas as pd
 
-from studies._table import show, side_by_side, standard_parser, write_table
+from studies._table import side_by_side, simple_main
 
 #: Sec. 7.2.3 values (time domain, LSA).
 LAMBDA_TCR = (344.0, 343.3)
@@ -86,11 +86,8 @@ def run(config: Config | None = None) -> Result:
 
 def main(argv: list[str] | None = None) -> None:
     """``python -m studies.ch7_flutter [--coarse] [--out DIR]``."""
-    args = standard_parser(__doc__.splitlines()[0]).parse_args(argv)
-    res = run(Config.coarse() if args.coarse else Config())
-    title = "Sec. 7.2.3: panel flutter (first-order piston theory, LSA)"
-    show(res.table, title)
-    write_table(res.table, args.out, "ch7_flutter", title)
+    simple_main(__doc__, run, Config, "ch7_flutter",
+                "Sec. 7.2.3: panel flutter (first-order piston theory, LSA)", argv)
 
 
 if __name__ == "__main__":

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from studies._table import show, side_by_side, standard_parser, write_table
+from studies._table import side_by_side, simple_main
 
 INCH, LBFT3, PSI = 0.0254, 16.018463373960142, 6894.757293168361
 #: Table 7.3, "Analytical, Hz [4]" column.
@@ -66,11 +66,8 @@ def run(config: Config | None = None) -> Result:
 
 def main(argv: list[str] | None = None) -> None:
     """``python -m studies.ch7_table7_3_modes [--coarse] [--out DIR]``."""
-    args = standard_parser(__doc__.splitlines()[0]).parse_args(argv)
-    res = run(Config.coarse() if args.coarse else Config())
-    title = "Table 7.3: natural frequencies of the clamped panel"
-    show(res.table, title)
-    write_table(res.table, args.out, "ch7_table7_3_modes", title)
+    simple_main(__doc__, run, Config, "ch7_table7_3_modes",
+                "Table 7.3: natural frequencies of the clamped panel", argv)
 
 
 if __name__ == "__main__":

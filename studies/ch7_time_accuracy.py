@@ -46,7 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from studies._table import show, side_by_side, standard_parser, write_table
+from studies._table import publish, side_by_side, standard_parser
 from studies.ch7_benchmark import benchmark_model
 
 FIELDS = ("displacement", "temperature", "pressure", "heat flux")
@@ -165,8 +165,7 @@ def main(argv: list[str] | None = None) -> None:
     title = "Sec. 7.3.2.2 / Fig. 7.17: time and energy accuracy of S1 and S2"
     print("\nEq. (7.10) errors eps_i (normalized by S1 at the two largest steps):\n")
     print(error_table(res).to_string(float_format=lambda v: f"{v:.3e}"))
-    show(res.table, title)
-    write_table(res.table, args.out, "ch7_time_accuracy", title)
+    publish(res.table, args.out, "ch7_time_accuracy", title)
 
 
 if __name__ == "__main__":

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from studies._table import show, side_by_side, standard_parser, write_table
+from studies._table import side_by_side, simple_main
 
 #: Table 8.1 / 8.2: L_le/a -> (delta/a, RANS onset s or None, AM onset s).
 TABLE_8_2 = {0.5: (0.01, 0.13, 1.98), 1.0: (0.02, 1.38, 2.02), 1.5: (0.03, 2.64, 2.04),
@@ -221,11 +221,8 @@ def run(config: Config | None = None) -> Result:
 
 def main(argv: list[str] | None = None) -> None:
     """``python -m studies.ch8_effects [--coarse] [--out DIR]``."""
-    args = standard_parser(__doc__.splitlines()[0]).parse_args(argv)
-    res = run(Config.coarse() if args.coarse else Config())
-    title = "Ch. 8: boundary layer, aspect ratio, flow angle and orthotropy (trends)"
-    show(res.table, title)
-    write_table(res.table, args.out, "ch8_effects", title)
+    simple_main(__doc__, run, Config, "ch8_effects",
+                "Ch. 8: boundary layer, aspect ratio, flow angle and orthotropy (trends)", argv)
 
 
 if __name__ == "__main__":

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from studies._table import show, side_by_side, standard_parser, write_table
+from studies._table import publish, side_by_side, standard_parser
 
 STUDIES = Path(__file__).resolve().parent
 NAMES = ("h/L", "lambda_F", "DeltaT_NTx_L2/Dxx")
@@ -122,8 +122,7 @@ def main(argv: list[str] | None = None) -> None:
     base = Config.coarse() if args.coarse else Config()
     res = run(dataclasses.replace(base, optimize_dirs=tuple(args.optimize)))
     title = "Table 9.3: similarity parameters, prototype and scaled models"
-    show(res.table, title)
-    write_table(res.table, args.out, "ch9_table9_3", title)
+    publish(res.table, args.out, "ch9_table9_3", title)
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from studies._table import show, side_by_side, standard_parser, write_table
+from studies._table import publish, side_by_side, standard_parser
 
 #: Table 9.8 (p0 in MPa).
 TABLE_9_8 = {
@@ -177,8 +177,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     res = run(Config(run_dirs=tuple(args.run_dirs), assign=tuple(args.assign)))
     title = "Ch. 9: design points (Tables 9.8-9.11)"
-    show(res.table, title)
-    write_table(res.table, args.out, "ch9_tables", title)
+    publish(res.table, args.out, "ch9_tables", title)
 
 
 if __name__ == "__main__":

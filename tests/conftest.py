@@ -69,6 +69,23 @@ def stored_evaluations(store: Path) -> int:
         return 0
 
 
+def kill_after(proc, store: Path, rows: int, timeout: float = 300.0) -> None:
+    """SIGKILL ``proc`` (a ``hypate run`` subprocess) once ``store`` holds ``rows``
+    evaluations; fails the test if the run finished first."""
+    import os
+    import signal
+    import time
+
+    deadline = time.monotonic() + timeout
+    while stored_evaluations(store) < rows and proc.poll() is None \
+            and time.monotonic() < deadline:
+        time.sleep(0.02)
+    if proc.poll() is not None:
+        pytest.fail("the run finished before it could be killed; enlarge it")
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=30)
+
+
 @pytest.fixture
 def repo_root() -> Path:
     return REPO

@@ -2,10 +2,8 @@
 from __future__ import annotations
 
 import os
-import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +11,7 @@ import pandas as pd
 import pytest
 from pymoo.core.problem import Problem
 
-from conftest import stored_evaluations, tiny_study_text
+from conftest import kill_after, stored_evaluations, tiny_study_text
 from scaling.runner import run_study
 from scaling.study import load_study
 
@@ -53,13 +51,7 @@ def test_sigkill_and_resume_equals_uninterrupted_run(tmp_path: Path) -> None:
     proc = subprocess.Popen(_cli(str(study), "--out", str(killed)), stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     store = killed / "evaluations.sqlite"
-    deadline = time.monotonic() + 300
-    while stored_evaluations(store) < 5 and proc.poll() is None and time.monotonic() < deadline:
-        time.sleep(0.02)
-    if proc.poll() is not None:
-        pytest.fail("the run finished before it could be killed; enlarge the study")
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait(timeout=30)
+    kill_after(proc, store, 5)
     done_before = stored_evaluations(store)
     assert 5 <= done_before < len(_table(whole))
     subprocess.run(_cli(str(study), "--out", str(killed), "--resume"), check=True,

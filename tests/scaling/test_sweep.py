@@ -124,12 +124,10 @@ def test_sweep_killed_with_sigkill_resumes_to_the_uninterrupted_result(tmp_path:
     # A real kill -9 of `hypate run` in the middle of the second point, then --resume:
     # every point completes and each point's evaluations equal an uninterrupted sweep's
     # (nothing finished is evaluated again, nothing is lost).
-    import os
-    import signal
     import subprocess
     import sys
-    import time
 
+    from conftest import kill_after
     from conftest import stored_evaluations as count
 
     text = TINY_SWEEP.replace("iterations = 1", "iterations = 3")
@@ -145,13 +143,7 @@ def test_sweep_killed_with_sigkill_resumes_to_the_uninterrupted_result(tmp_path:
     proc = subprocess.Popen(cli("--out", str(killed)), stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     store = killed / "xi_3" / STORE_NAME
-    deadline = time.monotonic() + 300
-    while count(store) < 2 and proc.poll() is None and time.monotonic() < deadline:
-        time.sleep(0.02)
-    if proc.poll() is not None:
-        pytest.fail("the sweep finished before it could be killed; enlarge it")
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait(timeout=30)
+    kill_after(proc, store, 2)
     first = _rows(killed / "xi_2" / STORE_NAME)
     partial = _rows(store)
     assert 2 <= len(partial) < len(_rows(whole / "xi_3" / STORE_NAME))
