@@ -52,6 +52,8 @@ __all__ = [
     "classical_scaling",
     "classical_records",
     "design_vector",
+    "similarity_exponents",
+    "similarity_basis",
 ]
 
 Bounds = tuple[float, float]
@@ -457,6 +459,61 @@ def classical_scaling(prototype: Configuration, model_template: Configuration,
                            achieved=achieved, residuals=residuals,
                            active_bounds=tuple(active), objective=final, status=status,
                            iterations=iterations, model=model, bounds=box)
+
+
+def similarity_exponents(model_template: Configuration, design: Mapping[str, float],
+                         variables: Sequence[str], names: Sequence[str]) -> np.ndarray:
+    """Local power-law exponents ``d ln Pi_i / d ln x_j`` of similarity parameters.
+
+    Exact for monomials (Eqs. 6.1-6.3, 9.1a: e.g. ``lambda_F ~ p_inf h^-3``), a local fit
+    otherwise (central differences in log space, as the geometric program uses).
+
+    Parameters
+    ----------
+    model_template : Configuration
+    design : mapping
+        Every design value at which to linearize (variables and fixed values), positive.
+    variables : sequence of str
+        The columns (a subset of ``design``).
+    names : sequence of str
+        The rows (parameter names); each must be positive at ``design``.
+
+    Returns
+    -------
+    ndarray of shape (len(names), len(variables))
+    """
+    keys = list(design)
+    missing = [v for v in variables if v not in design]
+    if missing:
+        raise InputError("variables", f"no value for {', '.join(missing)}")
+    u = np.log([float(design[k]) for k in keys])
+    free = np.array([k in variables for k in keys])
+    _, J = _Evaluator(model_template, keys, list(names)).linearize(u, free)
+    return J[:, [keys.index(v) for v in variables]]
+
+
+def similarity_basis(exponents: np.ndarray, tol: float = 1e-8) -> np.ndarray:
+    """An invertible ``d x d`` matrix whose leading rows are independent parameter exponents.
+
+    Rows of ``exponents`` that add a new direction are kept in order; the rest of the
+    space (directions no matched parameter sees, e.g. along which the analytical laws
+    leave the design free) is completed by an orthonormal basis of their null space.
+    """
+    E = np.atleast_2d(np.asarray(exponents, dtype=float))
+    d = E.shape[1]
+    if not np.any(E):
+        return np.eye(d)
+    rows: list[np.ndarray] = []
+    for r in E:
+        trial = np.array(rows + [r])
+        if np.linalg.matrix_rank(trial, tol=tol * max(1.0, np.abs(E).max())) == len(trial):
+            rows.append(r)
+        if len(rows) == d:
+            break
+    if len(rows) < d:
+        _, _, Vt = np.linalg.svd(np.array(rows).reshape(len(rows), d))
+        rows += list(Vt[len(rows):])
+    return np.array(rows)
 
 
 def classical_records(result: ClassicalResult, prototype: Configuration,

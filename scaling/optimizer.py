@@ -60,6 +60,7 @@ from scaling.surrogate import ProbabilisticConstraint, fit_surrogate
 
 __all__ = [
     "CheapConstraint",
+    "LogLinearCoordinates",
     "AcquisitionContext",
     "BayesianOptimizer",
     "OptimizationResult",
@@ -148,6 +149,78 @@ def _project(u0: np.ndarray, cons: list, tol: float = 1e-14) -> np.ndarray:
                    method="SLSQP", bounds=Bounds(np.zeros(d), np.ones(d)), constraints=cons,
                    options={"maxiter": 200, "ftol": tol})
     return np.clip(res.x, 0.0, 1.0)
+
+
+# ------------------------------------------------------------ input coordinates
+@dataclass(frozen=True)
+class LogLinearCoordinates:
+    """Surrogate input coordinates ``z = A ln x`` of positive design variables.
+
+    Kriging with one length scale per input (Eq. (A.3)) resolves a landscape whose valleys
+    are aligned with the inputs. The objective of a scaling problem depends mainly on the
+    similarity parameters, monomials ``Pi_i = c_i prod_j x_j^(A_ij)`` of the design
+    (Sec. 6.1), so its valleys (``Pi_i = Pi_i^p``) are hyperplanes of ``ln x`` that are
+    oblique to the axes (Sec. 9.1: ``h``, ``p_inf ~ h^3``, ``Delta T ~ h^2``). Rows of
+    ``A`` that are the exponents of those parameters make them the axes. Only the
+    surrogates see ``z``: designs, bounds, cheap constraints and the acquisition search
+    stay in ``x`` (gradients by the chain rule).
+
+    Parameters
+    ----------
+    matrix : ndarray of shape (d, d)
+        Invertible; ``A = I`` gives plain log coordinates.
+    """
+
+    matrix: np.ndarray
+
+    def __post_init__(self) -> None:
+        A = np.asarray(self.matrix, dtype=float)
+        if A.ndim != 2 or A.shape[0] != A.shape[1] or not np.all(np.isfinite(A)):
+            raise ValueError(f"coordinate matrix must be square and finite, got shape {A.shape}")
+        if np.linalg.cond(A) > 1e10:
+            raise ValueError("coordinate matrix is singular: the rows must be independent")
+        object.__setattr__(self, "matrix", A)
+
+    @classmethod
+    def log(cls, d: int) -> "LogLinearCoordinates":
+        return cls(np.eye(d))
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        """``z`` of designs ``X`` of shape (N, d) (all entries positive)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        return np.log(X) @ self.matrix.T
+
+    def jacobian(self, X: np.ndarray) -> np.ndarray:
+        """``dz/dx = A diag(1/x)``, shape (N, d, d)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        return self.matrix[None] / X[:, None, :]
+
+    def box(self, bounds: np.ndarray) -> np.ndarray:
+        """Bounding box (d, 2) of the image of the design box (the surrogates' unit box)."""
+        b = np.log(np.asarray(bounds, dtype=float))
+        lo = np.where(self.matrix > 0, self.matrix * b[:, 0], self.matrix * b[:, 1]).sum(axis=1)
+        hi = np.where(self.matrix > 0, self.matrix * b[:, 1], self.matrix * b[:, 0]).sum(axis=1)
+        return np.c_[lo, hi]
+
+
+class _WarpedModel:
+    """A surrogate fitted in ``z`` coordinates, queried (with gradients) in ``x``."""
+
+    def __init__(self, model: Any, coords: LogLinearCoordinates) -> None:
+        self.model = model
+        self.coords = coords
+
+    def predict_moments(self, X: np.ndarray):
+        return self.model.predict_moments(self.coords(X))
+
+    def predict_with_gradients(self, X: np.ndarray):
+        mean, std, dmean, dstd = self.model.predict_with_gradients(self.coords(X))
+        J = self.coords.jacobian(X)
+        return (mean, std, np.einsum("nmk,nkd->nmd", dmean, J),
+                np.einsum("nmk,nkd->nmd", dstd, J))
+
+    def condition(self, X: np.ndarray, y: np.ndarray) -> "_WarpedModel":
+        return _WarpedModel(self.model.condition(self.coords(X), y), self.coords)
 
 
 # ----------------------------------------------------------- inner optimization
@@ -461,6 +534,10 @@ class OptimizationResult:
 
 
 # --------------------------------------------------------------------- optimizer
+class _PolishDone(Exception):
+    """The polish budget is spent."""
+
+
 @dataclass
 class AcquisitionContext:
     """What an acquisition factory may use besides the objective model."""
@@ -545,6 +622,19 @@ class BayesianOptimizer:
         whose good values are orders of magnitude below its typical ones (a narrow valley of
         J ~ 1e-2 in a landscape of J ~ 1) is resolved far better; the transform is monotone,
         so best points and Pareto dominance are unchanged.
+    coordinates : LogLinearCoordinates or None
+        Input coordinates of the surrogates (all bounds must be positive); ``None``: the
+        design variables themselves (scaled to the unit box).
+    polish : int
+        Evaluations of a final local search (one objective only): Nelder-Mead from the best
+        feasible design, in :attr:`coordinates` (or the unit box), each point clipped to
+        the bounds and projected onto the cheap constraints, failures ranked last. A
+        stationary kriging model spends its budget exploring when the optimum is a valley
+        far narrower than the landscape (Sec. 9.1: ``lambda_F`` must match to ~1 % in a
+        box spanning a factor 800); the polish converges on the valley floor. Stored as
+        iteration ``n_iter + 1`` and replayed on resume.
+    polish_step : float
+        Initial simplex edge, as a fraction of each coordinate's range.
     """
 
     def __init__(
@@ -578,6 +668,9 @@ class BayesianOptimizer:
         callback: Callable[[Evaluation], None] | None = None,
         blas_threads: int | None = 1,
         output_transform: Literal["none", "log"] = "none",
+        coordinates: LogLinearCoordinates | None = None,
+        polish: int = 0,
+        polish_step: float = 0.01,
     ) -> None:
         if output_transform not in OUTPUT_TRANSFORMS:
             raise ValueError(f"output_transform must be one of {OUTPUT_TRANSFORMS}, "
@@ -590,6 +683,19 @@ class BayesianOptimizer:
         self.bounds = np.c_[np.asarray(problem.xl, float), np.asarray(problem.xu, float)]
         if self.bounds.shape != (self.n_var, 2) or not np.all(np.isfinite(self.bounds)):
             raise ValueError("problem needs finite bounds xl, xu of length n_var")
+        if coordinates is not None:
+            if coordinates.matrix.shape != (self.n_var, self.n_var):
+                raise ValueError(f"coordinates need a {self.n_var} x {self.n_var} matrix, got "
+                                 f"{coordinates.matrix.shape}")
+            if not np.all(self.bounds > 0.0):
+                raise ValueError("log-linear coordinates need positive bounds xl, xu")
+        self.coordinates = coordinates
+        if polish < 0 or not 0.0 < polish_step <= 0.5:
+            raise ValueError("polish >= 0 and 0 < polish_step <= 0.5 required")
+        if polish and self.n_obj != 1:
+            raise ValueError("polish needs a single objective")
+        self.polish = int(polish)
+        self.polish_step = float(polish_step)
         if acquisition is None:
             acquisition = "lcb" if self.n_obj == 1 else "hvlcb"
         if isinstance(acquisition, str):
@@ -652,6 +758,15 @@ class BayesianOptimizer:
             cons = _scipy_cheap(self.cheap_constraints, lo, span)
             X = np.array([lo + _project((x - lo) / span, cons) * span for x in X])
         return X
+
+    def _fit(self, X: np.ndarray, Y: np.ndarray, rng: np.random.Generator, **kw: Any):
+        """A surrogate of ``Y(X)`` in the optimizer's input coordinates, queried in ``x``."""
+        if self.coordinates is None:
+            return fit_surrogate(X, Y, self.bounds, kernel=self.kernel,
+                                 n_restarts=self.n_restarts, rng=rng, **kw)
+        gp = fit_surrogate(self.coordinates(X), Y, self.coordinates.box(self.bounds),
+                           kernel=self.kernel, n_restarts=self.n_restarts, rng=rng, **kw)
+        return _WarpedModel(gp, self.coordinates)
 
     def _model_space(self, F: np.ndarray) -> np.ndarray:
         """Objective values as the surrogates see them (:attr:`output_transform`)."""
@@ -724,17 +839,14 @@ class BayesianOptimizer:
             # nothing to model: explore with an OLH point far from the samples
             U = latin_hypercube(self.batch_size, self.bounds, rng)
             return U
-        model = fit_surrogate(X[ok], F[ok], self.bounds, kernel=self.kernel,
-                              n_restarts=self.n_restarts, rng=rng)
+        model = self._fit(X[ok], F[ok], rng)
         model_constraints: list[ProbabilisticConstraint] = []
         if self.n_constr:
-            gm = fit_surrogate(X[ok], G[ok], self.bounds, kernel=self.kernel,
-                               n_restarts=self.n_restarts, rng=rng)
+            gm = self._fit(X[ok], G[ok], rng)
             model_constraints.append(ProbabilisticConstraint(gm, p_min=self.p_feasible))
         if not np.all(ok):
-            fm = fit_surrogate(X, (~ok).astype(float)[:, None], self.bounds, kernel=self.kernel,
-                               n_restarts=self.n_restarts, nugget=FAILURE_NUGGET,
-                               length_scale_bounds=FAILURE_LENGTH_SCALES, rng=rng)
+            fm = self._fit(X, (~ok).astype(float)[:, None], rng, nugget=FAILURE_NUGGET,
+                           length_scale_bounds=FAILURE_LENGTH_SCALES)
             model_constraints.append(
                 ProbabilisticConstraint(fm, p_min=0.5, threshold=FAILURE_THRESHOLD))
         # exploitation starts: the best feasible designs (nudged off the data points)
@@ -848,6 +960,69 @@ class BayesianOptimizer:
         now, old = hypervolume(F[feas], ref), hypervolume(F[feas & before], ref)
         return old > 0 and (now - old) <= self.convergence_tol * old
 
+    def _polish(self, store: EvaluationStore, records: list[Evaluation]) -> None:
+        """Final Nelder-Mead search from the best feasible design (see ``polish``)."""
+        if self.polish <= 0:
+            return
+        t = self.n_iter + 1
+        X, F, G, ok, feas = self._arrays([r for r in records if r.iteration < t])
+        if not feas.any():
+            return
+        lo, hi = self.bounds[:, 0], self.bounds[:, 1]
+        span = hi - lo
+        x_best = X[feas][int(np.argmin(F[feas, 0]))]
+        if self.coordinates is None:
+            to_z = lambda x: (x - lo) / span  # noqa: E731
+            from_z = lambda z: lo + z * span  # noqa: E731
+            z_span = np.ones(self.n_var)
+        else:
+            A_inv = np.linalg.inv(self.coordinates.matrix)
+            to_z = lambda x: self.coordinates(x)[0]  # noqa: E731
+            from_z = lambda z: np.exp(A_inv @ z)  # noqa: E731
+            box = self.coordinates.box(self.bounds)
+            z_span = box[:, 1] - box[:, 0]
+        cons = _scipy_cheap(self.cheap_constraints, lo, span) if self.cheap_constraints else []
+        stored = {r.batch_index: r for r in records if r.iteration == t}
+        seen = {tuple(np.round(r.x, 12)): r for r in records if r.iteration < t}
+        count = [0]
+
+        def design(z: np.ndarray) -> np.ndarray:
+            x = np.clip(from_z(z), lo, hi)
+            if cons:
+                x = lo + _project((x - lo) / span, cons) * span
+            return x
+
+        def value(z: np.ndarray) -> float:
+            x = design(z)
+            ev = seen.get(tuple(np.round(x, 12)))
+            if ev is None:
+                k = count[0]
+                if k >= self.polish or self._budget_left(records) <= 0:
+                    raise _PolishDone
+                if k in stored:
+                    ev = stored[k]
+                    if not np.allclose(ev.x, x, rtol=0, atol=1e-9):
+                        warnings.warn("polish: resumed point differs from the stored one",
+                                      RuntimeWarning, stacklevel=2)
+                else:
+                    self._evaluate(x[None], t, [k], store, records)
+                    ev = records[-1]
+                count[0] += 1
+                seen[tuple(np.round(x, 12))] = ev
+            good = ev.ok and np.all(np.asarray(ev.G) <= 0.0) and np.isfinite(ev.F[0])
+            return float(ev.F[0]) if good else math.inf
+
+        z0 = to_z(x_best)
+        simplex = z0 + np.vstack([np.zeros(self.n_var), np.diag(self.polish_step * z_span)])
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                minimize(value, z0, method="Nelder-Mead",
+                         options={"initial_simplex": simplex, "maxfev": 100 * self.polish,
+                                  "xatol": 1e-9, "fatol": 0.0})
+        except _PolishDone:
+            pass
+
     def run(self) -> OptimizationResult:
         """Run (or resume) the optimization.
 
@@ -908,6 +1083,7 @@ class BayesianOptimizer:
                                   RuntimeWarning, stacklevel=2)
             todo = todo[: max(0, self._budget_left(records))]
             self._evaluate(Xb[todo], t, todo, store, records)
+        self._polish(store, records)
         data = evaluations_to_dataframe(records) if records else evaluations_to_dataframe([])
         X, F, G, ok, feas = self._arrays(records)
         ref = self._reference_point(F[feas]) if self.n_obj > 1 else None

@@ -771,8 +771,11 @@ def _study_section(run: RunData) -> Section:
     sim = spec.simulation
     opt = study.optimizer
     budget = (f"{opt.initial_samples} initial samples + {opt.iterations} iterations x "
-              f"batch {opt.batch_size} ({study.acquisition.upper()}, {opt.approach} approach, "
-              f"seed {opt.seed})")
+              f"batch {opt.batch_size}"
+              + (f" + {opt.polish} polish evaluations" if opt.polish else "")
+              + f" ({study.acquisition.upper()}, {opt.approach} approach, seed {opt.seed}"
+              + (f", {opt.coordinates} coordinates" if opt.coordinates != "design" else "")
+              + (f", {opt.transform} transform" if opt.transform != "none" else "") + ")")
     items = [("study", html.escape(study.name)),
              ("description", html.escape(study.description or "")),
              ("study file", f"<code>{html.escape(str(run.study_path))}</code>"),
@@ -919,8 +922,16 @@ def _statistics_section(run: RunData) -> Section:
         items.append(("Pareto-set size", _fmt(stats["pareto_size"])))
     if n and "iteration" in df:
         it = df["iteration"].to_numpy()
-        items.append(("classical seed / initial / BO evaluations",
-                      f"{int((it < 0).sum())} / {int((it == 0).sum())} / {int((it > 0).sum())}"))
+        opt = run.study.optimizer if run.study is not None else None
+        if opt is not None and opt.polish:
+            polish = it > opt.iterations
+            items.append(("classical seed / initial / BO / polish evaluations",
+                          f"{int((it < 0).sum())} / {int((it == 0).sum())} / "
+                          f"{int(((it > 0) & ~polish).sum())} / {int(polish.sum())}"))
+        else:
+            items.append(("classical seed / initial / BO evaluations",
+                          f"{int((it < 0).sum())} / {int((it == 0).sum())} / "
+                          f"{int((it > 0).sum())}"))
     body = _dl(items)
     if len(failed):
         groups: dict[tuple[str, str], list[int]] = {}

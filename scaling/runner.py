@@ -30,9 +30,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from scaling.classical import classical_scaling
-from scaling.optimizer import (BayesianOptimizer, OptimizationResult, _project, _scipy_cheap,
-                               evaluate_design)
+from scaling.classical import (classical_scaling, design_vector, similarity_basis,
+                               similarity_exponents)
+from scaling.optimizer import (BayesianOptimizer, LogLinearCoordinates, OptimizationResult,
+                               _project, _scipy_cheap, evaluate_design)
 from scaling.problem import ScalingProblem
 from scaling.study import Study
 from solvers.errors import InputError
@@ -90,6 +91,35 @@ def classical_baseline(study: Study, problem: ScalingProblem) -> dict[str, Any] 
     out = res.to_dict()
     out["x"] = x.tolist()
     return out
+
+
+def surrogate_coordinates(study: Study, problem: ScalingProblem
+                          ) -> LogLinearCoordinates | None:
+    """The surrogates' input coordinates of ``[optimizer] coordinates``.
+
+    ``"similarity"``: the logs of the classically matched parameters (:data:`CLASSICAL_MATCH`,
+    exponents at the centre of the log box), completed by their null space, so that the
+    valleys ``Pi_i = Pi_i^p`` of the objective are aligned with the kriging axes.
+    """
+    kind = study.optimizer.coordinates
+    if kind == "design":
+        return None
+    lo, hi = np.asarray(problem.xl, float), np.asarray(problem.xu, float)
+    if not np.all(lo > 0.0):
+        bad = [n for n, v in zip(problem.spec.names, lo) if not v > 0.0]
+        raise InputError("optimizer.coordinates", f"{kind!r} needs positive lower bounds; "
+                         f"not so for {', '.join(bad)}")
+    if kind == "log":
+        return LogLinearCoordinates.log(len(lo))
+    spec = study.spec
+    names = list(spec.names)
+    centre = dict(zip(names, np.sqrt(lo * hi).tolist()))
+    design = {**{k: v for k, v in spec.fixed.items() if v > 0}, **centre}
+    try:
+        E = similarity_exponents(spec.model, design, names, CLASSICAL_MATCH[spec.simulation.kind])
+    except (ValueError, ArithmeticError) as exc:
+        raise InputError("optimizer.coordinates", f"similarity exponents: {exc}") from None
+    return LogLinearCoordinates(similarity_basis(E))
 
 
 def make_executor(workers: int, scheduler: str | None) -> tuple[Any, Callable[[], None]]:
@@ -176,6 +206,60 @@ def project_cheap(problem: ScalingProblem, x: np.ndarray) -> np.ndarray:
     return lo + u * span
 
 
+#: Seeds taken from each earlier run given to :func:`seeds_from_runs`.
+SEEDS_PER_RUN = 10
+
+
+def _template_values(study: Study) -> dict[str, float]:
+    """Values the model template implies for variables a study may not optimize."""
+    m = study.spec.model
+    vals = {"L": m.panel.length, "L_le": m.panel.leading_edge_length,
+            "h": m.panel.thickness, "emissivity": m.panel.emissivity,
+            "T_rad": m.radiation_temperature or 0.0,  # no heater: nearest bound
+            "p_ext": m.external_pressure}
+    if m.delta_T is not None:
+        vals["delta_T"] = m.delta_T
+    vals.update(study.spec.fixed)
+    return vals
+
+
+def seeds_from_runs(study: Study, problem: ScalingProblem, run_dirs: Sequence[str | Path],
+                    k: int = SEEDS_PER_RUN) -> list[tuple[np.ndarray, str]]:
+    """The ``k`` best designs of earlier runs as seeds (``hypate run --seed-from``).
+
+    A richer strategy starts where a simpler one ended (Sec. 9.2.3: Case 2 adds the radiant
+    heater to Case 1's variables): each design keeps the values of the variables the runs
+    share; a variable the earlier run did not optimize takes the model template's value
+    (emissivity, no heater, no external pressure, template size), and every point is
+    clipped to the bounds and projected onto the cheap equalities. "Best" is the
+    design-point criterion: the smallest max over objectives of successful evaluations.
+    """
+    names = list(problem.spec.names)
+    bounds = np.c_[problem.xl, problem.xu]
+    defaults = _template_values(study)
+    out: list[tuple[np.ndarray, str]] = []
+    for run_dir in run_dirs:
+        csv = Path(run_dir) / "evaluations.csv"
+        if not csv.exists():
+            raise InputError("--seed-from", f"{run_dir} holds no evaluations.csv")
+        df = pd.read_csv(csv)
+        objectives = [c for c in df.columns if c.startswith("J_")]
+        if not objectives:
+            raise InputError("--seed-from", f"{csv} has no objective columns (J_...)")
+        missing = [n for n in names if n not in df.columns and n not in defaults]
+        if missing:
+            raise InputError("--seed-from", f"{run_dir} does not set {', '.join(missing)} "
+                             "and the model template has no value for it")
+        df = df[(df["status"] == "ok") & np.isfinite(df[objectives]).all(axis=1)]
+        df = df.assign(_worst=df[objectives].max(axis=1)).sort_values("_worst", kind="stable")
+        for idx, row in df.head(k).iterrows():
+            design = {n: float(row[n]) for n in names if n in df.columns}
+            x = design_vector(design, names, defaults=defaults, bounds=bounds)
+            out.append((project_cheap(problem, x),
+                        f"seed: {Path(run_dir).name} evaluation {idx}"))
+    return out
+
+
 def _seed_designs(study: Study, problem: ScalingProblem, classical: dict[str, Any] | None,
                   seeds: Sequence[tuple[Sequence[float], str]] | None
                   ) -> list[tuple[np.ndarray, str]]:
@@ -197,7 +281,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
               scheduler: str | None = None, seed: int | None = None,
               progress: Callable[[int, int, Any], None] | None = None,
               seeds: Sequence[tuple[Sequence[float], str]] | None = None,
-              prototype_response: Response | None = None) -> RunOutcome:
+              prototype_response: Response | None = None,
+              seed_runs: Sequence[str | Path] = ()) -> RunOutcome:
     """Run (or resume) a study into ``out``.
 
     Parameters
@@ -223,6 +308,9 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
         evaluated, so an interrupted run resumes without evaluating it again.
     prototype_response : Response, optional
         The prototype's response if already simulated.
+    seed_runs : sequence of paths
+        Earlier run directories whose best designs seed this run
+        (:func:`seeds_from_runs`), after ``seeds``.
     """
     out = Path(out)
     store_path = out / STORE_NAME
@@ -235,12 +323,16 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
     if workers < 1:
         raise InputError("--workers", "must be >= 1")
     problem = ScalingProblem(study.spec, prototype_response=prototype_response)
+    coordinates = surrogate_coordinates(study, problem)  # bad settings fail before any work
+    if seed_runs:
+        seeds = list(seeds or ()) + seeds_from_runs(study, problem, seed_runs)
     proto = problem.prototype_response  # simulated once, before any worker starts
     out.mkdir(parents=True, exist_ok=True)
     proto.save(out / "prototype.npz")
     classical = classical_baseline(study, problem)
     seed_list = _seed_designs(study, problem, classical, seeds)
-    budget = opt.initial_samples + opt.iterations * opt.batch_size + len(seed_list)
+    budget = (opt.initial_samples + opt.iterations * opt.batch_size + opt.polish
+              + len(seed_list))
     count = [0]
 
     def callback(evaluation) -> None:
@@ -276,7 +368,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
         n_iter=opt.iterations, batch_size=opt.batch_size, v=opt.v, weights=weights,
         cheap_constraints=problem.cheap_constraints(), executor=executor,
         timeout=opt.timeout, store=store_path, initial_samples=None,
-        seed=run_seed, callback=callback, output_transform=opt.transform)
+        seed=run_seed, callback=callback, output_transform=opt.transform,
+        coordinates=coordinates, polish=opt.polish)
     t0 = time.perf_counter()
     try:
         result = optimizer.run()
@@ -568,5 +661,5 @@ def load_response(path: Path) -> Response | None:
 
 
 __all__ = ["RunOutcome", "SweepOutcome", "run_study", "run_sweep", "sweep_seeds",
-           "write_sweep_summary", "project_cheap", "write_outputs", "classical_baseline", "make_executor",
+           "write_sweep_summary", "project_cheap", "surrogate_coordinates", "seeds_from_runs", "write_outputs", "classical_baseline", "make_executor",
            "evaluations_table", "choose_design_point", "STORE_NAME"]

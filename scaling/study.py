@@ -11,15 +11,21 @@ Public keys (documented in the README, used by the shipped ``studies/*.toml``)::
                    (m, 1976 standard atmosphere) needs ``mach`` or a case Mach number)
     [simulation]   time_step, steps, aero, heating, boundary_layer, initial_deflection,
                    lsa_modes, unstable_steps, rho_bar, mesh
-    [model]        material, thickness, sublayers, boundary, emissivity,
-                   initial_temperature, temperature_independent
+    [model]        material (a library name or a [materials.NAME] of the study), thickness,
+                   sublayers, boundary, emissivity, initial_temperature,
+                   temperature_independent
+    [materials.NAME]  user materials, the schema of case files (solvers.config)
     [tunnel]       name (shipped: ideal, WT5, WT6, WT7) or an inline envelope (mach /
                    mach_values, p0, T0 ...), mach (the nozzle to use)
     [variables]    NAME = [lower, upper] or "tunnel" (the envelope's bounds)
     [fixed]        NAME = value (design values that are not optimized)
     [constraints]  equality = ["T_inf"]
     [optimizer]    approach, acquisition, v, weights, initial_samples, iterations,
-                   batch_size, seed, classical_seed, transform ("none" | "log"), timeout
+                   batch_size, seed, classical_seed, transform ("none" | "log"),
+                   coordinates ("design" | "log" | "similarity": the surrogates' inputs;
+                   "similarity" = logs of the matched similarity parameters, completed
+                   by their null space), polish (final Nelder-Mead evaluations from
+                   the best design, one objective only), timeout
     [sweep]        one optimization per sweep point into sub-directories of one run
                    directory (``hypate run``; Sec. 9.1.3, 9.2.2, 9.2.4):
                    xi = [2, 3, 4]            geometric scales (sub-directories ``xi_2`` ...)
@@ -57,7 +63,7 @@ from scaling.problem import EQUALITY_CONSTRAINTS, OBJECTIVES, ScalingSpec, Simul
 from scaling.similarity import Configuration
 from scaling.tunnels import TunnelEnvelope, resolve_tunnel
 from solvers import materials as mat
-from solvers.config import _pydantic_error, load_case, read_toml
+from solvers.config import MaterialConfig, _pydantic_error, load_case, read_toml, resolve_material
 from solvers.errors import InputError
 from solvers.flow import FlowCondition
 from solvers.panel import Layer, PanelSpec
@@ -192,6 +198,8 @@ class OptimizerSection(_Strict):
     seed: Annotated[int, Field(ge=0)] = 0
     classical_seed: bool = True
     transform: Literal["none", "log"] = "none"
+    coordinates: Literal["design", "log", "similarity"] = "design"
+    polish: Annotated[int, Field(ge=0, le=10000)] = 0
     timeout: PosFloat | None = None
 
 
@@ -207,6 +215,7 @@ class StudyFile(_Strict):
     optimizer: OptimizerSection = OptimizerSection()
     sweep: SweepSection | None = None
     laws: LawsSection = LawsSection()
+    materials: dict[str, MaterialConfig] = {}
 
     @model_validator(mode="after")
     def _check(self) -> StudyFile:
@@ -223,6 +232,9 @@ class StudyFile(_Strict):
             if single != (n_obj == 1):
                 raise ValueError(f"optimizer.acquisition: {acq!r} does not fit {n_obj} objective(s) "
                                  "(lcb/ei/poi for one; hvlcb/hvei/hvpoi/ws/cheb for two)")
+        if self.optimizer.polish and n_obj != 1:
+            raise ValueError(f"optimizer.polish: a local polish needs one objective, the "
+                             f"study has {n_obj}")
         if self.optimizer.weights is not None and len(self.optimizer.weights) != n_obj:
             raise ValueError(f"optimizer.weights: need {n_obj} values")
         return self
@@ -344,11 +356,7 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
     # -- model template -------------------------------------------------------------------
     m = cfg.model
     xi = cfg.study.xi
-    try:
-        material = mat.library_material(m.material)
-    except InputError:
-        raise InputError("model.material", f"unknown material {m.material!r}; library "
-                         f"materials are {', '.join(mat.LIBRARY)}") from None
+    material = resolve_material(m.material, {}, cfg.materials, field="model.material")
     if m.temperature_independent:
         material = constant_material(material, m.initial_temperature)
     thickness = m.thickness if m.thickness is not None else proto_panel.thickness / xi

@@ -49,6 +49,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=int, default=1, help="local worker processes (default 1)")
     p.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT")
     p.add_argument("--seed", type=int, help="override the study's optimizer seed")
+    p.add_argument("--seed-from", action="append", default=[], metavar="RUN_DIR",
+                   help="seed the initial sample with the 10 best designs of an earlier run "
+                   "(repeatable; e.g. Case 1 for the Case 2 strategy); variables it lacks "
+                   "take the model template's values")
     p.set_defaults(func=run)
 
 
@@ -86,12 +90,16 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     print(f"study {study.name}: {study.description or path}", file=sys.stderr)
     if study.sweep is not None:
+        if args.seed_from:
+            raise InputError("--seed-from", "not available for sweep studies (their points "
+                             "are seeded by recycling, [sweep] recycle)")
         return _run_sweep(args, study, out, t0)
     print("simulating the prototype ...", file=sys.stderr)
     bar = _Progress(enabled=sys.stderr.isatty())
     try:
         outcome = run_study(study, out, resume=args.resume, workers=args.workers,
-                            scheduler=args.scheduler, seed=args.seed, progress=bar)
+                            scheduler=args.scheduler, seed=args.seed, progress=bar,
+                            seed_runs=args.seed_from)
     finally:
         bar.close()
     point = outcome.design_point

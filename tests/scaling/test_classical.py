@@ -158,3 +158,23 @@ def test_bad_inputs(sec9_1, kwargs, field):
     with pytest.raises(InputError) as err:
         classical_scaling(proto, model, **args)
     assert err.value.field == field
+
+
+def test_similarity_exponents_and_basis(sec9_1):
+    # Eq. 9.1a as monomials of (h, p_inf, Delta T): h/L ~ h, lambda_F ~ p_inf h^-3 (D ~ h^3),
+    # Delta T N_Tx L^2 / D_xx ~ Delta T h^-2 (N_Tx ~ h): exact to the central differences.
+    from scaling.classical import similarity_basis, similarity_exponents
+
+    _, model = sec9_1
+    design = {"h": 1e-3, "p_inf": 5e3, "delta_T": 2.0}
+    E = similarity_exponents(_at_scale(model, 2.0), design, ["h", "p_inf", "delta_T"], SEC9_1)
+    assert np.allclose(E, [[1, 0, 0], [-3, 1, 0], [-2, 0, 1]], atol=1e-8)
+    assert np.array_equal(similarity_basis(E), E)
+    # fewer independent parameters than variables: kept rows first, then an orthonormal
+    # complement of their null space; a repeated direction is skipped
+    B = similarity_basis(np.array([[1.0, 1.0, 0.0], [2.0, 2.0, 0.0], [0.0, 0.0, 1.0]]))
+    assert np.allclose(B[:2], [[1, 1, 0], [0, 0, 1]])
+    assert np.allclose(B[2:] @ B[:2].T, 0.0) and np.allclose(np.abs(B[2]), [2**-0.5, 2**-0.5, 0])
+    assert np.array_equal(similarity_basis(np.zeros((1, 2))), np.eye(2))
+    with pytest.raises(InputError, match="delta_T"):
+        similarity_exponents(model, {"h": 1e-3, "p_inf": 5e3}, ["h", "delta_T"], SEC9_1)

@@ -136,7 +136,7 @@ def test_sec91_prediction_at_xi5_is_similar_without_optimization(tmp_path: Path)
     for name in SIMILARITY_91:                                          # issue 10: 2 %
         assert abs(sim[name]["relative_difference"]) < 0.02, name
     # the simulated response is similar too (as the analytical design at xi = 2, see
-    # tests/scaling/test_problem.py: about 1 % from the piston-theory damping term)
+    # tests/scaling/test_problem.py: about 1 % from Poisson's ratio, which Eq. 9.1a omits)
     assert pred["objectives"]["J_u"] < 0.03
     assert math.isfinite(pred["objectives"]["J_s"])
 
@@ -152,20 +152,28 @@ def _sweep_study(tmp_path: Path, name: str, scales: str, extra: str = "") -> Pat
 
 @pytest.mark.slow
 def test_sec91_sweep_by_optimization_recovers_the_analytical_laws(tmp_path: Path) -> None:
+    # studies/sec9_1_sweep.toml (xi = 2, 3, 4, recycling and prediction); HYPATE_RUNS=DIR
+    # reuses a finished DIR/sec9_1_sweep. The optimum of J_u sits off Eq. 9.2 by the same
+    # fractions at every scale (Poisson's ratio, see tests/studies/test_sec9_reproductions
+    # .py), so the exponents are the analytical ones while the coefficients are not quite:
+    # h and Delta T within 2 %, p_inf (~ h^3) within 4 %.
+    import os
+
     from scaling.laws import laws_of_run, load_sweep
     from scaling.runner import run_sweep
 
-    study = load_study(_sweep_study(tmp_path, "sec9_1_xi2.toml", "[2, 3, 4]",
-                                    "predict = false\n"))
-    run_sweep(study, tmp_path / "run")
-    run = load_sweep(tmp_path / "run")
+    given = os.environ.get("HYPATE_RUNS")
+    out = Path(given) / "sec9_1_sweep" if given else tmp_path / "run"
+    if not (out / "sweep.json").exists():
+        run_sweep(load_study(REPO / "studies" / "sec9_1_sweep.toml"), out)
+    run = load_sweep(out)
     laws = {law.variable: law for law in laws_of_run(run)}
-    for name, k in (("h", -1.0), ("p_inf", 0.0), ("delta_T", 0.0)):
+    for name, k, rel in (("h", -1.0, 0.02), ("p_inf", 0.0, 0.04), ("delta_T", 0.0, 0.02)):
         assert abs(laws[name].fit.exponent - k) <= 0.05
         assert laws[name].fit.exponent_low <= k <= laws[name].fit.exponent_high
         for p in run.points:
             assert laws[name].fit(p.xi) == pytest.approx(
-                laws[name].analytical(p.xi), rel=0.02)
+                laws[name].analytical(p.xi), rel=rel)
     pred = predict(run, 5.0, evaluate=True)
     sim = {r["name"]: r for r in pred["similarity"]}
     for name in SIMILARITY_91:

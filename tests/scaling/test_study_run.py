@@ -106,3 +106,46 @@ def test_every_evaluated_design_satisfies_the_cheap_equality(tmp_path: Path) -> 
     assert (ev.iteration == -1).sum() == 1  # the classical seed was evaluated
     X = ev[study.spec.names].to_numpy(float)
     assert max(abs(float(con.fun(x)[0])) for x in X) < 1e-8
+
+
+def test_similarity_coordinates_run_and_zero_bounds_are_refused(tmp_path: Path, capsys) -> None:
+    # a tiny run with the surrogates in similarity coordinates completes like any other
+    text = TINY.replace("[optimizer]", '[optimizer]\ncoordinates = "similarity"')
+    out = tmp_path / "run"
+    assert main(["run", str(_tiny(tmp_path, text)), "--out", str(out)]) == 0
+    assert len(pd.read_csv(out / "evaluations.csv")) == 1 + 4 + 2  # classical seed + OLH + BO
+    # log coordinates need positive bounds: refused before anything is written
+    bad = text.replace("h = [0.001, 0.01]", "h = [0.001, 0.01]\nemissivity = [0.0, 1.0]")
+    out2 = tmp_path / "run2"
+    assert main(["run", str(_tiny(tmp_path, bad)), "--out", str(out2)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "optimizer.coordinates" in err and "emissivity" in err
+    assert not out2.exists()
+
+
+def test_seed_from_an_earlier_run(tmp_path: Path, capsys) -> None:
+    # Case 1 -> Case 2 (Sec. 9.2.3): the richer strategy starts from the best designs of
+    # the simpler one; shared variables keep their values, the new one takes the
+    # template's (emissivity 0.85 of the prototype case here).
+    first = tmp_path / "case1"
+    assert main(["run", str(_tiny(tmp_path)), "--out", str(first)]) == 0
+    done = pd.read_csv(first / "evaluations.csv")
+    done = done[done["status"] == "ok"]
+    best = done.loc[done[["J_u", "J_T"]].max(axis=1).sort_values(kind="stable").index]
+    richer = TINY.replace("h = [0.001, 0.01]", "h = [0.001, 0.01]\nemissivity = [0.5, 1.0]")
+    second = tmp_path / "case2"
+    path = tmp_path / "case2.toml"
+    path.write_text(richer)
+    assert main(["run", str(path), "--out", str(second), "--seed-from", str(first)]) == 0
+    df = pd.read_csv(second / "evaluations.csv")
+    seeded = df[df["message"].str.contains("seed: case1 evaluation", na=False)]
+    assert len(seeded) == min(10, len(best))
+    for (_, a), (_, b) in zip(seeded.iterrows(), best.iterrows()):
+        for name in ("p0", "h"):
+            assert a[name] == pytest.approx(b[name], rel=1e-9)
+        assert a["emissivity"] == pytest.approx(0.85)
+    capsys.readouterr()
+    assert main(["run", str(path), "--out", str(tmp_path / "x"), "--seed-from",
+                 str(tmp_path / "nowhere")]) == 2
+    assert "--seed-from" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
