@@ -971,23 +971,21 @@ class BayesianOptimizer:
         lo, hi = self.bounds[:, 0], self.bounds[:, 1]
         span = hi - lo
         x_best = X[feas][int(np.argmin(F[feas, 0]))]
-        if self.coordinates is None:
-            to_z = lambda x: (x - lo) / span  # noqa: E731
-            from_z = lambda z: lo + z * span  # noqa: E731
-            z_span = np.ones(self.n_var)
+        coords = self.coordinates
+        if coords is None:  # the unit box
+            z0, z_span = (x_best - lo) / span, np.ones(self.n_var)
         else:
-            A_inv = np.linalg.inv(self.coordinates.matrix)
-            to_z = lambda x: self.coordinates(x)[0]  # noqa: E731
-            from_z = lambda z: np.exp(A_inv @ z)  # noqa: E731
-            box = self.coordinates.box(self.bounds)
-            z_span = box[:, 1] - box[:, 0]
+            box = coords.box(self.bounds)
+            z0, z_span = coords(x_best)[0], box[:, 1] - box[:, 0]
+            A_inv = np.linalg.inv(coords.matrix)
         cons = _scipy_cheap(self.cheap_constraints, lo, span) if self.cheap_constraints else []
         stored = {r.batch_index: r for r in records if r.iteration == t}
         seen = {tuple(np.round(r.x, 12)): r for r in records if r.iteration < t}
         count = [0]
 
         def design(z: np.ndarray) -> np.ndarray:
-            x = np.clip(from_z(z), lo, hi)
+            x = lo + z * span if coords is None else np.exp(A_inv @ z)
+            x = np.clip(x, lo, hi)
             if cons:
                 x = lo + _project((x - lo) / span, cons) * span
             return x
@@ -1012,7 +1010,6 @@ class BayesianOptimizer:
             good = ev.ok and np.all(np.asarray(ev.G) <= 0.0) and np.isfinite(ev.F[0])
             return float(ev.F[0]) if good else math.inf
 
-        z0 = to_z(x_best)
         simplex = z0 + np.vstack([np.zeros(self.n_var), np.diag(self.polish_step * z_span)])
         try:
             with warnings.catch_warnings():

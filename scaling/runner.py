@@ -631,6 +631,7 @@ def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: i
         if resume and finished.exists() and (sub_dir / STORE_NAME).exists():
             records[i] = _point_record(point, sub, sub_dir, "done",
                                        json.loads(finished.read_text()))
+            write_sweep_summary(study, out, records)  # the summary says so at once
             continue
         flow = sub.spec.prototype.flow
         key = (flow.mach, flow.pressure, flow.temperature)
@@ -661,5 +662,6 @@ def load_response(path: Path) -> Response | None:
 
 
 __all__ = ["RunOutcome", "SweepOutcome", "run_study", "run_sweep", "sweep_seeds",
-           "write_sweep_summary", "project_cheap", "surrogate_coordinates", "seeds_from_runs", "write_outputs", "classical_baseline", "make_executor",
-           "evaluations_table", "choose_design_point", "STORE_NAME"]
+           "write_sweep_summary", "project_cheap", "surrogate_coordinates", "seeds_from_runs",
+           "write_outputs", "classical_baseline", "make_executor", "evaluations_table",
+           "choose_design_point", "STORE_NAME"]

@@ -150,34 +150,57 @@ def _sweep_study(tmp_path: Path, name: str, scales: str, extra: str = "") -> Pat
     return path
 
 
-@pytest.mark.slow
-def test_sec91_sweep_by_optimization_recovers_the_analytical_laws(tmp_path: Path) -> None:
-    # studies/sec9_1_sweep.toml (xi = 2, 3, 4, recycling and prediction); HYPATE_RUNS=DIR
-    # reuses a finished DIR/sec9_1_sweep. The optimum of J_u sits off Eq. 9.2 by the same
-    # fractions at every scale (Poisson's ratio, see tests/studies/test_sec9_reproductions
-    # .py), so the exponents are the analytical ones while the coefficients are not quite:
-    # h and Delta T within 2 %, p_inf (~ h^3) within 4 %.
+def _sec91_sweep(name: str, tmp_path: Path):
+    """A finished ``studies/<name>.toml`` sweep (reused from ``$HYPATE_RUNS/<name>``)."""
     import os
 
-    from scaling.laws import laws_of_run, load_sweep
+    from scaling.laws import load_sweep
     from scaling.runner import run_sweep
 
     given = os.environ.get("HYPATE_RUNS")
-    out = Path(given) / "sec9_1_sweep" if given else tmp_path / "run"
+    out = Path(given) / name if given else tmp_path / "run"
     if not (out / "sweep.json").exists():
-        run_sweep(load_study(REPO / "studies" / "sec9_1_sweep.toml"), out)
-    run = load_sweep(out)
+        run_sweep(load_study(REPO / "studies" / f"{name}.toml"), out)
+    return load_sweep(out)
+
+
+def _check_sec91_laws(run, coefficient_tol: dict[str, float]) -> None:
+    """Issue 10's Sec. 9.1 acceptance with the given coefficient tolerances."""
+    from scaling.laws import laws_of_run
+
     laws = {law.variable: law for law in laws_of_run(run)}
-    for name, k, rel in (("h", -1.0, 0.02), ("p_inf", 0.0, 0.04), ("delta_T", 0.0, 0.02)):
-        assert abs(laws[name].fit.exponent - k) <= 0.05
-        assert laws[name].fit.exponent_low <= k <= laws[name].fit.exponent_high
-        for p in run.points:
-            assert laws[name].fit(p.xi) == pytest.approx(
-                laws[name].analytical(p.xi), rel=rel)
+    for name, k in (("h", -1.0), ("p_inf", 0.0), ("delta_T", 0.0)):
+        law = laws[name]
+        assert abs(law.fit.exponent - k) <= 0.05, (name, law.fit.exponent)
+        assert law.fit.exponent_low <= k <= law.fit.exponent_high, name
+        assert not law.at_bound
+        assert law.fit.coefficient == pytest.approx(law.analytical_coefficient,
+                                                    rel=coefficient_tol[name]), name
+    # xi = 5 predicted from xi = 2, 3, 4 and simulated, without optimization
     pred = predict(run, 5.0, evaluate=True)
     sim = {r["name"]: r for r in pred["similarity"]}
     for name in SIMILARITY_91:
-        assert abs(sim[name]["relative_difference"]) < 0.02
+        assert abs(sim[name]["relative_difference"]) < 0.02, name
+
+
+@pytest.mark.slow
+def test_sec91_sweep_by_optimization_recovers_the_analytical_exponents(tmp_path: Path) -> None:
+    # studies/sec9_1_sweep.toml (Table 9.1 materials). The optimum of J_u sits off Eq. 9.2 by
+    # the same fractions at every scale (Poisson's ratio, see tests/studies/
+    # test_sec9_reproductions.py), so the exponents are analytical and the coefficients
+    # nearly. Measured: h -0.999 [-1.050, -0.948], p_inf +0.003 [-0.136, 0.141], Delta T
+    # +0.001 [-0.095, 0.098]; coefficients -0.85 %, -2.4 % (blocked: 2 % asked), -0.64 %;
+    # xi = 5 prediction h/L 0.68 %, lambda_F 0.04 %, thermal load 0.96 %, J_u 1.46 %.
+    _check_sec91_laws(_sec91_sweep("sec9_1_sweep", tmp_path),
+                      {"h": 0.02, "p_inf": 0.03, "delta_T": 0.02})
+
+
+@pytest.mark.slow
+def test_sec91_equal_poisson_ratio_sweep_recovers_eq_9_2(tmp_path: Path) -> None:
+    # studies/sec9_1_sweep_equal_nu.toml: the Ti 6242 model with Inconel's nu, for which
+    # Eq. 9.1a is complete: issue 10's acceptance as written (coefficients within 2 %).
+    _check_sec91_laws(_sec91_sweep("sec9_1_sweep_equal_nu", tmp_path),
+                      {"h": 0.02, "p_inf": 0.02, "delta_T": 0.02})
 
 
 @pytest.mark.slow
