@@ -34,7 +34,12 @@ W_DOF = 2
 def _locate(coord: Array, length: float, n_cells: int) -> tuple[NDArray[np.int64], Array]:
     """Cell index and local coordinate in [-1, 1] of points on a uniform 1D grid."""
     h = length / n_cells
-    cell = np.clip(np.floor(coord / h).astype(np.int64), 0, n_cells - 1)
+    # A point on an element edge belongs to the downstream element (slopes jump there):
+    # snap coord / h to the integer within round-off, else 1 ulp decides the element, and
+    # geometrically similar panels (L = 1 and L = 1/3) get different piston-theory slopes.
+    r = coord / h
+    r = np.where(np.abs(r - np.rint(r)) <= 1e-9, np.rint(r), r)
+    cell = np.clip(np.floor(r).astype(np.int64), 0, n_cells - 1)
     local = 2.0 * (coord - (cell + 0.5) * h) / h
     return cell, local
 
