@@ -277,14 +277,18 @@ def test_recycled_samples_are_used_and_stored(tmp_path):
     np.testing.assert_array_equal(res.X[:5], X0)
 
 
-class _CountingBranin(Branin):
-    def __init__(self):
-        super().__init__()
-        self.count = 0
+class _CountingMixin:
+    """Counts the designs a problem evaluates (put before the problem class)."""
+
+    count = 0
 
     def _evaluate(self, X, out, *args, **kwargs):
         self.count += len(X)
-        super()._evaluate(X, out)
+        super()._evaluate(X, out, *args, **kwargs)
+
+
+class _CountingBranin(_CountingMixin, Branin):
+    pass
 
 
 # ------------------------------------------------------------------------- failures
@@ -540,14 +544,8 @@ def test_similarity_coordinates_find_an_oblique_valley():
         BayesianOptimizer(Branin(), coordinates=LogLinearCoordinates.log(2))
 
 
-class _CountingValley(_ObliqueValley):
-    def __init__(self):
-        super().__init__()
-        self.count = 0
-
-    def _evaluate(self, X, out, *args, **kwargs):
-        self.count += len(X)
-        super()._evaluate(X, out, *args, **kwargs)
+class _CountingValley(_CountingMixin, _ObliqueValley):
+    pass
 
 
 def test_polish_descends_from_the_best_design_and_resumes(tmp_path):
