@@ -4,6 +4,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
@@ -84,6 +85,24 @@ def kill_after(proc, store: Path, rows: int, timeout: float = 300.0) -> None:
         pytest.fail("the run finished before it could be killed; enlarge it")
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait(timeout=30)
+
+
+def richardson_derivative(f: Callable[[float], np.ndarray], h: float
+                          ) -> tuple[np.ndarray, np.ndarray]:
+    """Derivative of ``f`` at 0 by Richardson-extrapolated central differences, with an
+    error bound measured on this machine.
+
+    ``D(h) = (f(h) - f(-h)) / 2h`` carries a truncation error ``h^2 f'''(0)/6 + O(h^4)`` and a
+    rounding error ``~ eps_f / h``, where ``eps_f`` is the noise of ``f`` itself (a GP
+    prediction solves with its Cholesky factor, so it sits far above machine epsilon and
+    depends on the BLAS kernels). ``R = (4 D(h/2) - D(h)) / 3`` cancels the h^2 term, and
+    ``|D(h) - D(h/2)|`` (three times D(h/2)'s truncation error plus both rounding errors)
+    bounds R's error. Returns ``(R, bound)``: a test asserts ``|analytic - R| <= bound`` plus
+    a small relative floor, so its tolerance is the difference formula's own error.
+    """
+    d_h = (np.asarray(f(h)) - np.asarray(f(-h))) / (2.0 * h)
+    d_h2 = (np.asarray(f(h / 2)) - np.asarray(f(-h / 2))) / h
+    return (4.0 * d_h2 - d_h) / 3.0, np.abs(d_h - d_h2)
 
 
 @pytest.fixture
