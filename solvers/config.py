@@ -29,10 +29,10 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from solvers import materials as mat
-from solvers.errors import InputError
-from solvers.flow import FlowCondition
-from solvers.panel import Layer, PanelSpec
+from hypate.solvers import materials as mat
+from hypate.solvers.errors import InputError
+from hypate.solvers.flow import FlowCondition
+from hypate.solvers.panel import Layer, PanelSpec
 
 PropertySpec = float | list[tuple[float, float]]
 Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]

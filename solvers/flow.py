@@ -14,7 +14,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from solvers.errors import InputError
+from hypate.solvers.errors import InputError
 
 GAMMA = 1.4
 GAS_CONSTANT = 287.05

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from solvers.errors import InputError
-from solvers.panel import PanelSpec, layer_of_level_interval, thermal_levels
+from hypate.solvers.errors import InputError
+from hypate.solvers.panel import PanelSpec, layer_of_level_interval, thermal_levels
 
 Array = NDArray[np.float64]
 

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from solvers.errors import InputError
+from hypate.solvers.errors import InputError
 
 Array = NDArray[np.float64]
 
@@ -368,7 +368,7 @@ def orthotropic(name: str, reference_temperature: float = 300.0, description: st
 
 
 def _load_library_file(name: str) -> dict[str, Any]:
-    text = resources.files("solvers.data").joinpath(f"{name}.toml").read_text()
+    text = resources.files("hypate.solvers").joinpath("data", f"{name}.toml").read_text()
     return tomllib.loads(text)
 
 

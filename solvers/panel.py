@@ -1,6 +1,6 @@
 """Physical description of a panel: frozen dataclasses in SI units.
 
-:class:`PanelSpec` is what every solver receives; :mod:`solvers.config` builds it from a
+:class:`PanelSpec` is what every solver receives; :mod:`hypate.solvers.config` builds it from a
 validated TOML file. Angles are radians here (degrees only at the config/CLI boundary).
 """
 from __future__ import annotations
@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from solvers.materials import Material
+from hypate.solvers.materials import Material
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-PROTOTYPE_CASE = REPO / "studies" / "cases" / "sec9_2_prototype.toml"
+PROTOTYPE_CASE = REPO / "scaling" / "data" / "cases" / "sec9_2_prototype.toml"
 
 #: A tiny quasi-steady scaling study (the Sec. 9.2 prototype on a coarse mesh, few steps):
 #: one evaluation takes well under a second, a whole run a few seconds.

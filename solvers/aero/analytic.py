@@ -22,9 +22,9 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike
 
-from solvers.aero.base import (Array, FluidLoads, FluidModel, SurfacePoints, SurfaceState)
-from solvers.errors import InputError
-from solvers.flow import SUTHERLAND_S, FlowCondition, sutherland_viscosity
+from hypate.solvers.aero.base import (Array, FluidLoads, FluidModel, SurfacePoints, SurfaceState)
+from hypate.solvers.errors import InputError
+from hypate.solvers.flow import SUTHERLAND_S, FlowCondition, sutherland_viscosity
 
 #: Pressure laws accepted by :class:`AnalyticFluid`.
 PRESSURE_MODELS = ("pt", "pt1", "pt3", "ls")
@@ -197,7 +197,7 @@ def adiabatic_wall_temperature(flow: FlowCondition, p_e: ArrayLike, regime: str 
 class PointwiseJacobians(Mapping):
     """The Jacobians of a pointwise model, kept as their diagonals.
 
-    A read-only mapping with the keys of :data:`solvers.aero.base.JACOBIAN_KEYS`; the sparse
+    A read-only mapping with the keys of :data:`hypate.solvers.aero.base.JACOBIAN_KEYS`; the sparse
     ``(n, n)`` matrices are built on first access (the same matrices as before). The
     coupling reads the diagonals directly (a pointwise Jacobian is diagonal, except the
     effective-shape wall-temperature term ``diag(a) + diag(b) S``), so the hot path never
@@ -365,11 +365,11 @@ def make_fluid_model(aero: str, heating: str = "eckert", regime: str = "turbulen
         pressure, eff = ANALYTIC_AERO[aero]
         return AnalyticFluid(pressure, eff, heating, regime)
     if aero == "se":
-        from solvers.aero.shock_expansion import ShockExpansionFluid  # imports this module
+        from hypate.solvers.aero.shock_expansion import ShockExpansionFluid  # imports this module
 
         return ShockExpansionFluid(boundary_layer=True, heating=heating, regime=regime)
     if aero.startswith("rom:"):
-        from solvers.aero.rom import load_rom  # local import: the ROM imports this module
+        from hypate.solvers.aero.rom import load_rom  # local import: the ROM imports this module
 
         if not aero[4:]:
             raise InputError("simulation.aero", "'rom:PATH' needs the path of a ROM file")

@@ -23,8 +23,8 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from solvers.errors import InputError
-from solvers.flow import FlowCondition
+from hypate.solvers.errors import InputError
+from hypate.solvers.flow import FlowCondition
 
 Array = NDArray[np.float64]
 

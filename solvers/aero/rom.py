@@ -6,7 +6,7 @@ Building blocks
   ``y ~ y_mean + Psi_P y_P``; the number of modes is the smallest with the energy error
   of Eq. (A.14) below ``tolerance`` (default 0.5 %).
 * :class:`PodKriging` -- Eq. (2.56): one kriging model per POD coefficient (the project's
-  :class:`kriging.KrigingRegressor`, ordinary kriging on scikit-learn) on top of a
+  :class:`hypate.solvers.numerics.kriging.KrigingRegressor`, ordinary kriging on scikit-learn) on top of a
   polynomial regression trend fitted by least squares (the ``beta_f^T f(d)`` part of
   Eqs. 2.58/A.2; the GP then interpolates the residual, ``beta_r^T r(d)``); analytic
   Jacobian ``dy/dd`` (Eq. 2.59 = trend gradient + Eq. A.8a).
@@ -95,12 +95,12 @@ import scipy.sparse as sp
 import scipy.sparse.csgraph as csgraph
 from scipy.stats import qmc
 
-from kriging import KrigingRegressor
-from solvers.aero.analytic import (BoundaryLayerShape, eckert_with_derivatives,
+from hypate.solvers.numerics.kriging import KrigingRegressor
+from hypate.solvers.aero.analytic import (BoundaryLayerShape, eckert_with_derivatives,
                                    piston_pressure)
-from solvers.aero.base import Array, FluidLoads, FluidModel, SurfacePoints, SurfaceState
-from solvers.errors import InputError
-from solvers.flow import FlowCondition
+from hypate.solvers.aero.base import Array, FluidLoads, FluidModel, SurfacePoints, SurfaceState
+from hypate.solvers.errors import InputError
+from hypate.solvers.flow import FlowCondition
 
 __all__ = [
     "FORMAT_VERSION", "PodBasis", "PodKriging", "RomGeometry", "RomFluid", "load_rom",
@@ -949,7 +949,7 @@ def _source_chunk(geometry: RomGeometry, source_opts: dict[str, Any], flow: Flow
                   scale: float, amplitudes: Array, wall_temperature: Array
                   ) -> tuple[Array, Array]:
     """Worker: shock-expansion samples for a chunk (module-level for process pools)."""
-    from solvers.aero.shock_expansion import ShockExpansionFluid
+    from hypate.solvers.aero.shock_expansion import ShockExpansionFluid
 
     src = ShockExpansionFluid(boundary_layer=source_opts.get("boundary_layer", True),
                               regime=source_opts.get("regime", "turbulent"))

@@ -54,9 +54,9 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from solvers.config import _pydantic_error, read_toml
-from solvers.errors import InputError
-from solvers.flow import FlowCondition
+from hypate.solvers.config import _pydantic_error, read_toml
+from hypate.solvers.errors import InputError
+from hypate.solvers.flow import FlowCondition
 
 __all__ = ["RomBuildConfig", "load_rom_config", "parse_rom_config"]
 

@@ -39,10 +39,10 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike
 
-from solvers.aero.analytic import RECOVERY_EXPONENT, BoundaryLayerShape
-from solvers.aero.base import Array, FluidLoads, FluidModel, SurfacePoints, SurfaceState
-from solvers.errors import InputError
-from solvers.flow import FlowCondition, sutherland_viscosity
+from hypate.solvers.aero.analytic import RECOVERY_EXPONENT, BoundaryLayerShape
+from hypate.solvers.aero.base import Array, FluidLoads, FluidModel, SurfacePoints, SurfaceState
+from hypate.solvers.errors import InputError
+from hypate.solvers.flow import FlowCondition, sutherland_viscosity
 
 __all__ = [
     "ShockExpansionFluid",
@@ -194,7 +194,7 @@ def eckert_heat_flux_edge(flow: FlowCondition, p_e: ArrayLike, T_e: ArrayLike, T
                           x_le: ArrayLike, regime: str = "turbulent") -> Array:
     """Eckert reference-enthalpy heat flux (W/m^2) with a *given* edge state, Eqs. (2.39)-(2.43).
 
-    Same law as :func:`solvers.aero.analytic.eckert_heat_flux` but the edge temperature comes
+    Same law as :func:`hypate.solvers.aero.analytic.eckert_heat_flux` but the edge temperature comes
     from the shock-expansion march (entropy of the shocks included) instead of Eq. (2.44);
     the edge velocity follows from the conserved total temperature,
     ``V_e^2 = 2 c_p (T_0 - T_e)``.

@@ -8,7 +8,7 @@ from sklearn.base import clone
 from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import RBF, ConstantKernel, Matern
 
-from kriging import KERNELS, KrigingRegressor
+from hypate.solvers.numerics.kriging import KERNELS, KrigingRegressor
 
 
 def _data(n=20, d=3, seed=0):

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from kriging import KrigingRegressor
-from scaling.acquisition import (
+from hypate.solvers.numerics.kriging import KrigingRegressor
+from hypate.scaling.engine.acquisition import (
     ExpectedImprovement,
     HypervolumeEI,
     HypervolumeLCB,
@@ -23,7 +23,7 @@ from scaling.acquisition import (
     probability_hypervolume_improvement,
     probability_of_improvement,
 )
-from scaling.pareto import hypervolume_improvement, nondominated_boxes, pareto_front
+from hypate.scaling.engine.pareto import hypervolume_improvement, nondominated_boxes, pareto_front
 
 
 # --------------------------------------------------------------- hand values

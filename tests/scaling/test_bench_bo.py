@@ -6,10 +6,10 @@ import json
 import numpy as np
 import pytest
 
-from scaling.benchmarks import get_benchmark, run_nsga2
-from scaling.cli import main
-from scaling.optimizer import BayesianOptimizer
-from scaling.pareto import hypervolume
+from hypate.scaling.engine.benchmarks import get_benchmark, run_nsga2
+from hypate.scaling.cli.main import main
+from hypate.scaling.engine.optimizer import BayesianOptimizer
+from hypate.scaling.engine.pareto import hypervolume
 
 
 def _json(capsys, argv):

@@ -8,19 +8,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scaling.classical import classical_scaling, design_vector
-from scaling.similarity import (
+from hypate.scaling.workflow.classical import classical_scaling, design_vector
+from hypate.scaling.workflow.similarity import (
     Configuration,
     analytical_scaling,
     apply_design,
     scaled_panel,
     similarity_parameters,
 )
-from scaling.tunnels import bound_set, tunnel
-from solvers.config import load_case
-from solvers.errors import InputError
-from solvers.materials import library_material
-from solvers.panel import Layer
+from hypate.scaling.workflow.tunnels import bound_set, tunnel
+from hypate.solvers.config import load_case
+from hypate.solvers.errors import InputError
+from hypate.solvers.materials import library_material
+from hypate.solvers.panel import Layer
 
 REPO = Path(__file__).resolve().parents[2]
 SEC9_1 = ["h/L", "lambda_F", "DeltaT_NTx_L2/Dxx"]
@@ -105,7 +105,7 @@ def test_sequential_gp_for_non_monomial_parameters():
     """Re_0 (Sutherland viscosity) and the isentropic nozzle in M, p0, T0 are not monomials:
     sequential GP still matches lambda_F, Re_0, T0/T_S exactly in the ideal tunnel, and for
     an unattainable set it stops at a local minimum of the true mismatch."""
-    case = load_case(REPO / "studies/cases/sec9_2_prototype.toml")
+    case = load_case(REPO / "scaling/data/cases/sec9_2_prototype.toml")
     proto = Configuration(case.panel, case.flow)
     panel = dataclasses.replace(case.panel, layers=(Layer(library_material("ti6242"), 0.005),),
                                 length=0.25, width=0.25)
@@ -163,7 +163,7 @@ def test_bad_inputs(sec9_1, kwargs, field):
 def test_similarity_exponents_and_basis(sec9_1):
     # Eq. 9.1a as monomials of (h, p_inf, Delta T): h/L ~ h, lambda_F ~ p_inf h^-3 (D ~ h^3),
     # Delta T N_Tx L^2 / D_xx ~ Delta T h^-2 (N_Tx ~ h): exact to the central differences.
-    from scaling.classical import similarity_basis, similarity_exponents
+    from hypate.scaling.workflow.classical import similarity_basis, similarity_exponents
 
     _, model = sec9_1
     design = {"h": 1e-3, "p_inf": 5e3, "delta_T": 2.0}

@@ -8,12 +8,12 @@ import sys
 
 import pytest
 
-from scaling.cli import build_parser, main
+from hypate.scaling.cli.main import build_parser, main
 
 
 def _hypate(*args: str) -> subprocess.CompletedProcess:
     exe = shutil.which("hypate")
-    cmd = [exe, *args] if exe else [sys.executable, "-m", "scaling.cli", *args]
+    cmd = [exe, *args] if exe else [sys.executable, "-m", "hypate.scaling.cli.main", *args]
     return subprocess.run(cmd, capture_output=True, text=True, timeout=120)
 
 

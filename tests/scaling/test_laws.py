@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scaling.laws import (DesignPoint, SweepRun, analytical_laws, fit_laws, fit_power_law,
+from hypate.scaling.workflow.laws import (DesignPoint, SweepRun, analytical_laws, fit_laws, fit_power_law,
                           is_pinned, laws_json, predict)
-from scaling.similarity import analytical_scaling
-from scaling.study import load_study, study_at, study_data
+from hypate.scaling.workflow.similarity import analytical_scaling
+from hypate.scaling.workflow.study import load_study, study_at, study_data
 
 REPO = Path(__file__).resolve().parents[2]
 SIMILARITY_91 = ("h/L", "lambda_F", "DeltaT_NTx_L2/Dxx")
@@ -84,7 +84,7 @@ def test_bound_pinned_points_are_flagged_and_not_fitted() -> None:
 
 # -- Sec. 9.1 with the analytical designs as the sweep's design points (coarse mesh) --------
 def _coarse_91_data() -> dict:
-    data = study_data(load_study(REPO / "studies" / "sec9_1_xi2.toml"))
+    data = study_data(load_study(REPO / "studies" / "optimization" / "sec9_1_xi2.toml"))
     data["simulation"]["mesh"] = [4, 4]
     data["simulation"]["steps"] = 40
     return data
@@ -143,8 +143,8 @@ def test_sec91_prediction_at_xi5_is_similar_without_optimization(tmp_path: Path)
 
 # -- slow reproductions (full Bayesian optimization) ----------------------------------------
 def _sweep_study(tmp_path: Path, name: str, scales: str, extra: str = "") -> Path:
-    text = (REPO / "studies" / name).read_text().replace(
-        'case = "cases/', f'case = "{(REPO / "studies" / "cases").as_posix()}/')
+    text = (REPO / "studies" / "optimization" / name).read_text().replace(
+        'case = "../cases/', f'case = "{(REPO / "studies" / "cases").as_posix()}/')
     path = tmp_path / "sweep.toml"
     path.write_text(text + f"\n[sweep]\nxi = {scales}\n{extra}")
     return path
@@ -154,19 +154,19 @@ def _sec91_sweep(name: str, tmp_path: Path):
     """A finished ``studies/<name>.toml`` sweep (reused from ``$HYPATE_RUNS/<name>``)."""
     import os
 
-    from scaling.laws import load_sweep
-    from scaling.runner import run_sweep
+    from hypate.scaling.workflow.laws import load_sweep
+    from hypate.scaling.workflow.run import run_sweep
 
     given = os.environ.get("HYPATE_RUNS")
     out = Path(given) / name if given else tmp_path / "run"
     if not (out / "sweep.json").exists():
-        run_sweep(load_study(REPO / "studies" / f"{name}.toml"), out)
+        run_sweep(load_study(REPO / "studies" / "optimization" / f"{name}.toml"), out)
     return load_sweep(out)
 
 
 def _check_sec91_laws(run, coefficient_tol: dict[str, float]) -> None:
     """Issue 10's Sec. 9.1 acceptance with the given coefficient tolerances."""
-    from scaling.laws import laws_of_run
+    from hypate.scaling.workflow.laws import laws_of_run
 
     laws = {law.variable: law for law in laws_of_run(run)}
     for name, k in (("h", -1.0), ("p_inf", 0.0), ("delta_T", 0.0)):
@@ -208,8 +208,8 @@ def test_sec91_equal_poisson_ratio_sweep_recovers_eq_9_2(tmp_path: Path) -> None
 
 @pytest.mark.slow
 def test_sec922_sweep_h_follows_the_analytical_line_and_l_le_departs(tmp_path: Path) -> None:
-    from scaling.laws import laws_of_run, laws_section, load_sweep
-    from scaling.runner import run_sweep
+    from hypate.scaling.workflow.laws import laws_of_run, laws_section, load_sweep
+    from hypate.scaling.workflow.run import run_sweep
 
     study = load_study(_sweep_study(tmp_path, "sec9_2_2_xi2.toml", "[2, 3, 4, 5]"))
     run_sweep(study, tmp_path / "run")

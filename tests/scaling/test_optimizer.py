@@ -10,9 +10,9 @@ import pytest
 from pymoo.core.problem import Problem
 
 from conftest import richardson_derivative
-from kriging import KrigingRegressor
-from scaling.acquisition import Acquisition, ExpectedImprovement
-from scaling.benchmarks import (
+from hypate.solvers.numerics.kriging import KrigingRegressor
+from hypate.scaling.engine.acquisition import Acquisition, ExpectedImprovement
+from hypate.scaling.engine.benchmarks import (
     Branin,
     BraninCurrin,
     FailingProblem,
@@ -20,15 +20,15 @@ from scaling.benchmarks import (
     SlowProblem,
     get_benchmark,
 )
-from scaling.optimizer import (
+from hypate.scaling.engine.optimizer import (
     LogLinearCoordinates,
     CHEAP_TOL,
     BayesianOptimizer,
     CheapConstraint,
     optimize_acquisition,
 )
-from scaling.pareto import hypervolume, non_dominated_mask
-from scaling.store import EvaluationStore
+from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask
+from hypate.scaling.engine.store import EvaluationStore
 
 
 # --------------------------------------------------------------- inner optimization
@@ -386,7 +386,7 @@ def test_log_output_transform_models_ln_f_and_keeps_the_optimum():
 
     def factory(model, ctx):
         seen.append((ctx.best_f, model))
-        from scaling.acquisition import LowerConfidenceBound
+        from hypate.scaling.engine.acquisition import LowerConfidenceBound
         return LowerConfidenceBound(model, v=2.0)
 
     opt = BayesianOptimizer(Branin(), acquisition=factory, n_init=10, n_iter=25, seed=0,

@@ -6,7 +6,7 @@ import pytest
 from pymoo.indicators.hv import HV
 from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 
-from scaling.pareto import (
+from hypate.scaling.engine.pareto import (
     hypervolume,
     hypervolume_2d,
     hypervolume_improvement,

@@ -8,16 +8,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scaling.optimizer import evaluate_design
-from scaling.problem import ScalingProblem
-from scaling.similarity import analytical_scaling
-from scaling.study import load_study
+from hypate.scaling.engine.optimizer import evaluate_design
+from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.similarity import analytical_scaling
+from hypate.scaling.workflow.study import load_study
 
 REPO = Path(__file__).resolve().parents[2]
 
 
 def _coarse_91(xi: int = 2, steps: int = 40) -> ScalingProblem:
-    study = load_study(REPO / "studies" / f"sec9_1_xi{xi}.toml")
+    study = load_study(REPO / "studies" / "optimization" / f"sec9_1_xi{xi}.toml")
     spec = study.spec
     proto = dataclasses.replace(spec.prototype, panel=dataclasses.replace(
         spec.prototype.panel, mesh=(4, 4)))
@@ -59,7 +59,7 @@ def test_failed_model_is_an_evaluation_not_a_crash() -> None:
 
 
 def test_t_inf_equality_constraint_exact_and_gradient() -> None:
-    study = load_study(REPO / "studies" / "sec9_2_3_case1_wt7.toml")
+    study = load_study(REPO / "studies" / "optimization" / "sec9_2_3_case1_wt7.toml")
     prob = ScalingProblem(study.spec)
     (con,) = prob.cheap_constraints()
     names = study.spec.names
@@ -76,7 +76,7 @@ def test_t_inf_equality_constraint_exact_and_gradient() -> None:
 
 
 def test_model_time_step_scales_by_fourier_number() -> None:
-    study = load_study(REPO / "studies" / "quickstart.toml")
+    study = load_study(REPO / "scaling" / "data" / "quickstart.toml")
     prob = ScalingProblem(study.spec)
     x = np.array([0.5 * (v.lower + v.upper) for v in study.spec.variables])
     cfg = prob.model_configuration(x)
@@ -117,7 +117,7 @@ def test_fields_projection_resolves_the_thickness() -> None:
     # the groups are the Eq. (3.17b) fields: a response compared with itself is exact
     proto = fields.prototype_response
     assert fields.spec.projection == "fields" and len(proto.u) == len(proto.times)
-    from scaling.problem import response_errors
+    from hypate.scaling.workflow.problem import response_errors
     assert response_errors(proto, proto, "fields")["J_u"] == 0.0
 
 
@@ -158,9 +158,9 @@ def test_equal_materials_are_exactly_similar_at_any_scale(xi: float) -> None:
     # Scales whose panel size is not a binary fraction of the prototype's: J_u was 1.2 %
     # at xi = 3 and 6 (1e-10 at 2, 4, 5) while fluid points on element edges could fall
     # into the upstream element (solvers.transfer._locate).
-    from scaling.similarity import scaled_panel
+    from hypate.scaling.workflow.similarity import scaled_panel
 
-    spec = load_study(REPO / "studies" / "sec9_1_xi2.toml").spec  # 8 x 8 meshes
+    spec = load_study(REPO / "studies" / "optimization" / "sec9_1_xi2.toml").spec  # 8 x 8 meshes
     proto = spec.prototype
     model = dataclasses.replace(spec.model, panel=scaled_panel(
         dataclasses.replace(spec.model.panel, layers=proto.panel.layers), length=1.0 / xi))

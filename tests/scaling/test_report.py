@@ -1,4 +1,4 @@
-"""scaling.report and `hypate report`: a self-contained report of a real tiny run."""
+"""hypate.scaling.report.html and `hypate report`: a self-contained report of a real tiny run."""
 from __future__ import annotations
 
 import base64
@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 
 from conftest import tiny_study_text
-from scaling import report
-from scaling.cli import main
+from hypate.scaling.report import html as report
+from hypate.scaling.cli.main import main
 
 TINY = tiny_study_text()  # 2x2 mesh, 4 steps, 1 + 4 + 2 evaluations
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from scaling.cli import main
+from hypate.scaling.cli.main import main
 
 SMALL_TOML = """
 [panel]
@@ -46,7 +46,7 @@ optimized_modes = 2
 
 def _hypate(*args: str) -> subprocess.CompletedProcess:
     exe = shutil.which("hypate")
-    cmd = [exe, *args] if exe else [sys.executable, "-m", "scaling.cli", *args]
+    cmd = [exe, *args] if exe else [sys.executable, "-m", "hypate.scaling.cli.main", *args]
     return subprocess.run(cmd, capture_output=True, text=True, timeout=300)
 
 
@@ -114,9 +114,9 @@ def test_plan_csv(built: Path, tmp_path: Path, capsys: pytest.CaptureFixture) ->
 
 
 def test_shipped_study_file_validates() -> None:
-    from solvers.aero.rom_config import load_rom_config
+    from hypate.solvers.aero.rom_config import load_rom_config
 
-    cfg, _ = load_rom_config(Path(__file__).resolve().parents[2] / "studies" /
+    cfg, _ = load_rom_config(Path(__file__).resolve().parents[2] / "studies" / "rom" /
                              "rom_2d_panel.toml")
     assert len(cfg.modes) == 6 and cfg.training.samples <= 200
     assert [m.range for m in cfg.modes] == [[-6, 6], [-2, 2], [-2, 2], [-2, 2], [-1.5, 1.5],

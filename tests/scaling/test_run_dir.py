@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from scaling.commands.run import default_run_dir
+from hypate.scaling.cli.run import default_run_dir
 
 
 def test_default_run_dir_numbers_new_runs_and_resumes_the_latest(tmp_path: Path) -> None:

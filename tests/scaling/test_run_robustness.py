@@ -12,8 +12,8 @@ import pytest
 from pymoo.core.problem import Problem
 
 from conftest import kill_after, stored_evaluations, tiny_study_text
-from scaling.runner import run_study
-from scaling.study import load_study
+from hypate.scaling.workflow.run import run_study
+from hypate.scaling.workflow.study import load_study
 
 STUDY = tiny_study_text(name="robust", mesh=3, steps=8, time_step=20.0, initial=6,
                         iterations=6, seed=5)
@@ -39,7 +39,7 @@ def _same(a: pd.DataFrame, b: pd.DataFrame) -> None:
 
 
 def _cli(*args: str) -> list[str]:
-    return [sys.executable, "-m", "scaling.cli", "run", *args]
+    return [sys.executable, "-m", "hypate.scaling.cli.main", "run", *args]
 
 
 def test_sigkill_and_resume_equals_uninterrupted_run(tmp_path: Path) -> None:
@@ -90,8 +90,8 @@ class _Killer(Problem):
 
 
 def test_a_dying_worker_costs_only_its_evaluation() -> None:
-    from scaling.optimizer import BayesianOptimizer
-    from scaling.runner import ResilientProcessPool
+    from hypate.scaling.engine.optimizer import BayesianOptimizer
+    from hypate.scaling.workflow.run import ResilientProcessPool
 
     pool = ResilientProcessPool(2)
     try:

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.stats import qmc
 
-from scaling.sampling import _cached_olh, latin_hypercube, raw_latin_hypercube
+from hypate.scaling.engine.sampling import _cached_olh, latin_hypercube, raw_latin_hypercube
 
 
 def _is_latin(U: np.ndarray) -> bool:

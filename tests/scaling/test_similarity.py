@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scaling.similarity import (
+from hypate.scaling.workflow.similarity import (
     PARAMETERS,
     Configuration,
     ReferenceTemperatures,
@@ -25,11 +25,11 @@ from scaling.similarity import (
     similarity_parameters,
     structural_time_scale,
 )
-from solvers.config import load_case
-from solvers.errors import InputError
-from solvers.flow import FlowCondition, sutherland_viscosity
-from solvers.materials import isotropic, library_material
-from solvers.panel import Layer, PanelSpec
+from hypate.solvers.config import load_case
+from hypate.solvers.errors import InputError
+from hypate.solvers.flow import FlowCondition, sutherland_viscosity
+from hypate.solvers.materials import isotropic, library_material
+from hypate.solvers.panel import Layer, PanelSpec
 
 # Table 9.1 (temperature-independent properties at 300 K).
 INCONEL = dict(density=8220.0, youngs_modulus=204.0e9, poisson_ratio=0.29,
@@ -211,7 +211,7 @@ def test_apply_design_variables(sec9_1):
 
 def test_sandwich_reference_conductivity_is_a_series_sum():
     """Eq. (4.12): series conductivity through the layers; rho c_p thickness-averaged."""
-    case = load_case(REPO / "studies/cases/sec9_2_prototype.toml")
+    case = load_case(REPO / "scaling/data/cases/sec9_2_prototype.toml")
     config = Configuration(case.panel, case.flow)
     layers = case.panel.layers
     for axis, comp in (("thickness", 2), ("x", 0)):
@@ -252,7 +252,7 @@ def test_fourier_length_rule_uses_the_cell_wall_material_of_a_honeycomb_core() -
     # Sec. 9.2 sandwich (Table 9.4: Inconel 718 sheets and Inconel 718 honeycomb): the
     # Eq. (9.5) reference is Inconel 718 itself (Table 9.5 at 300 K), whereas the effective
     # Eq. (4.12) conductivity is dominated by the core (Swann-Pittman: 0.27 W/(m K)).
-    case = load_case(REPO / "studies/cases/sec9_2_prototype.toml")
+    case = load_case(REPO / "scaling/data/cases/sec9_2_prototype.toml")
     proto = Configuration(case.panel, case.flow)
     ref = reference_quantities(proto)
     assert ref.solid_conductivity == pytest.approx(11.71, rel=1e-3)

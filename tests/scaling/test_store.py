@@ -6,7 +6,7 @@ import sqlite3
 import numpy as np
 import pytest
 
-from scaling.store import Evaluation, EvaluationStore
+from hypate.scaling.engine.store import Evaluation, EvaluationStore
 
 
 def _evals():

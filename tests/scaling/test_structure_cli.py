@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scaling.cli import main
+from hypate.scaling.cli.main import main
 
 PANEL = """
 [panel]

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from scaling.surrogate import ProbabilisticConstraint, fit_surrogate
+from hypate.scaling.engine.surrogate import ProbabilisticConstraint, fit_surrogate
 
 BOUNDS = np.array([[-1.0, 2.0], [0.0, 3.0]])
 

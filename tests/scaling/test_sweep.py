@@ -9,10 +9,10 @@ import pandas as pd
 import pytest
 
 from conftest import tiny_study_text
-from scaling.cli import main
-from scaling.runner import STORE_NAME, run_sweep
-from scaling.store import EvaluationStore
-from scaling.study import load_study, study_at, sweep_points
+from hypate.scaling.cli.main import main
+from hypate.scaling.workflow.run import STORE_NAME, run_sweep
+from hypate.scaling.engine.store import EvaluationStore
+from hypate.scaling.workflow.study import load_study, study_at, sweep_points
 
 REPO = Path(__file__).resolve().parents[2]
 TINY_SWEEP = tiny_study_text(name="tiny_sweep", xi=2.0, tail="""
@@ -115,7 +115,7 @@ def test_sweep_interrupted_then_resumed_completes_without_repeating(tmp_path: Pa
     assert set(pred["design"]) == {"M", "p0", "T0", "h"} and pred["similarity"]
     # text output and the report section
     assert main(["laws", str(out)]) == 0
-    from scaling.laws import laws_section
+    from hypate.scaling.workflow.laws import laws_section
     title, html = laws_section(out)
     assert title == "Scaling laws" and "data:image/png;base64," in html and "<table>" in html
 
@@ -135,7 +135,7 @@ def test_sweep_killed_with_sigkill_resumes_to_the_uninterrupted_result(tmp_path:
     path.write_text(text)
 
     def cli(*args: str) -> list[str]:
-        return [sys.executable, "-m", "scaling.cli", "run", str(path), *args]
+        return [sys.executable, "-m", "hypate.scaling.cli.main", "run", str(path), *args]
 
     whole = tmp_path / "whole"
     subprocess.run(cli("--out", str(whole)), check=True, capture_output=True, timeout=600)
@@ -166,7 +166,7 @@ def interrupting_free(counter):
 
 
 def test_envelope_study_grid_is_serpentine_with_the_table_9_11_budget() -> None:
-    study = load_study(REPO / "studies" / "sec9_2_4_envelope.toml")
+    study = load_study(REPO / "studies" / "optimization" / "sec9_2_4_envelope.toml")
     assert study.spec.objectives == ("J_s",) and study.acquisition == "lcb"
     assert set(study.spec.names) == {"p0", "T0", "L", "L_le", "h", "emissivity", "T_rad"}
     points = sweep_points(study)
@@ -223,8 +223,8 @@ def test_laws_from_several_single_study_runs(tmp_path: Path, capsys) -> None:
     import contextlib
     import io
 
-    from scaling.laws import is_pinned, load_runs
-    from scaling.runner import run_study
+    from hypate.scaling.workflow.laws import is_pinned, load_runs
+    from hypate.scaling.workflow.run import run_study
 
     dirs = []
     for xi in (2.0, 3.0, 4.0):

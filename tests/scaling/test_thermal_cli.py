@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from scaling.cli import main
-from solvers.materials import STEFAN_BOLTZMANN
+from hypate.scaling.cli.main import main
+from hypate.solvers.materials import STEFAN_BOLTZMANN
 
 RHO, CP, K, H = 8000.0, 500.0, 20.0, 0.004
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from scaling.tunnels import (
+from hypate.scaling.workflow.tunnels import (
     DESIGN_VARIABLES,
     TunnelEnvelope,
     bound_set,
@@ -14,7 +14,7 @@ from scaling.tunnels import (
     tunnel,
     tunnel_names,
 )
-from solvers.errors import InputError
+from hypate.solvers.errors import InputError
 
 # Table 9.6 as printed (p0 in MPa, T0 in K); the data file stores Pa.
 TABLE_9_6 = {

@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from conftest import tiny_study_text
-from scaling.cli import main
+from hypate.scaling.cli.main import main
 
 TINY = tiny_study_text(sections='\n[constraints]\nequality = ["T_inf"]\n')
 

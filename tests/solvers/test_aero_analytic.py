@@ -4,11 +4,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from solvers.aero.analytic import (AnalyticFluid, BoundaryLayerShape, adiabatic_wall_temperature,
+from hypate.solvers.aero.analytic import (AnalyticFluid, BoundaryLayerShape, adiabatic_wall_temperature,
                                    eckert_heat_flux, make_fluid_model, piston_pressure)
-from solvers.aero.base import SurfacePoints, SurfaceState, dense
-from solvers.errors import InputError
-from solvers.flow import FlowCondition
+from hypate.solvers.aero.base import SurfacePoints, SurfaceState, dense
+from hypate.solvers.errors import InputError
+from hypate.solvers.flow import FlowCondition
 
 M6_25KM = FlowCondition.from_static(6.0, 2549.22, 221.552)  # materials.md check state
 
@@ -144,7 +144,7 @@ def test_heat_flux_scales_with_distance_as_cf_laws() -> None:
     q_turb = eckert_heat_flux(f, f.pressure, 400.0, x, "turbulent")
     # turbulent c_f ~ (log10 Re*)^-2.584 with Re* proportional to x
     T_r = 0.28 * f.temperature + 0.5 * 400.0 + 0.22 * float(adiabatic_wall_temperature(f, f.pressure))
-    from solvers.flow import sutherland_viscosity
+    from hypate.solvers.flow import sutherland_viscosity
     re1 = f.pressure / (f.gas_constant * T_r) * f.velocity * 1.0 / float(sutherland_viscosity(T_r))
     expected = (np.log10(2 * re1) / np.log10(re1)) ** -2.584
     assert q_turb[2] / q_turb[1] == pytest.approx(expected, rel=1e-12)

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from scaling.cli import main
-from solvers.config import load_case, load_panel
+from hypate.scaling.cli.main import main
+from hypate.solvers.config import load_case, load_panel
 
 VALID = """
 [panel]
@@ -73,7 +73,8 @@ def test_valid_case_builds(tmp_path: Path) -> None:
 
 
 def test_shipped_cases_validate(repo_root: Path) -> None:
-    for path in sorted((repo_root / "studies" / "cases").glob("*.toml")):
+    for path in sorted([*(repo_root / "studies" / "cases").glob("*.toml"),
+                        *(repo_root / "scaling" / "data" / "cases").glob("*.toml")]):
         panel = load_panel(path)
         assert panel.thickness > 0
 

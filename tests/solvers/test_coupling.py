@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from scaling.cli import main
-from solvers.aero.analytic import make_fluid_model
-from solvers.coupling import CouplingSettings, PanelModel, run_tc
-from solvers.flow import FlowCondition
-from solvers.materials import isotropic, library_material
-from solvers.panel import Layer, PanelSpec
-from solvers.response import Response
+from hypate.scaling.cli.main import main
+from hypate.solvers.aero.analytic import make_fluid_model
+from hypate.solvers.coupling.model import CouplingSettings, PanelModel, run_tc
+from hypate.solvers.flow import FlowCondition
+from hypate.solvers.materials import isotropic, library_material
+from hypate.solvers.panel import Layer, PanelSpec
+from hypate.solvers.coupling.response import Response
 
 FLOW = FlowCondition.from_altitude(6.0, 25000.0)
 
@@ -123,7 +123,7 @@ duration = 2.0
 
 # -- the TC hot path: predictors, pre-ordered factor, warm-started LSA (issue 6) -------------
 def test_extrapolate_is_exact_for_polynomials_of_its_order() -> None:
-    from solvers.coupling import extrapolate
+    from hypate.solvers.coupling.model import extrapolate
 
     t = np.arange(4.0)
     a, b, c = np.array([1.0, -2.0]), np.array([0.5, 3.0]), np.array([-0.25, 0.125])
@@ -166,7 +166,7 @@ def test_equilibrium_from_a_prediction_is_the_same_equilibrium() -> None:
 
 
 def test_pre_ordered_free_factor_equals_the_minimum_degree_factor() -> None:
-    from solvers.coupling import splu_free
+    from hypate.solvers.coupling.model import splu_free
 
     m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), CouplingSettings())
     st = m.structure

@@ -20,13 +20,13 @@ import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
 
-from solvers.aero.analytic import make_fluid_model
-from solvers.config import parse_case, read_toml
-from solvers.coupling import (CouplingSettings, PanelModel, run_lc, run_tc,
+from hypate.solvers.aero.analytic import make_fluid_model
+from hypate.solvers.config import parse_case, read_toml
+from hypate.solvers.coupling.model import (CouplingSettings, PanelModel, run_lc, run_tc,
                               settings_from_config)
-from solvers.flow import FlowCondition
-from solvers.materials import library_material
-from solvers.panel import Layer, PanelSpec
+from hypate.solvers.flow import FlowCondition
+from hypate.solvers.materials import library_material
+from hypate.solvers.panel import Layer, PanelSpec
 
 CASE = Path(__file__).resolve().parents[2] / "studies" / "cases" / "sec7_3_benchmark.toml"
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from solvers.flutter import FlutterAnalysis
-from solvers.materials import isotropic
-from solvers.panel import Layer, PanelSpec
+from hypate.solvers.coupling.flutter import FlutterAnalysis
+from hypate.solvers.materials import isotropic
+from hypate.solvers.panel import Layer, PanelSpec
 
 MAT = isotropic("plate", 2700.0, 70e9, 0.3, 1.2e-6, 100.0, 900.0)
 

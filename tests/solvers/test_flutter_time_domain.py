@@ -4,11 +4,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from solvers.errors import InputError
-from solvers.flutter import (FlutterAnalysis, lco_amplitude_from_signal,
+from hypate.solvers.errors import InputError
+from hypate.solvers.coupling.flutter import (FlutterAnalysis, lco_amplitude_from_signal,
                              onset_from_amplitudes)
-from solvers.materials import isotropic
-from solvers.panel import Layer, PanelSpec
+from hypate.solvers.materials import isotropic
+from hypate.solvers.panel import Layer, PanelSpec
 
 MAT = isotropic("plate", 2700.0, 70e9, 0.3, 1.2e-6, 100.0, 900.0)
 

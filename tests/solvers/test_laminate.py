@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from solvers.laminate import SHEAR_CORRECTION, classical_abd, laminate, level_temperatures
-from solvers.materials import isotropic, orthotropic
-from solvers.panel import Layer, PanelSpec, thermal_levels
+from hypate.solvers.laminate import SHEAR_CORRECTION, classical_abd, laminate, level_temperatures
+from hypate.solvers.materials import isotropic, orthotropic
+from hypate.solvers.panel import Layer, PanelSpec, thermal_levels
 
 E1, E2, G12, NU12 = 140e9, 10e9, 5e9, 0.3
 
@@ -109,7 +109,7 @@ def test_temperature_dependent_simpson_converges_to_fine_integral():
     lay = (zf > 0).astype(int)
     Qb = np.empty(zf.shape + (3, 3))
     for k, ang in enumerate((0.0, np.pi / 2)):
-        from solvers.laminate import strain_rotation
+        from hypate.solvers.laminate import strain_rotation
         sel = lay == k
         Q, _ = ply.plane_stress_stiffness(Tf[sel])
         R = strain_rotation(ang)

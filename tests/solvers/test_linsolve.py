@@ -5,7 +5,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from solvers.linsolve import gmres
+from hypate.solvers.numerics.sparse import gmres
 
 
 def _system(n: int = 300, seed: int = 0) -> tuple[sp.csc_matrix, np.ndarray]:

@@ -6,8 +6,8 @@ import warnings
 import numpy as np
 import pytest
 
-from solvers import materials as m
-from solvers.errors import InputError
+from hypate.solvers import materials as m
+from hypate.solvers.errors import InputError
 
 # Tables 7.5 (Al 7075), 8.4 / 9.5 (Inconel 718), 9.5 (Ti 6242) at 300 K.
 TABLES = {

@@ -9,15 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from solvers.aero import rom as R
-from solvers.aero.analytic import make_fluid_model
-from solvers.aero.base import SurfacePoints, SurfaceState, dense
-from solvers.aero.rom_config import load_rom_config, parse_rom_config
-from solvers.errors import InputError
-from solvers.flow import FlowCondition
+from hypate.solvers.aero import rom as R
+from hypate.solvers.aero.analytic import make_fluid_model
+from hypate.solvers.aero.base import SurfacePoints, SurfaceState, dense
+from hypate.solvers.aero.rom_config import load_rom_config, parse_rom_config
+from hypate.solvers.errors import InputError
+from hypate.solvers.flow import FlowCondition
 
 REPO = Path(__file__).resolve().parents[2]
-STUDY = REPO / "studies" / "rom_2d_panel.toml"
+STUDY = REPO / "studies" / "rom" / "rom_2d_panel.toml"
 
 SMALL = {
     "panel": {"kind": "2d", "length": 1.0, "leading_edge_length": 1.0, "thickness": 0.0025},

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from solvers.aero.rom import build_rom_from_config, save_rom
-from solvers.aero.rom_config import load_rom_config
-from solvers.config import parse_case
-from solvers.coupling import simulate
+from hypate.solvers.aero.rom import build_rom_from_config, save_rom
+from hypate.solvers.aero.rom_config import load_rom_config
+from hypate.solvers.config import parse_case
+from hypate.solvers.coupling.model import simulate
 
 REPO = Path(__file__).resolve().parents[2]
 CASE = """
@@ -44,7 +44,7 @@ def test_tc_run_with_rom_matches_built_in_source(tmp_path: Path) -> None:
     rom = tmp_path / "rom.npz"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        cfg, base = load_rom_config(REPO / "studies" / "rom_2d_panel.toml")
+        cfg, base = load_rom_config(REPO / "studies" / "rom" / "rom_2d_panel.toml")
         save_rom(build_rom_from_config(cfg, base), rom)
         runs = {}
         for name, aero in (("source", "se"), ("rom", f"rom:{rom.as_posix()}")):

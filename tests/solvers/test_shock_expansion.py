@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from solvers.aero.analytic import eckert_heat_flux, linearized_supersonic_pressure, piston_pressure
-from solvers.aero.base import SurfacePoints, SurfaceState, dense
-from solvers.aero.shock_expansion import (ShockExpansionFluid, eckert_heat_flux_edge, expansion,
+from hypate.solvers.aero.analytic import eckert_heat_flux, linearized_supersonic_pressure, piston_pressure
+from hypate.solvers.aero.base import SurfacePoints, SurfaceState, dense
+from hypate.solvers.aero.shock_expansion import (ShockExpansionFluid, eckert_heat_flux_edge, expansion,
                                           inverse_prandtl_meyer, max_deflection, oblique_shock,
                                           oblique_shock_angle, prandtl_meyer)
-from solvers.flow import FlowCondition
+from hypate.solvers.flow import FlowCondition
 
 G = 1.4
 

@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from solvers.materials import library_material
-from solvers.panel import Layer, PanelSpec, thermal_levels
-from solvers.transfer import W_DOF, Transfer, fluid_points
+from hypate.solvers.materials import library_material
+from hypate.solvers.panel import Layer, PanelSpec, thermal_levels
+from hypate.solvers.coupling.transfer import W_DOF, Transfer, fluid_points
 
 
 def _panel(kind: str = "3d", angle: float = 0.0) -> PanelSpec:

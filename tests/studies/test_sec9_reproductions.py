@@ -16,14 +16,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from scaling.laws import laws_of_run, load_runs
-from scaling.problem import ScalingProblem
-from scaling.runner import run_study
-from scaling.similarity import analytical_scaling
-from scaling.study import load_study, parse_study, study_data
+from hypate.scaling.workflow.laws import laws_of_run, load_runs
+from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.run import run_study
+from hypate.scaling.workflow.similarity import analytical_scaling
+from hypate.scaling.workflow.study import load_study, parse_study, study_data
 
 REPO = Path(__file__).resolve().parents[2]
-STUDIES = REPO / "studies"
+STUDIES = REPO / "studies" / "optimization"
 #: Similarity parameters of Table 9.3 and the design variables of Eq. (9.2).
 TABLE_9_3 = ("h/L", "lambda_F", "DeltaT_NTx_L2/Dxx")
 EQ_9_2 = {"h": "h", "p_inf": "p_inf", "delta_T": "delta_T"}

@@ -21,17 +21,17 @@ SCRIPTS = ("ch7_table7_3_modes", "ch7_flutter", "ch7_benchmark", "ch8_effects",
 
 
 def test_scripts_import_quietly_and_expose_run() -> None:
-    code = "; ".join(f"import studies.{s}" for s in SCRIPTS)
+    code = "; ".join(f"import hypate.studies.scripts.{s}" for s in SCRIPTS)
     out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
                          text=True, check=True, timeout=60)
     assert out.stdout == "" and out.stderr == ""
     for s in SCRIPTS:
-        mod = importlib.import_module(f"studies.{s}")
+        mod = importlib.import_module(f"hypate.studies.scripts.{s}")
         assert callable(mod.run) and callable(mod.main) and hasattr(mod.Config, "coarse")
 
 
 def test_table_7_3(tmp_path) -> None:
-    from studies.ch7_table7_3_modes import ANALYTICAL_HZ, DISSERTATION_HZ, Config, main, run
+    from hypate.studies.scripts.ch7_table7_3_modes import ANALYTICAL_HZ, DISSERTATION_HZ, Config, main, run
 
     res = run(Config.coarse())
     # Table 7.3: within 1 % of the analytical column, 0.2 % of the dissertation's DCS9
@@ -44,7 +44,7 @@ def test_table_7_3(tmp_path) -> None:
 
 
 def test_flutter_coarse() -> None:
-    from studies.ch7_flutter import Config, run
+    from hypate.studies.scripts.ch7_flutter import Config, run
 
     res = run(Config.coarse())
     # Sec. 7.2.3 on an 8 x 8 mesh: within 2 % (measured -0.9 %, -0.8 %, -0.6 %)
@@ -54,7 +54,7 @@ def test_flutter_coarse() -> None:
 
 
 def test_benchmark_tc_coarse() -> None:
-    from studies.ch7_benchmark import Config, run
+    from hypate.studies.scripts.ch7_benchmark import Config, run
 
     res = run(Config.coarse())
     # Sec. 7.3: dissertation onset 2.02 s; TC dt = 0.1 s measured 2.0 s
@@ -64,7 +64,7 @@ def test_benchmark_tc_coarse() -> None:
 
 
 def test_table_9_3() -> None:
-    from studies.ch9_table9_3 import NAMES, PROTOTYPE, Config, run
+    from hypate.studies.scripts.ch9_table9_3 import NAMES, PROTOTYPE, Config, run
 
     res = run(Config.coarse())
     # Table 9.3 prototype row within 0.1 % (measured 0, -0.065 %, -0.021 %)
@@ -77,7 +77,7 @@ def test_table_9_3() -> None:
 
 
 def test_ch8_trends_coarse() -> None:
-    from studies.ch8_effects import Config, run
+    from hypate.studies.scripts.ch8_effects import Config, run
 
     res = run(Config.coarse())
     # (a) Table 8.2 AM: onsets 1.98, 2.04, 2.26 s for L_le/a = 0.5, 1.5, 7 -- delayed by a
@@ -102,7 +102,7 @@ def _fake_run_dir(path: Path, study: str, design: dict, objectives: dict) -> Pat
 
 
 def test_ch9_tables_reads_run_directories(tmp_path) -> None:
-    from studies.ch9_tables import TABLE_9_8, Config, run
+    from hypate.studies.scripts.ch9_tables import TABLE_9_8, Config, run
 
     ref = TABLE_9_8["xi3"]
     design = {**ref, "p0": ref["p0"] * 1e6}  # run directories hold p0 in Pa
@@ -123,11 +123,11 @@ def test_ch9_tables_reads_run_directories(tmp_path) -> None:
 @pytest.mark.slow
 def test_ch9_tables_on_a_quickstart_run(tmp_path) -> None:
     # `hypate run` on the shipped quick study (~20-45 s), shown next to Table 9.8 xi = 4
-    from studies.ch9_tables import Config, run
+    from hypate.studies.scripts.ch9_tables import Config, run
 
     out = tmp_path / "qs"
-    subprocess.run([sys.executable, "-m", "scaling.cli", "run",
-                    str(REPO / "studies" / "quickstart.toml"), "--out", str(out)],
+    subprocess.run([sys.executable, "-m", "hypate.scaling.cli.main", "run",
+                    str(REPO / "scaling" / "data" / "quickstart.toml"), "--out", str(out)],
                    cwd=REPO, check=True, capture_output=True, timeout=900)
     res = run(Config(run_dirs=(str(out),), assign=(f"{out}=9.8:xi4",)))
     t = res.table.set_index("quantity")

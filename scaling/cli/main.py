@@ -1,0 +1,76 @@
+"""The ``hypate`` command line.
+
+Subcommands live in the modules of :mod:`hypate.scaling.cli`; each registers its own parser. Errors in user
+input (``hypate.solvers.errors.InputError``) and malformed files end with a one-line message
+naming the field and exit code 2 -- never a traceback.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from types import ModuleType
+
+from hypate.scaling.cli import (
+    bench,
+    condition,
+    flutter,
+    laws,
+    report,
+    rom,
+    run,
+    simulate,
+    structure,
+    thermal,
+    validate,
+    whatif,
+)
+from hypate.solvers.errors import InputError
+
+#: The command registry: modules providing subcommands (each has ``register(subparsers)``),
+#: in ``--help`` order.
+COMMAND_MODULES: tuple[ModuleType, ...] = (condition, run, laws, report, whatif, validate,
+                                           structure, thermal, simulate, flutter, rom, bench)
+
+EXIT_USAGE = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line error and exit code 2 (argparse's own convention)."""
+
+    def error(self, message: str) -> None:  # noqa: D401 - argparse API
+        self.exit(EXIT_USAGE, f"hypate: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Build the full parser with every registered subcommand."""
+    parser = _Parser(
+        prog="hypate",
+        description="Design aerothermoelastically scaled wind-tunnel models of hypersonic "
+        "skin panels.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for module in COMMAND_MODULES:
+        module.register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``hypate`` console script; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if getattr(args, "func", None) is None:
+        parser.print_help()
+        return EXIT_USAGE
+    try:
+        return int(args.func(args) or 0)
+    except InputError as exc:
+        print(f"hypate: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except FileNotFoundError as exc:
+        print(f"hypate: error: file not found: {exc.filename}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

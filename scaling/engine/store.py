@@ -1,0 +1,178 @@
+"""Append-only, crash-safe evaluation store (SQLite, stdlib ``sqlite3``).
+
+Every finished evaluation (x, F, G, status, message, seconds, iteration, seed) is one row,
+committed before the optimizer proposes anything else, in WAL mode with
+``synchronous=FULL``: a run killed at any point loses at most the evaluation in flight, and
+:class:`hypate.scaling.engine.optimizer.BayesianOptimizer` resumes from the rows without re-evaluating.
+Arrays are stored as JSON (Python's float ``repr`` round-trips exactly; NaN/inf allowed).
+Rows are never updated or deleted.
+"""
+from __future__ import annotations
+
+import json
+import sqlite3
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["Evaluation", "EvaluationStore", "STATUS_OK", "evaluations_to_dataframe"]
+
+#: Status of a successful evaluation; anything else is a failure.
+STATUS_OK = "ok"
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS evaluations (
+    id INTEGER PRIMARY KEY AUTOINCREMENT,
+    iteration INTEGER NOT NULL,
+    batch_index INTEGER NOT NULL,
+    x TEXT NOT NULL,
+    F TEXT NOT NULL,
+    G TEXT NOT NULL,
+    status TEXT NOT NULL,
+    message TEXT NOT NULL,
+    seconds REAL NOT NULL,
+    seed INTEGER,
+    created REAL NOT NULL,
+    UNIQUE (iteration, batch_index)
+);
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+"""
+
+
+@dataclass
+class Evaluation:
+    """One finished evaluation.
+
+    Attributes
+    ----------
+    x : ndarray of shape (d,)
+    F : ndarray of shape (m,)
+        Objectives (NaN where the evaluation failed).
+    G : ndarray of shape (k,)
+        Inequality constraints, feasible where ``G <= 0``.
+    status : str
+        ``"ok"``, ``"error"`` (raised), ``"invalid"`` (NaN/inf) or ``"timeout"``.
+    message : str
+    seconds : float
+        Wall time of the evaluation.
+    iteration : int
+        ``-1`` recycled samples, ``0`` initial design, ``t >= 1`` BO iteration.
+    batch_index : int
+        Position within the iteration's batch.
+    seed : int or None
+    """
+
+    x: np.ndarray
+    F: np.ndarray
+    G: np.ndarray
+    status: str = STATUS_OK
+    message: str = ""
+    seconds: float = 0.0
+    iteration: int = 0
+    batch_index: int = 0
+    seed: int | None = None
+    created: float = field(default_factory=time.time)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == STATUS_OK
+
+
+def _dump(a: np.ndarray) -> str:
+    return json.dumps([float(v) for v in np.asarray(a, dtype=float).ravel()])
+
+
+def _load(s: str) -> np.ndarray:
+    return np.asarray(json.loads(s), dtype=float)
+
+
+class EvaluationStore:
+    """SQLite store of evaluations; one committed row per finished evaluation.
+
+    Parameters
+    ----------
+    path : str or Path
+        Database file (created if missing); ``":memory:"`` for a throwaway store.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = str(path)
+        self._con = sqlite3.connect(self.path)
+        if self.path != ":memory:":
+            self._con.execute("PRAGMA journal_mode=WAL")
+        self._con.execute("PRAGMA synchronous=FULL")
+        self._con.executescript(_SCHEMA)
+        self._con.commit()
+
+    def append(self, ev: Evaluation) -> None:
+        """Insert one evaluation and commit it."""
+        self._con.execute(
+            "INSERT INTO evaluations (iteration, batch_index, x, F, G, status, message, seconds,"
+            " seed, created) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            (int(ev.iteration), int(ev.batch_index), _dump(ev.x), _dump(ev.F), _dump(ev.G),
+             str(ev.status), str(ev.message), float(ev.seconds),
+             None if ev.seed is None else int(ev.seed), float(ev.created)))
+        self._con.commit()
+
+    def load(self) -> list[Evaluation]:
+        """All evaluations in insertion order."""
+        rows = self._con.execute(
+            "SELECT iteration, batch_index, x, F, G, status, message, seconds, seed, created"
+            " FROM evaluations ORDER BY id").fetchall()
+        return [Evaluation(x=_load(x), F=_load(F), G=_load(G), status=st, message=msg,
+                           seconds=sec, iteration=it, batch_index=bi, seed=seed, created=cr)
+                for it, bi, x, F, G, st, msg, sec, seed, cr in rows]
+
+    def __len__(self) -> int:
+        return int(self._con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0])
+
+    def set_meta(self, key: str, value: object) -> None:
+        """Record a run setting (JSON) once; later calls with the same key must agree."""
+        text = json.dumps(value, sort_keys=True)
+        old = self.get_meta(key)
+        if old is not None and json.dumps(old, sort_keys=True) != text:
+            raise ValueError(f"store {self.path!r} holds a run with {key}={old!r}, not {value!r}")
+        self._con.execute("INSERT OR IGNORE INTO meta (key, value) VALUES (?, ?)", (key, text))
+        self._con.commit()
+
+    def get_meta(self, key: str) -> object | None:
+        row = self._con.execute("SELECT value FROM meta WHERE key = ?", (key,)).fetchone()
+        return None if row is None else json.loads(row[0])
+
+    def to_dataframe(self) -> pd.DataFrame:
+        """Evaluations as a DataFrame (see :func:`evaluations_to_dataframe`)."""
+        return evaluations_to_dataframe(self.load())
+
+    def close(self) -> None:
+        self._con.close()
+
+    def __enter__(self) -> "EvaluationStore":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def evaluations_to_dataframe(evals: list[Evaluation]) -> pd.DataFrame:
+    """One row per evaluation: ``iteration, batch_index, x0.., f0.., g0.., status, message,
+    seconds, seed``."""
+    if not evals:
+        return pd.DataFrame(columns=["iteration", "batch_index", "status", "message", "seconds",
+                                     "seed"])
+    d, m, k = len(evals[0].x), len(evals[0].F), len(evals[0].G)
+    cols: dict[str, object] = {
+        "iteration": [e.iteration for e in evals],
+        "batch_index": [e.batch_index for e in evals],
+    }
+    X = np.array([e.x for e in evals]).reshape(len(evals), d)
+    F = np.array([e.F for e in evals]).reshape(len(evals), m)
+    G = np.array([e.G for e in evals]).reshape(len(evals), k)
+    cols.update({f"x{i}": X[:, i] for i in range(d)})
+    cols.update({f"f{i}": F[:, i] for i in range(m)})
+    cols.update({f"g{i}": G[:, i] for i in range(k)})
+    cols.update(status=[e.status for e in evals], message=[e.message for e in evals],
+                seconds=[e.seconds for e in evals], seed=[e.seed for e in evals])
+    return pd.DataFrame(cols)

@@ -1,0 +1,1 @@
+"""The run report: run data, figures and the self-contained HTML page."""

@@ -1,0 +1,670 @@
+"""Refined scaling laws from a sweep of scaled designs (Sec. 6.1.3, Fig. 9.4, Fig. 9.12).
+
+A sweep study (``[sweep] xi = [...]``, see :mod:`hypate.scaling.workflow.study`) yields one optimized design
+point per geometric scale ``xi = L_p / L_m``. For every continuous design variable ``d`` the
+points are fitted by a power law
+
+.. math:: d(\\xi) = c\\,\\xi^{k}
+
+by least squares on ``ln d = ln c + k ln xi`` (with :mod:`cvxpy` when the study bounds ``k``
+or asks for monotonicity: ``[laws] exponent_bounds`` / ``monotone``). The 95 % interval of
+``k`` is ``k +- t_{0.975, n-2} s / sqrt(S_xx)`` from the residuals (Student t); two points
+determine the law exactly and give no interval. Points where the variable sits on one of its
+bounds (within 1e-3 of the span, as :meth:`ScalingProblem.active_bounds`) are *pinned*: the
+law is flagged ``at_bound`` and fitted on the free points only (no fit with fewer than two).
+
+Analytical exponents (dimensional analysis; the fitted ``k`` is reported next to them):
+
+==============  =====  ===================================================================
+variable        k      origin
+==============  =====  ===================================================================
+h               -1     h/L matched (Eq. 9.2a)
+L, L_le         -1     geometric similarity
+p_inf           0      Eq. 9.2b, ``xi^3 D_m/D_p`` with ``D ~ h^3`` at ``h_p/xi`` (fixed
+                       model material)
+delta_T         0      Eq. 9.2c, ``xi^2 (D_m/D_p)(N_Tp/N_Tm)`` with ``N_T ~ h``
+M, p0, T0,      0      flow similarity at every scale (tunnel / radiant-heater settings are
+T_inf, T_rad,          intensive), unless ``[laws] analytical.NAME`` says otherwise
+emissivity,
+p_ext
+time_step       -2     model time step, Fourier number (Eq. 9.5/9.6, ``t ~ L^2 rho c/k``);
+                -1     with structural time scaling (Eq. 9.3: ``L^2 sqrt(I/D) ~ L^2/h``)
+==============  =====  ===================================================================
+
+The analytical *coefficients* (the analytical line of Fig. 9.4/9.12) are the prototype's
+values (``h_p``, ``L_p``, ``L_le^p``, M, p0, T0, T_inf, emissivity) and Eq. 9.2b/9.2c/9.3 at
+``xi = 1`` for ``p_inf``, ``delta_T`` and the structural time step.
+
+:func:`predict` turns the laws into the design at a new scale, its similarity table and
+(optionally) its simulated ``J_u``, ``J_T``; the sweep runner seeds a new scale's initial
+sample with the same prediction (:func:`hypate.scaling.workflow.run.run_sweep`).
+"""
+from __future__ import annotations
+
+import base64
+import html
+import io
+import json
+import math
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+#: Analytical exponents of the design variables (table in the module docstring).
+ANALYTICAL_EXPONENTS: dict[str, float] = {
+    "h": -1.0, "L": -1.0, "L_le": -1.0, "p_inf": 0.0, "delta_T": 0.0, "M": 0.0, "p0": 0.0,
+    "T0": 0.0, "T_inf": 0.0, "T_rad": 0.0, "emissivity": 0.0, "p_ext": 0.0}
+#: Analytical exponent of the model time step by time scaling (Eqs. 9.3, 9.5/9.6).
+TIME_EXPONENTS: dict[str, float] = {"fourier": -2.0, "fourier_thickness": -2.0,
+                                    "structural": -1.0}
+#: Name of the derived time-step law.
+TIME_STEP = "time_step"
+#: Relative distance to a bound (of the span) below which a value is pinned.
+PIN_RTOL = 1e-3
+SWEEP_JSON = "sweep.json"
+
+
+@dataclass(frozen=True)
+class PowerLawFit:
+    """``c * xi**k`` fitted on ``n`` points, with the 95 % interval of ``k``.
+
+    ``exponent_low``/``exponent_high`` are None for two points (exact fit, no residual
+    degrees of freedom) or for no fit at all (``coefficient`` None).
+    """
+
+    coefficient: float | None
+    exponent: float | None
+    exponent_low: float | None
+    exponent_high: float | None
+    n: int
+    method: str = "lstsq"
+    note: str = ""
+
+    def __call__(self, xi: float | np.ndarray) -> float | np.ndarray:
+        if self.coefficient is None or self.exponent is None:
+            raise ValueError("no law was fitted")
+        return self.coefficient * np.asarray(xi, float) ** self.exponent
+
+
+@dataclass(frozen=True)
+class ScalingLaw:
+    """The refined law of one variable next to its analytical law.
+
+    Attributes
+    ----------
+    variable : str
+    fit : PowerLawFit
+    analytical_exponent : float or None
+    analytical_coefficient : float or None
+        Value at ``xi = 1`` of the analytical law (None: no analytical line).
+    at_bound : bool
+        Some design point sits on a bound of this variable (pinned, not fitted).
+    xi, values, pinned : tuple
+        The design points used (all of them; ``pinned[i]`` marks the bound-pinned ones).
+    """
+
+    variable: str
+    fit: PowerLawFit
+    analytical_exponent: float | None
+    analytical_coefficient: float | None = None
+    at_bound: bool = False
+    xi: tuple[float, ...] = ()
+    values: tuple[float, ...] = ()
+    pinned: tuple[bool, ...] = ()
+
+    def to_json(self) -> dict[str, Any]:
+        """The public ``hypate laws --json`` record."""
+        f = self.fit
+        return {"variable": self.variable, "coefficient": f.coefficient,
+                "exponent": f.exponent, "exponent_low": f.exponent_low,
+                "exponent_high": f.exponent_high,
+                "analytical_exponent": self.analytical_exponent,
+                "at_bound": bool(self.at_bound)}
+
+    def analytical(self, xi: float | np.ndarray) -> float | np.ndarray | None:
+        """The analytical law at ``xi`` (None without a coefficient)."""
+        if self.analytical_coefficient is None or self.analytical_exponent is None:
+            return None
+        return self.analytical_coefficient * np.asarray(xi, float) ** self.analytical_exponent
+
+
+@dataclass(frozen=True)
+class DesignPoint:
+    """One finished sweep point: scale, design, bounds and objectives."""
+
+    xi: float
+    design: Mapping[str, float]
+    bounds: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    objectives: Mapping[str, float] = field(default_factory=dict)
+    label: str = ""
+    time_step: float | None = None
+
+
+# -- fitting --------------------------------------------------------------------------------
+def fit_power_law(xi: Sequence[float], values: Sequence[float], *,
+                  exponent_bounds: tuple[float, float] | None = None,
+                  confidence: float = 0.95) -> PowerLawFit:
+    """Fit ``values = c * xi**k`` by log-linear least squares.
+
+    Parameters
+    ----------
+    xi, values : sequence of float
+        Positive scales and values (same length).
+    exponent_bounds : (float, float), optional
+        Bounds on ``k`` (monotonicity is ``(0, inf)`` or ``(-inf, 0)``); solved with cvxpy
+        as a constrained least-squares problem, the interval is intersected with them.
+    confidence : float
+        Level of the interval of ``k`` (Student t on the residuals, ``n - 2`` dof).
+
+    Returns
+    -------
+    PowerLawFit
+    """
+    x = np.asarray(xi, float)
+    y = np.asarray(values, float)
+    if x.shape != y.shape:
+        raise ValueError("xi and values need the same length")
+    if np.any(x <= 0) or np.any(y <= 0) or not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+        raise ValueError("a power law needs positive finite xi and values")
+    n = len(x)
+    if n < 2 or np.ptp(x) == 0.0:
+        return PowerLawFit(None, None, None, None, n, "none",
+                           f"{n} point(s) at distinct scales: no law")
+    lx, ly = np.log(x), np.log(y)
+    method = "lstsq"
+    if exponent_bounds is None:
+        k, a = np.polyfit(lx, ly, 1)
+    else:
+        k, a = _constrained_fit(lx, ly, exponent_bounds)
+        method = "cvxpy"
+    if n == 2:
+        return PowerLawFit(float(math.exp(a)), float(k), None, None, n, method,
+                           "2 points: exact fit, no confidence interval")
+    resid = ly - (a + k * lx)
+    dof = n - 2
+    s2 = float(resid @ resid) / dof
+    sxx = float(np.sum((lx - lx.mean()) ** 2))
+    half = float(stats.t.ppf(0.5 + 0.5 * confidence, dof)) * math.sqrt(s2 / sxx)
+    lo, hi = k - half, k + half
+    if exponent_bounds is not None:
+        lo, hi = max(lo, exponent_bounds[0]), min(hi, exponent_bounds[1])
+    return PowerLawFit(float(math.exp(a)), float(k), float(lo), float(hi), n, method)
+
+
+def _constrained_fit(lx: np.ndarray, ly: np.ndarray, bounds: tuple[float, float]
+                     ) -> tuple[float, float]:
+    """Least squares on ``ly = a + k lx`` with ``lo <= k <= hi`` (cvxpy)."""
+    import cvxpy as cp
+
+    a, k = cp.Variable(), cp.Variable()
+    cons = []
+    if math.isfinite(bounds[0]):
+        cons.append(k >= bounds[0])
+    if math.isfinite(bounds[1]):
+        cons.append(k <= bounds[1])
+    prob = cp.Problem(cp.Minimize(cp.sum_squares(a + k * lx - ly)), cons)
+    prob.solve()
+    if prob.status not in ("optimal", "optimal_inaccurate") or k.value is None:
+        raise ArithmeticError(f"constrained power-law fit failed: {prob.status}")
+    return float(k.value), float(a.value)
+
+
+def is_pinned(value: float, bounds: tuple[float, float] | None, rtol: float = PIN_RTOL) -> bool:
+    """True when ``value`` sits on a bound (within ``rtol`` of the span)."""
+    if bounds is None:
+        return False
+    lo, hi = bounds
+    span = hi - lo
+    return bool(value <= lo + rtol * span or value >= hi - rtol * span)
+
+
+def fit_laws(points: Sequence[DesignPoint], *, variables: Sequence[str] | None = None,
+             analytical: Mapping[str, tuple[float | None, float | None]] | None = None,
+             exponent_bounds: Mapping[str, Sequence[float]] | None = None,
+             monotone: Mapping[str, str] | None = None,
+             confidence: float = 0.95) -> list[ScalingLaw]:
+    """Refined scaling laws of a sweep's design points.
+
+    Parameters
+    ----------
+    points : sequence of DesignPoint
+        Finished points (one per scale; several per scale are allowed).
+    variables : sequence of str, optional
+        Variables to fit (default: the design variables of the first point, in order, plus
+        :data:`TIME_STEP` when every point has a model time step).
+    analytical : mapping name -> (coefficient, exponent), optional
+        Analytical laws (default: :data:`ANALYTICAL_EXPONENTS`, no coefficients).
+    exponent_bounds : mapping name -> (lo, hi), optional
+    monotone : mapping name -> "increasing" | "decreasing", optional
+        Constrained fits (cvxpy).
+    confidence : float
+
+    Returns
+    -------
+    list of ScalingLaw
+    """
+    points = list(points)
+    if variables is None:
+        variables = list(points[0].bounds or points[0].design) if points else []
+        if points and all(p.time_step is not None for p in points):
+            variables.append(TIME_STEP)
+    exponent_bounds = dict(exponent_bounds or {})
+    for name, direction in (monotone or {}).items():
+        lo, hi = exponent_bounds.get(name, (-math.inf, math.inf))
+        exponent_bounds[name] = ((max(lo, 0.0), hi) if direction == "increasing"
+                                 else (lo, min(hi, 0.0)))
+    laws = []
+    for name in variables:
+        xs, ys, pins = [], [], []
+        for p in points:
+            value = p.time_step if name == TIME_STEP else p.design.get(name)
+            if value is None or not math.isfinite(float(value)):
+                continue
+            xs.append(float(p.xi))
+            ys.append(float(value))
+            pins.append(is_pinned(float(value), p.bounds.get(name)) if name in p.bounds
+                        else False)
+        free = [i for i, pin in enumerate(pins) if not pin]
+        bnd = exponent_bounds.get(name)
+        if any(y <= 0 for y in ys):
+            fit = PowerLawFit(None, None, None, None, len(ys), "none",
+                              "non-positive values: no power law")
+        else:
+            fit = fit_power_law([xs[i] for i in free], [ys[i] for i in free],
+                                exponent_bounds=None if bnd is None else (float(bnd[0]),
+                                                                          float(bnd[1])),
+                                confidence=confidence)
+            if any(pins):
+                fit = PowerLawFit(fit.coefficient, fit.exponent, fit.exponent_low,
+                                  fit.exponent_high, fit.n, fit.method,
+                                  (f"{sum(pins)} bound-pinned point(s) not fitted; "
+                                   + fit.note).rstrip("; "))
+        if analytical is not None and name in analytical:
+            a_coef, a_exp = analytical[name]
+        else:
+            a_coef, a_exp = None, (ANALYTICAL_EXPONENTS.get(name))
+        laws.append(ScalingLaw(variable=name, fit=fit, analytical_exponent=a_exp,
+                               analytical_coefficient=a_coef, at_bound=any(pins),
+                               xi=tuple(xs), values=tuple(ys), pinned=tuple(pins)))
+    return laws
+
+
+# -- analytical laws of a study -------------------------------------------------------------
+def analytical_laws(study: Any) -> dict[str, tuple[float | None, float | None]]:
+    """Analytical ``(coefficient, exponent)`` of every law of a study (module table).
+
+    Parameters
+    ----------
+    study : scaling.study.Study
+        Any point of the sweep (the prototype and the model template do not depend on xi).
+    """
+    from hypate.scaling.workflow.similarity import analytical_scaling, reference_quantities, time_scale
+
+    spec = study.spec
+    proto = spec.prototype
+    flow = proto.flow
+    coef: dict[str, float | None] = {
+        "h": proto.panel.thickness, "L": proto.panel.length,
+        "L_le": proto.panel.leading_edge_length, "M": flow.mach,
+        "p0": flow.stagnation_pressure, "T0": flow.stagnation_temperature,
+        "T_inf": flow.temperature, "emissivity": proto.panel.emissivity,
+        "T_rad": None, "p_ext": None, "p_inf": None, "delta_T": None, TIME_STEP: None}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            an = analytical_scaling(proto, spec.model, 1.0, time_step=spec.simulation.time_step)
+            coef["p_inf"] = an.pressure                                     # Eq. (9.2b)
+            coef["delta_T"] = an.delta_T                                    # Eq. (9.2c)
+            if spec.time_scaling == "structural":
+                coef[TIME_STEP] = an.time_step                              # Eq. (9.3)
+            else:
+                coef[TIME_STEP] = spec.simulation.time_step * time_scale(   # (9.6)/(6.5)
+                    reference_quantities(proto), reference_quantities(an.model),
+                    spec.time_scaling)
+        except (ValueError, ArithmeticError, TypeError) as exc:
+            warnings.warn(f"analytical laws unavailable: {exc}", RuntimeWarning, stacklevel=2)
+    overrides = dict(study.raw.laws.analytical) if study.raw is not None else {}
+    out: dict[str, tuple[float | None, float | None]] = {}
+    names = list(ANALYTICAL_EXPONENTS) + [TIME_STEP]
+    for name in names:
+        k = TIME_EXPONENTS[spec.time_scaling] if name == TIME_STEP else ANALYTICAL_EXPONENTS[name]
+        c = coef.get(name)
+        if name in overrides:
+            k, c = float(overrides[name]), (c if float(overrides[name]) == k else None)
+        out[name] = (None if c is None else float(c), k)
+    return out
+
+
+# -- sweep run directories ------------------------------------------------------------------
+@dataclass
+class SweepRun:
+    """A sweep run directory read back: study data, finished points and the laws' options."""
+
+    directory: Path
+    study_data: dict[str, Any]
+    points: list[DesignPoint]
+    records: list[dict[str, Any]]
+
+    def study(self, xi: float | None = None) -> Any:
+        """The single study at scale ``xi`` (default: the first point's)."""
+        from hypate.scaling.workflow.study import study_at
+
+        return study_at(self.study_data, xi=xi if xi is not None else
+                        (self.points[0].xi if self.points else None))
+
+
+def _point_from_record(rec: Mapping[str, Any], default_xi: float | None = None
+                       ) -> DesignPoint | None:
+    design = rec.get("design")
+    if not design:
+        return None
+    xi = rec.get("xi", default_xi)
+    if xi is None:
+        return None
+    bounds = {k: (float(v[0]), float(v[1])) for k, v in (rec.get("bounds") or {}).items()}
+    return DesignPoint(xi=float(xi), design={k: float(v) for k, v in design.items()},
+                       bounds=bounds, objectives=dict(rec.get("objectives") or {}),
+                       label=str(rec.get("label", "")), time_step=rec.get("model_time_step"))
+
+
+def load_sweep(run_dir: str | Path) -> SweepRun:
+    """Read a sweep run directory (``sweep.json`` written by ``hypate run``).
+
+    Raises
+    ------
+    InputError
+        No ``sweep.json`` in ``run_dir``.
+    """
+    from hypate.solvers.errors import InputError
+
+    run_dir = Path(run_dir)
+    path = run_dir / SWEEP_JSON
+    if not path.is_file():
+        raise InputError("RUN_DIR", f"{run_dir} holds no sweep (no {SWEEP_JSON}); run a study "
+                         "with a [sweep] table first")
+    data = json.loads(path.read_text())
+    records = list(data.get("points", []))
+    points = [p for rec in records if rec.get("status") == "done"
+              and (p := _point_from_record(rec)) is not None]
+    return SweepRun(directory=run_dir, study_data=data["study_data"], points=points,
+                    records=records)
+
+
+def load_runs(run_dirs: Sequence[str | Path]) -> SweepRun:
+    """Several single-study run directories (``design_point.json`` each, e.g. the Sec. 9.2.2
+    studies ``sec9_2_2_xi{2..5}``) read back as one sweep; a single sweep directory is read
+    with :func:`load_sweep`.
+
+    The runs must share the prototype, the model template and the design variables (their
+    studies may differ only in ``xi``, name, description and optimizer settings); the laws'
+    options and the analytical table come from the first run's study file.
+
+    Raises
+    ------
+    InputError
+        A directory without ``design_point.json``, a missing study file, or runs of
+        different scaling problems.
+    """
+    from hypate.scaling.workflow.study import load_study, study_data
+    from hypate.solvers.errors import InputError
+
+    dirs = [Path(d) for d in run_dirs]
+    if len(dirs) == 1 and (dirs[0] / SWEEP_JSON).is_file():
+        return load_sweep(dirs[0])
+    points: list[DesignPoint] = []
+    records: list[dict[str, Any]] = []
+    reference: dict[str, Any] | None = None
+    for d in dirs:
+        path = d / "design_point.json"
+        if not path.is_file():
+            raise InputError("RUN_DIR", f"{d} holds neither a sweep ({SWEEP_JSON}) nor a "
+                             "finished run (design_point.json)")
+        rec = json.loads(path.read_text())
+        try:
+            data = study_data(load_study(rec["study_path"]))
+        except (KeyError, OSError) as exc:
+            raise InputError("RUN_DIR", f"{d}: the run's study file is unavailable: {exc}") \
+                from exc
+        problem = {k: data.get(k) for k in ("prototype", "model", "tunnel", "variables",
+                                             "simulation", "constraints")}
+        problem["kind"] = data["study"].get("kind")
+        if reference is None:
+            reference, first = problem, data
+        elif problem != reference:
+            raise InputError("RUN_DIR", f"{d} is a different scaling problem from {dirs[0]} "
+                             "(prototype, model, tunnel, variables or simulation differ)")
+        rec = {**rec, "label": rec.get("study", d.name), "status": "done"}
+        records.append(rec)
+        if (point := _point_from_record(rec)) is not None:
+            points.append(point)
+    if len({p.xi for p in points}) != len(points):
+        raise InputError("RUN_DIR", "two runs at the same geometric scale xi")
+    points.sort(key=lambda p: p.xi)
+    first = dict(first)
+    first.pop("sweep", None)
+    return SweepRun(directory=dirs[0], study_data=first, points=points, records=records)
+
+
+def laws_of_run(run: SweepRun) -> list[ScalingLaw]:
+    """The refined laws of a sweep run, with the study's ``[laws]`` options and its
+    analytical table."""
+    study = run.study()
+    opts = study.raw.laws
+    return fit_laws(run.points, analytical=analytical_laws(study),
+                    exponent_bounds={k: tuple(v) for k, v in opts.exponent_bounds.items()},
+                    monotone=dict(opts.monotone))
+
+
+def predicted_design(laws: Sequence[ScalingLaw], points: Sequence[DesignPoint], xi: float,
+                     names: Sequence[str]) -> dict[str, float]:
+    """Design the laws predict at ``xi``.
+
+    A fitted variable follows its law; one without a fit (pinned or fewer than two free
+    points) takes the value of the point nearest in ``log xi``, moved along the analytical
+    exponent.
+    """
+    by_name = {law.variable: law for law in laws}
+    nearest = min(points, key=lambda p: abs(math.log(p.xi / xi)))
+    out = {}
+    for name in names:
+        law = by_name.get(name)
+        if law is not None and law.fit.coefficient is not None:
+            out[name] = float(law.fit(xi))
+        else:
+            k = (law.analytical_exponent if law is not None else None)
+            k = ANALYTICAL_EXPONENTS.get(name, 0.0) if k is None else k
+            out[name] = float(nearest.design[name]) * (xi / nearest.xi) ** k
+    return out
+
+
+def predict(run: SweepRun, xi: float, *, evaluate: bool = False,
+            laws: Sequence[ScalingLaw] | None = None) -> dict[str, Any]:
+    """The design the refined laws predict at a new scale, its similarity table and,
+    with ``evaluate``, its simulated objectives (no optimization).
+
+    Returns
+    -------
+    dict
+        ``xi``, ``design`` (name -> value, clipped to the study's bounds at ``xi`` and
+        projected on its cheap equalities), ``clipped`` (names moved onto a bound),
+        ``active_constraints``, ``similarity`` (records of
+        :meth:`ScalingProblem.similarity`) and, with
+        ``evaluate``, ``objectives`` (J_u, J_T, J_s) or ``evaluation_error``.
+    """
+    from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem
+    from hypate.scaling.workflow.run import project_cheap
+
+    if not run.points:
+        from hypate.solvers.errors import InputError
+        raise InputError("RUN_DIR", f"{run.directory}: no finished sweep point to predict from")
+    laws = laws_of_run(run) if laws is None else laws
+    study = run.study(xi)
+    problem = ScalingProblem(study.spec)
+    names = study.spec.names
+    raw = predicted_design(laws, run.points, xi, names)
+    x0 = np.array([raw[n] for n in names])
+    x = project_cheap(problem, x0)
+    span = problem.xu - problem.xl
+    clipped = [n for n, a, b in zip(names, x0, x) if abs(a - b) > 1e-9 * span[names.index(n)]]
+    out: dict[str, Any] = {"xi": float(xi), "design": problem.design(x), "clipped": clipped,
+                           "active_constraints": problem.active_bounds(x),
+                           "similarity": problem.similarity(x)}
+    if evaluate:
+        try:
+            out["objectives"] = problem.errors(x)
+        except (ModelFailure, ArithmeticError, RuntimeError) as exc:
+            out["objectives"] = None
+            out["evaluation_error"] = str(exc)
+    return out
+
+
+def laws_json(laws: Sequence[ScalingLaw], prediction: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The public ``hypate laws --json`` document."""
+    return {"laws": [law.to_json() for law in laws],
+            "prediction": None if prediction is None else dict(prediction)}
+
+
+# -- text, figure and report section --------------------------------------------------------
+def _fmt(v: float | None, spec: str = ".4g") -> str:
+    return "-" if v is None else format(v, spec)
+
+
+def laws_table(laws: Sequence[ScalingLaw]) -> list[dict[str, str]]:
+    """Rows of the exponent table (strings, for the CLI and the report)."""
+    rows = []
+    for law in laws:
+        f = law.fit
+        ci = ("-" if f.exponent_low is None else f"[{f.exponent_low:.3f}, {f.exponent_high:.3f}]")
+        rows.append({"variable": law.variable, "coefficient": _fmt(f.coefficient),
+                     "exponent": _fmt(f.exponent, ".3f"), "95% interval": ci,
+                     "analytical exponent": _fmt(law.analytical_exponent, "g"),
+                     "analytical coefficient": _fmt(law.analytical_coefficient),
+                     "points (free/all)": f"{f.n}/{len(law.values)}",
+                     "at bound": "yes" if law.at_bound else "no", "note": f.note})
+    return rows
+
+
+def laws_figure(laws: Sequence[ScalingLaw]):
+    """Fig. 9.4/9.12-style figure: each variable against xi on log-log axes, with the
+    numerical design points (bound-pinned ones hollow and labelled), the fitted law and
+    the analytical line. Returns a matplotlib Figure (Agg)."""
+    import matplotlib
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    laws = [law for law in laws if law.values]
+    n = max(1, len(laws))
+    ncol = min(3, n)
+    nrow = math.ceil(n / ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.0 * ncol, 3.2 * nrow), squeeze=False)
+    for ax in axes.ravel()[len(laws):]:
+        ax.set_visible(False)
+    for ax, law in zip(axes.ravel(), laws):
+        xs, ys, pins = (np.array(law.xi), np.array(law.values), np.array(law.pinned, bool))
+        lo_x, hi_x = xs.min() / 1.15, xs.max() * 1.15
+        grid = np.geomspace(lo_x, hi_x, 50)
+        ax.plot(xs[~pins], ys[~pins], "o", color="C0", label="numerical")
+        if pins.any():
+            ax.plot(xs[pins], ys[pins], "s", mfc="none", color="C3", label="at bound")
+        if law.fit.coefficient is not None:
+            ax.plot(grid, law.fit(grid), "-", color="C0",
+                    label=f"fit $\\xi^{{{law.fit.exponent:.2f}}}$")
+        an = law.analytical(grid)
+        if an is not None:
+            ax.plot(grid, an, "--", color="C2",
+                    label=f"analytical $\\xi^{{{law.analytical_exponent:g}}}$")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(r"$\xi = L_p / L_m$")
+        ax.set_title(law.variable)
+        ax.legend(fontsize=7)
+        ax.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def laws_section(run_dir: str | Path) -> tuple[str, str]:
+    """The "Scaling laws" section of ``report.html``: ``(title, html)``.
+
+    The HTML holds the Fig. 9.12-style figure (inline PNG) and the exponent table; a
+    directory without a sweep gives a short explanation instead.
+    """
+    from hypate.solvers.errors import InputError
+
+    title = "Scaling laws"
+    try:
+        run = load_sweep(run_dir)
+    except InputError as exc:
+        return title, f"<p>{html.escape(str(exc))}</p>"
+    if len({p.xi for p in run.points}) < 2:
+        return title, ("<p>Refined scaling laws need finished design points at two or more "
+                       "geometric scales; this run has "
+                       f"{len({p.xi for p in run.points})}.</p>")
+    laws = laws_of_run(run)
+    fig = laws_figure(laws)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    import matplotlib.pyplot as plt
+    plt.close(fig)
+    img = base64.b64encode(buf.getvalue()).decode("ascii")
+    rows = laws_table(laws)
+    head = "".join(f"<th>{html.escape(k)}</th>" for k in rows[0])
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(v)}</td>" for v in r.values()) + "</tr>"
+                   for r in rows)
+    text = (f"<p>Design points of {len(run.points)} scales fitted as c&nbsp;&xi;<sup>k</sup> "
+            "(log-linear least squares, 95&nbsp;% interval of k from the residuals); hollow "
+            "squares sit on a bound and are not fitted. Dashed: analytical law (Eq. 9.2, "
+            "geometric similarity, Eq. 9.3/9.6 for the time step).</p>"
+            f'<img alt="scaling laws" src="data:image/png;base64,{img}"/>'
+            f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>")
+    return title, text
+
+
+def _report_provider(run: Any) -> Any:
+    """Dynamic "Scaling laws" section of :mod:`hypate.scaling.report.html` (registered below): shown
+    for a sweep directory or a sweep point's sub-directory (``sweep.json`` in it or in its
+    parent) with finished points at two or more scales; left out otherwise."""
+    from hypate.scaling.report import html as report
+
+    directory = Path(run.directory)
+    for cand in (directory, directory.parent):
+        if (cand / SWEEP_JSON).is_file():
+            sweep = load_sweep(cand)
+            break
+    else:
+        return None
+    if len({p.xi for p in sweep.points}) < 2:
+        return None
+    laws = laws_of_run(sweep)
+    img = report.figure_html(laws_figure(laws), run, "laws",
+                             "Design variables against xi: numerical points (hollow: at a "
+                             "bound, not fitted), fitted law, analytical law (Fig. 9.12)")
+    rows = laws_table(laws)
+    cols = list(rows[0]) if rows else []
+    table = report.html_table(cols, [[r[c] for c in cols] for r in rows])
+    return report.Section("Scaling laws", img + table)
+
+
+def register_report_section() -> None:
+    """Register the "Scaling laws" section with :func:`hypate.scaling.report.html.register_section`
+    (idempotent; done when this module is imported and the report module exists)."""
+    from hypate.scaling.report import html as report
+
+    report.register_section("scaling_laws", _report_provider)
+
+
+try:  # the report module may be absent in a stripped install; the laws work without it
+    register_report_section()
+except ImportError:  # pragma: no cover
+    pass
+
+
+__all__ = ["ANALYTICAL_EXPONENTS", "TIME_EXPONENTS", "TIME_STEP", "DesignPoint", "PowerLawFit",
+           "ScalingLaw", "SweepRun", "analytical_laws", "fit_laws", "fit_power_law",
+           "is_pinned", "laws_figure", "laws_json", "laws_of_run", "laws_section", "laws_table",
+           "load_sweep", "predict", "predicted_design", "register_report_section"]

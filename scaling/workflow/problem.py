@@ -1,0 +1,384 @@
+"""The scaling problem (Sec. 6.2, 9.1.2.2, 9.2.1): prototype vs wind-tunnel model.
+
+A :class:`ScalingProblem` is a pymoo problem whose design vector sets the model and the
+tunnel (names of :func:`hypate.scaling.workflow.similarity.apply_design`: ``p0``, ``T0``, ``M``, ``L``,
+``L_le``, ``h``, ``emissivity``, ``T_rad``, ``p_ext``, ``p_inf``, ``delta_T``...). One
+evaluation simulates the model with the compact aerothermoelastic simulator and compares
+its nondimensional response with the prototype's (simulated once and cached) at matched
+nondimensional times: the model's time step follows from the prototype's by the Fourier
+number (Eqs. 9.5-9.6 with the length scale, or Eq. 6.5 with the thickness; quasi-steady
+problems) or by the structural time (Eq. 9.3, transient aeroelastic problems), and both
+runs take the same number of steps.
+
+Objectives (Eq. 6.4), written as relative RMS errors over the time samples so that 0.1
+reads "10 %":
+
+* ``J_u``: nondimensional deflection -- centre deflection / thickness (``projection =
+  "center"``, Sec. 9.2.1.1), the sinusoidal modal coordinates / thickness (``"modal"``), or
+  the whole nodal displacement field nondimensionalized as in Eq. (3.17b) --
+  ``(u, v, w) / h`` and ``(psi_x, psi_y) L / h`` -- with the in-plane ``(u, v)``, transverse
+  ``w`` and rotation fields weighted equally (``"fields"``: the in-plane field, which scales
+  with ``h / L`` at matched ``lambda_F`` and thermal load, makes the thickness identifiable;
+  both meshes must have the same node grid);
+* ``J_T``: volume-mean temperature / stagnation temperature (Sec. 9.2.1.1);
+* ``J_s = sqrt(J_u^2 + J_T^2)`` (Eq. 9.8) for single-objective studies.
+
+Cheap equality constraints (Eq. 9.7), e.g. ``"T_inf"``: the model's free-stream temperature
+ratio ``T_w / T_inf`` equals the prototype's, are analytic functions of the design vector
+and are handed to the optimizer as :class:`~scaling.optimizer.CheapConstraint` with exact
+gradients (log space).
+
+A failed model simulation (no equilibrium, instability before the prototype's end, solver
+divergence) raises :class:`ModelFailure`; the optimizer records it as a failed evaluation
+with the reason and steers away from it (never a crash).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from pymoo.core.problem import Problem
+
+from hypate.scaling.engine.optimizer import CheapConstraint
+from hypate.scaling.workflow.similarity import (TIME_SCALINGS, Configuration, apply_design,
+                                comparison_records, compare, reference_quantities, time_scale)
+from hypate.solvers.aero.analytic import make_fluid_model
+from hypate.solvers.coupling.model import CouplingSettings, PanelModel, run_lc, run_tc
+from hypate.solvers.errors import InputError
+from hypate.solvers.coupling.response import Response
+
+#: Objective names.
+OBJECTIVES = ("J_u", "J_T", "J_s")
+#: Largest |deflection| / thickness of a meaningful response: beyond it the von Karman
+#: (moderate rotation) shell model no longer holds and the run counts as diverged.
+MAX_DEFLECTION = 50.0
+#: Projections of the structural response for J_u.
+PROJECTIONS = ("center", "modal", "fields")
+#: DOF groups of the "fields" projection (DOF order u, v, w, psi_x, psi_y per node).
+FIELD_GROUPS = {"in-plane": (0, 1), "transverse": (2,), "rotation": (3, 4)}
+#: Cheap equality constraints available (Eq. 9.7).
+EQUALITY_CONSTRAINTS = ("T_inf",)
+
+
+class ModelFailure(RuntimeError):
+    """The model simulation did not produce a response comparable to the prototype's."""
+
+
+@dataclass(frozen=True)
+class Variable:
+    """A continuous design variable with its bounds (SI units)."""
+
+    name: str
+    lower: float
+    upper: float
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.lower) and math.isfinite(self.upper)
+                and self.lower < self.upper):
+            raise InputError(f"variables.{self.name}", f"bounds must be finite with lower < "
+                             f"upper; got [{self.lower:g}, {self.upper:g}]")
+
+
+@dataclass(frozen=True)
+class Simulation:
+    """How a configuration is simulated (shared by prototype and model)."""
+
+    kind: str = "quasi_steady"          # "quasi_steady" (TC + LSA) | "aeroelastic" (S2)
+    aero: str = "pt-bl"
+    heating: str = "eckert"
+    boundary_layer: str = "turbulent"
+    time_step: float = 1.0              # prototype time step (s)
+    steps: int = 160
+    initial_deflection: float = 0.0     # x thickness, both runs (nondimensional)
+    lsa_modes: int = 6
+    unstable_steps: int = 2
+    rho_bar: float = 0.5                # generalized-alpha: damps the stiff in-plane modes
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("quasi_steady", "aeroelastic"):
+            raise InputError("simulation.kind", "must be 'quasi_steady' or 'aeroelastic'")
+        if not (self.time_step > 0 and self.steps >= 1):
+            raise InputError("simulation.steps", "need time_step > 0 and steps >= 1")
+
+
+@dataclass(frozen=True)
+class ScalingSpec:
+    """Everything that defines one scaling problem.
+
+    Attributes
+    ----------
+    prototype : Configuration
+        Full-scale panel in flight (``delta_T`` for a uniformly heated panel).
+    model : Configuration
+        Model template in the tunnel (material, layup, mesh, Mach, fixed values).
+    variables : tuple of Variable
+    fixed : dict
+        Design values applied to every model (names of ``apply_design``), e.g. ``L`` from
+        the geometric scale.
+    objectives : tuple of str
+    simulation : Simulation
+    time_scaling : {"fourier", "fourier_thickness", "structural"}
+        :data:`hypate.scaling.workflow.similarity.TIME_SCALINGS`: Eqs. 9.5-9.6, Eq. 6.5 or Eq. 9.3.
+    projection : {"center", "modal", "fields"}
+    equalities : tuple of str
+        Cheap equality constraints (:data:`EQUALITY_CONSTRAINTS`).
+    xi : float
+        Geometric scale L_p / L_m (for reports and laws).
+    """
+
+    prototype: Configuration
+    model: Configuration
+    variables: tuple[Variable, ...]
+    fixed: dict[str, float] = field(default_factory=dict)
+    objectives: tuple[str, ...] = ("J_u", "J_T")
+    simulation: Simulation = Simulation()
+    time_scaling: str = "fourier"
+    projection: str = "center"
+    equalities: tuple[str, ...] = ()
+    xi: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not self.variables:
+            raise InputError("variables", "at least one design variable is needed")
+        bad = [o for o in self.objectives if o not in OBJECTIVES]
+        if bad or not self.objectives:
+            raise InputError("study.objectives", f"must be a non-empty subset of "
+                             f"{', '.join(OBJECTIVES)}; got {list(self.objectives)}")
+        if self.time_scaling not in TIME_SCALINGS:
+            raise InputError("study.time_scaling", f"must be one of {', '.join(TIME_SCALINGS)}")
+        if self.projection not in PROJECTIONS:
+            raise InputError("study.projection", f"must be one of {', '.join(PROJECTIONS)}")
+        for eq in self.equalities:
+            if eq not in EQUALITY_CONSTRAINTS:
+                raise InputError("constraints.equality", f"unknown constraint {eq!r}; "
+                                 f"available: {', '.join(EQUALITY_CONSTRAINTS)}")
+        names = [v.name for v in self.variables]
+        if len(set(names)) != len(names):
+            raise InputError("variables", "a design variable is listed twice")
+        both = set(names) & set(self.fixed)
+        if both:
+            raise InputError(f"fixed.{sorted(both)[0]}", "is also a design variable")
+
+    @property
+    def names(self) -> list[str]:
+        return [v.name for v in self.variables]
+
+
+# -- simulation of one configuration --------------------------------------------------------
+def simulate_configuration(config: Configuration, sim: Simulation, time_step: float,
+                           keep_fields: bool = False) -> Response:
+    """Run the simulator on one configuration for ``sim.steps`` steps of ``time_step``."""
+    fluid = make_fluid_model(sim.aero, sim.heating, sim.boundary_layer)
+    settings = CouplingSettings(
+        time_step=time_step, duration=time_step * sim.steps,
+        radiation_temperature=config.radiation_temperature,
+        external_pressure=config.external_pressure, lsa_modes=sim.lsa_modes,
+        unstable_steps=sim.unstable_steps, keep_fields=keep_fields,
+        initial_temperature_rise=float(config.delta_T or 0.0),
+        initial_deflection=sim.initial_deflection)
+    model = PanelModel(config.panel, config.flow, fluid, settings)
+    if sim.kind == "quasi_steady":
+        return run_tc(model)
+    return run_lc(model, "s2", rho_bar=sim.rho_bar, record_every=1, stop_on_snap=False)
+
+
+def _series(resp: Response, projection: str) -> np.ndarray:
+    """Nondimensional deflection history (n_t, k): modal coordinates or centre w / h."""
+    if projection == "modal":
+        return np.asarray(resp.modal)
+    return np.asarray(resp.center_deflection)[:, None] / resp.thickness
+
+
+def relative_rms(model: np.ndarray, prototype: np.ndarray) -> float:
+    """``||model - prototype|| / ||prototype||`` over all samples (Eq. 6.4, normalized)."""
+    num = float(np.linalg.norm(np.asarray(model) - np.asarray(prototype)))
+    den = float(np.linalg.norm(prototype))
+    return num / den if den > 0.0 else num
+
+
+def _field_series(resp: Response) -> np.ndarray:
+    """Nodal displacements nondimensionalized by Eq. (3.17b), shape (n_t, n_nodes, 5)."""
+    if not resp.u:
+        raise ModelFailure("the 'fields' projection needs the displacement fields "
+                           "(keep_fields)")
+    U = np.asarray(resp.u, dtype=float)
+    U = U.reshape(len(U), -1, 5) / resp.thickness
+    U[..., 3:] *= resp.length
+    return U
+
+
+def response_errors(model: Response, prototype: Response, projection: str = "center"
+                    ) -> dict[str, float]:
+    """J_u, J_T, J_s (Eqs. 6.4, 9.8) at matched nondimensional times (same step index)."""
+    n = min(len(model.times), len(prototype.times))
+    if projection == "fields":
+        Um, Up = _field_series(model), _field_series(prototype)
+        if Um.shape[1:] != Up.shape[1:]:
+            raise ModelFailure(f"'fields' projection: model and prototype meshes differ "
+                               f"({Um.shape[1]} and {Up.shape[1]} nodes)")
+        errs = [relative_rms(Um[1:n][..., list(k)], Up[1:n][..., list(k)])
+                for k in FIELD_GROUPS.values()]
+        J_u = float(np.sqrt(np.mean(np.square(errs))))
+    else:
+        um, up = _series(model, projection), _series(prototype, projection)
+        J_u = relative_rms(um[1:n], up[1:n])
+    Tm = np.asarray(model.mean_temperature) / model.stagnation_temperature
+    Tp = np.asarray(prototype.mean_temperature) / prototype.stagnation_temperature
+    J_T = relative_rms(Tm[1:n], Tp[1:n])
+    return {"J_u": J_u, "J_T": J_T, "J_s": math.hypot(J_u, J_T)}
+
+
+# -- the pymoo problem ----------------------------------------------------------------------
+class ScalingProblem(Problem):
+    """Prototype vs model as a pymoo problem (objectives minimized, no expensive constraints).
+
+    Parameters
+    ----------
+    spec : ScalingSpec
+    prototype_response : Response, optional
+        A cached prototype response (computed on first use otherwise).
+    """
+
+    def __init__(self, spec: ScalingSpec, prototype_response: Response | None = None) -> None:
+        self.spec = spec
+        xl = np.array([v.lower for v in spec.variables])
+        xu = np.array([v.upper for v in spec.variables])
+        super().__init__(n_var=len(spec.variables), n_obj=len(spec.objectives),
+                         n_ieq_constr=0, xl=xl, xu=xu)
+        self._prototype_response = prototype_response
+        self._ref_p = reference_quantities(spec.prototype)
+
+    # -- prototype --------------------------------------------------------------------------
+    @property
+    def prototype_response(self) -> Response:
+        """The prototype's response (simulated once, then cached)."""
+        if self._prototype_response is None:
+            resp = simulate_configuration(self.spec.prototype, self.spec.simulation,
+                                          self.spec.simulation.time_step,
+                                          keep_fields=self.spec.projection == "fields")
+            if resp.status == "failed":
+                raise InputError("prototype", f"the prototype simulation failed: {resp.message}")
+            self._prototype_response = resp
+        return self._prototype_response
+
+    # -- model --------------------------------------------------------------------------------
+    def design(self, x: Sequence[float]) -> dict[str, float]:
+        """Design dict (variables then fixed values) of a design vector."""
+        x = np.asarray(x, dtype=float).reshape(-1)
+        if x.size != self.n_var:
+            raise InputError("design", f"expected {self.n_var} values, got {x.size}")
+        return {**self.spec.fixed, **dict(zip(self.spec.names, map(float, x)))}
+
+    def model_configuration(self, x: Sequence[float]) -> Configuration:
+        """The model configuration of design vector ``x`` (DESIGN.md data flow)."""
+        return apply_design(self.spec.model, self.design(x))
+
+    def model_time_step(self, config: Configuration) -> float:
+        """Model time step at matched nondimensional time (Eqs. 9.6, 6.5 or 9.3)."""
+        return self.spec.simulation.time_step * time_scale(
+            self._ref_p, reference_quantities(config), self.spec.time_scaling)
+
+    def simulate_model(self, x: Sequence[float], keep_fields: bool = False
+                       ) -> tuple[Configuration, Response]:
+        config = self.model_configuration(x)
+        resp = simulate_configuration(config, self.spec.simulation,
+                                      self.model_time_step(config), keep_fields=keep_fields)
+        return config, resp
+
+    def errors(self, x: Sequence[float]) -> dict[str, float]:
+        """J_u, J_T, J_s of one design; raises :class:`ModelFailure` when not comparable."""
+        proto = self.prototype_response
+        _, resp = self.simulate_model(x, keep_fields=self.spec.projection == "fields")
+        n_p = len(proto.times)
+        if resp.status == "failed" or len(resp.times) < 2:
+            raise ModelFailure(f"model simulation failed: {resp.message}")
+        if len(resp.times) < n_p:
+            raise ModelFailure(f"model {resp.instability_type or 'instability'} at step "
+                               f"{len(resp.times) - 1} of {n_p - 1} (the prototype "
+                               f"{'stays stable' if proto.status == 'completed' else 'lasts longer'}):"
+                               f" {resp.message}")
+        w = np.abs(np.asarray(resp.center_deflection)) / resp.thickness
+        modal = np.abs(np.asarray(resp.modal)) if resp.modal else np.zeros(1)
+        if not (np.all(np.isfinite(w)) and w.max() <= MAX_DEFLECTION
+                and np.all(np.isfinite(modal)) and modal.max() <= MAX_DEFLECTION):
+            raise ModelFailure(f"model response diverged (deflection beyond {MAX_DEFLECTION:g} "
+                               "thicknesses: outside the moderate-rotation shell model)")
+        return response_errors(resp, proto, self.spec.projection)
+
+    def _evaluate(self, X: np.ndarray, out: dict[str, Any], *args: Any, **kwargs: Any) -> None:
+        F = np.empty((X.shape[0], self.n_obj))
+        for i, x in enumerate(np.atleast_2d(X)):  # each row is one expensive simulation
+            err = self.errors(x)
+            F[i] = [err[o] for o in self.spec.objectives]
+        out["F"] = F
+
+    # -- cheap constraints ------------------------------------------------------------------
+    def cheap_constraints(self) -> list[CheapConstraint]:
+        """Eq. (9.7) equalities as exact analytic constraints on the design vector."""
+        out = []
+        for name in self.spec.equalities:
+            if name == "T_inf":
+                out.append(self._t_inf_constraint())
+        return out
+
+    def _t_inf_constraint(self) -> CheapConstraint:
+        """``ln(T_inf^m / T_w^m) - ln(T_inf^p / T_w^p) = 0`` with
+        ``T_inf = T0 / (1 + (gamma - 1)/2 M^2)`` (isentropic nozzle)."""
+        names = self.spec.names
+        if "T0" not in names and "M" not in names:
+            raise InputError("constraints.equality", "'T_inf' needs T0 or M as a design "
+                             "variable")
+        p = self.spec.prototype
+        target = math.log(p.flow.temperature / p.panel.initial_temperature)
+        tw_m = self.spec.model.panel.initial_temperature
+        g = self.spec.model.flow.gamma
+        i_T0 = names.index("T0") if "T0" in names else None
+        i_M = names.index("M") if "M" in names else None
+        base = self.spec.model.flow
+
+        def parts(x: np.ndarray) -> tuple[float, float]:
+            d = self.design(x)
+            T0 = float(d.get("T0", base.stagnation_temperature))
+            M = float(d.get("M", base.mach))
+            return T0, M
+
+        def fun(x: np.ndarray) -> np.ndarray:
+            T0, M = parts(x)
+            ratio = 1.0 + 0.5 * (g - 1.0) * M * M
+            return np.array([math.log(T0 / ratio / tw_m) - target])
+
+        def jac(x: np.ndarray) -> np.ndarray:
+            T0, M = parts(x)
+            J = np.zeros((1, len(names)))
+            if i_T0 is not None:
+                J[0, i_T0] = 1.0 / T0
+            if i_M is not None:
+                J[0, i_M] = -(g - 1.0) * M / (1.0 + 0.5 * (g - 1.0) * M * M)
+            return J
+
+        return CheapConstraint(fun=fun, jac=jac, kind="eq")
+
+    # -- reporting ------------------------------------------------------------------------------
+    def similarity(self, x: Sequence[float]) -> list[dict[str, Any]]:
+        """Similarity-parameter table of a design, public ``design_point.json`` form."""
+        config = self.model_configuration(x)
+        proto = self.spec.prototype
+        dt_m = self.model_time_step(config)
+        table = compare(dataclasses.replace(proto, time=self.spec.simulation.time_step),
+                        dataclasses.replace(config, time=dt_m))
+        return comparison_records(table)
+
+    def active_bounds(self, x: Sequence[float], rtol: float = 1e-3) -> list[str]:
+        """Names of the bounds a design sits on (Table 9.8 style), e.g. ``"h=upper"``."""
+        out = []
+        for v, value in zip(self.spec.variables, np.asarray(x, float)):
+            span = v.upper - v.lower
+            if value <= v.lower + rtol * span:
+                out.append(f"{v.name}=lower")
+            elif value >= v.upper - rtol * span:
+                out.append(f"{v.name}=upper")
+        return out

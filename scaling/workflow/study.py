@@ -1,0 +1,539 @@
+"""Study files (TOML): a scaling problem plus optimizer settings, validated.
+
+Public keys (documented in the README, used by the shipped ``studies/*.toml``)::
+
+    [study]        name, description, kind ("quasi_steady" | "aeroelastic"), objectives,
+                   xi, time_scaling ("fourier" | "fourier_thickness" | "structural"),
+                   projection ("center" | "modal" | "fields")
+    [prototype]    case (path of a case file, relative to the study), delta_T,
+                   temperature_independent, mach, altitude (override the case's flight
+                   condition: ``mach`` alone keeps the case's static p and T, ``altitude``
+                   (m, 1976 standard atmosphere) needs ``mach`` or a case Mach number)
+    [simulation]   time_step, steps, aero, heating, boundary_layer, initial_deflection,
+                   lsa_modes, unstable_steps, rho_bar, mesh
+    [model]        material (a library name or a [materials.NAME] of the study), thickness,
+                   sublayers, boundary, emissivity, initial_temperature,
+                   temperature_independent
+    [materials.NAME]  user materials, the schema of case files (solvers.config)
+    [tunnel]       name (shipped: ideal, WT5, WT6, WT7) or an inline envelope (mach /
+                   mach_values, p0, T0 ...), mach (the nozzle to use)
+    [variables]    NAME = [lower, upper] or "tunnel" (the envelope's bounds)
+    [fixed]        NAME = value (design values that are not optimized)
+    [constraints]  equality = ["T_inf"]
+    [optimizer]    approach, acquisition, v, weights, initial_samples, iterations,
+                   batch_size, seed, classical_seed, transform ("none" | "log"),
+                   coordinates ("design" | "log" | "similarity": the surrogates' inputs;
+                   "similarity" = logs of the matched similarity parameters, completed
+                   by their null space), polish (final Nelder-Mead evaluations from
+                   the best design, one objective only), timeout
+    [sweep]        one optimization per sweep point into sub-directories of one run
+                   directory (``hypate run``; Sec. 9.1.3, 9.2.2, 9.2.4):
+                   xi = [2, 3, 4]            geometric scales (sub-directories ``xi_2`` ...)
+                   mach = [...], altitude = [...] (m)   flight conditions: the grid
+                   conditions = [[M, H], ...]          or an explicit list (``M6_H25km``)
+                   (xi and conditions may be combined: xi outer, conditions inner; grid
+                   points are visited in serpentine order, so consecutive points are
+                   neighbours)
+                   recycle = 10          best designs of the previous point re-evaluated
+                                         as part of the next point's initial sample
+                                         (Sec. 9.2.4; for a new xi they are first mapped
+                                         by the refined law, see scaling.laws)
+                   predict = true        for a new xi, also seed with the refined law's
+                                         prediction (needs 2 finished scales)
+                   initial_samples, iterations   budget of every point after the first
+                                         (default: [optimizer]'s; Table 9.11 uses 0 / 20)
+    [laws]         refined scaling laws of a sweep (``hypate laws``, scaling.laws):
+                   analytical.NAME = k        analytical exponent override (xi^k)
+                   exponent_bounds.NAME = [lo, hi]    constrain the fitted exponent (cvxpy)
+                   monotone.NAME = "increasing" | "decreasing"  (k >= 0 | k <= 0, cvxpy)
+
+Every error is an :class:`~solvers.errors.InputError` naming its key; nothing runs on a bad
+file.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from hypate.scaling.workflow.problem import EQUALITY_CONSTRAINTS, OBJECTIVES, ScalingSpec, Simulation, Variable
+from hypate.scaling.workflow.similarity import Configuration
+from hypate.scaling.workflow.tunnels import TunnelEnvelope, resolve_tunnel
+from hypate.solvers import materials as mat
+from hypate.scaling.workflow.shipped import resolve
+from hypate.solvers.config import MaterialConfig, _pydantic_error, load_case, read_toml, resolve_material
+from hypate.solvers.errors import InputError
+from hypate.solvers.flow import FlowCondition
+from hypate.solvers.panel import Layer, PanelSpec
+
+#: Design variables a study may optimize (names of scaling.similarity.apply_design).
+VARIABLES = ("M", "p0", "T0", "p_inf", "T_inf", "L", "L_le", "h", "emissivity", "T_rad",
+             "p_ext", "delta_T")
+#: Manufacturing / facility limits no design may leave (Table 9.7 and physics).
+HARD_LIMITS = {"h": (1e-4, 0.05), "L": (0.01, 5.0), "L_le": (0.0, 10.0),
+               "emissivity": (0.0, 1.0), "T_rad": (1.0, 5000.0), "M": (1.0001, 30.0),
+               "p0": (1.0, 1e9), "T0": (1.0, 1e4), "p_inf": (1e-3, 1e7), "T_inf": (1.0, 5000.0),
+               "delta_T": (1e-6, 2000.0), "p_ext": (-1e7, 1e7)}
+
+PosFloat = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class StudySection(_Strict):
+    name: str = "study"
+    description: str = ""
+    kind: Literal["quasi_steady", "aeroelastic"] = "quasi_steady"
+    objectives: Annotated[list[Literal["J_u", "J_T", "J_s"]], Field(min_length=1, max_length=2)
+                          ] = ["J_u", "J_T"]
+    xi: Annotated[float, Field(ge=1.0, le=100.0)] = 1.0
+    time_scaling: Literal["fourier", "fourier_thickness", "structural"] = "fourier"
+    projection: Literal["center", "modal", "fields"] = "center"
+
+
+class PrototypeSection(_Strict):
+    case: str
+    delta_T: Annotated[float, Field(gt=0.0, le=2000.0)] | None = None
+    temperature_independent: bool = False
+    mach: Annotated[float, Field(gt=1.0, le=30.0)] | None = None
+    altitude: Annotated[float, Field(ge=0.0, le=86000.0)] | None = None
+
+
+Scale = Annotated[float, Field(ge=1.0, le=100.0)]
+Mach = Annotated[float, Field(gt=1.0, le=30.0)]
+Altitude = Annotated[float, Field(ge=0.0, le=86000.0)]
+
+
+class SweepSection(_Strict):
+    xi: Annotated[list[Scale], Field(min_length=1)] | None = None
+    mach: Annotated[list[Mach], Field(min_length=1)] | None = None
+    altitude: Annotated[list[Altitude], Field(min_length=1)] | None = None
+    conditions: Annotated[list[Annotated[list[float], Field(min_length=2, max_length=2)]],
+                          Field(min_length=1)] | None = None
+    recycle: Annotated[int, Field(ge=0, le=1000)] = 10
+    predict: bool = True
+    initial_samples: Annotated[int, Field(ge=0, le=10000)] | None = None
+    iterations: Annotated[int, Field(ge=0, le=100000)] | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> SweepSection:
+        if self.conditions is not None and (self.mach is not None or self.altitude is not None):
+            raise ValueError("conditions: give either conditions or mach/altitude, not both")
+        if self.xi is None and self.mach is None and self.altitude is None \
+                and self.conditions is None:
+            raise ValueError("xi: a sweep needs xi, mach/altitude or conditions")
+        for i, (m, h) in enumerate(self.conditions or []):
+            if not (1.0 < m <= 30.0 and 0.0 <= h <= 86000.0):
+                raise ValueError(f"conditions[{i}]: need [M, H] with 1 < M <= 30 and "
+                                 f"0 <= H <= 86000 m; got [{m:g}, {h:g}]")
+        for name in ("xi", "mach", "altitude"):
+            values = getattr(self, name)
+            if values is not None and len(set(values)) != len(values):
+                raise ValueError(f"{name}: repeated value")
+        return self
+
+
+class LawsSection(_Strict):
+    analytical: dict[str, float] = {}
+    exponent_bounds: dict[str, Annotated[list[float], Field(min_length=2, max_length=2)]] = {}
+    monotone: dict[str, Literal["increasing", "decreasing"]] = {}
+
+    @model_validator(mode="after")
+    def _check(self) -> LawsSection:
+        for name, (lo, hi) in self.exponent_bounds.items():
+            if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+                raise ValueError(f"exponent_bounds.{name}: need finite [lower, upper] with "
+                                 f"lower <= upper")
+        return self
+
+
+class SimulationSection(_Strict):
+    time_step: PosFloat = 1.0
+    steps: Annotated[int, Field(ge=1, le=100000)] = 160
+    aero: str = "pt-bl"
+    heating: Literal["eckert", "none"] = "eckert"
+    boundary_layer: Literal["turbulent", "laminar"] = "turbulent"
+    initial_deflection: Annotated[float, Field(ge=-10.0, le=10.0)] = 0.0
+    lsa_modes: Annotated[int, Field(ge=1, le=50)] = 6
+    unstable_steps: Annotated[int, Field(ge=1, le=1000)] = 2
+    rho_bar: Annotated[float, Field(ge=0.0, le=1.0)] = 0.5
+    mesh: Annotated[list[Annotated[int, Field(ge=1, le=100)]], Field(min_length=2,
+                                                                      max_length=2)] | None = None
+
+
+class ModelSection(_Strict):
+    material: str = "ti6242"
+    thickness: Annotated[float, Field(gt=0.0, le=0.1)] | None = None
+    sublayers: Annotated[int, Field(ge=1, le=50)] = 1
+    boundary: Literal["simply_supported", "clamped"] | None = None
+    emissivity: Annotated[float, Field(ge=0.0, le=1.0)] | None = None
+    initial_temperature: Annotated[float, Field(gt=0.0, le=5000.0)] = 300.0
+    temperature_independent: bool = False
+
+
+class ConstraintsSection(_Strict):
+    equality: list[str] = []
+
+    @model_validator(mode="after")
+    def _known(self) -> ConstraintsSection:
+        for name in self.equality:
+            if name not in EQUALITY_CONSTRAINTS:
+                raise ValueError(f"equality: unknown constraint {name!r}; available: "
+                                 f"{', '.join(EQUALITY_CONSTRAINTS)}")
+        return self
+
+
+class OptimizerSection(_Strict):
+    approach: Literal["indirect", "direct"] = "indirect"
+    acquisition: Literal["hvlcb", "hvei", "hvpoi", "ws", "cheb", "lcb", "ei", "poi"] | None = None
+    v: Annotated[float, Field(ge=0.0, le=100.0)] | None = None
+    weights: list[Annotated[float, Field(ge=0.0)]] | None = None
+    initial_samples: Annotated[int, Field(ge=1, le=10000)] = 20
+    iterations: Annotated[int, Field(ge=0, le=100000)] = 50
+    batch_size: Annotated[int, Field(ge=1, le=64)] = 1
+    seed: Annotated[int, Field(ge=0)] = 0
+    classical_seed: bool = True
+    transform: Literal["none", "log"] = "none"
+    coordinates: Literal["design", "log", "similarity"] = "design"
+    polish: Annotated[int, Field(ge=0, le=10000)] = 0
+    timeout: PosFloat | None = None
+
+
+class StudyFile(_Strict):
+    study: StudySection = StudySection()
+    prototype: PrototypeSection
+    simulation: SimulationSection = SimulationSection()
+    model: ModelSection = ModelSection()
+    tunnel: dict[str, Any] | None = None
+    variables: dict[str, list[float] | str]
+    fixed: dict[str, float] = {}
+    constraints: ConstraintsSection = ConstraintsSection()
+    optimizer: OptimizerSection = OptimizerSection()
+    sweep: SweepSection | None = None
+    laws: LawsSection = LawsSection()
+    materials: dict[str, MaterialConfig] = {}
+
+    @model_validator(mode="after")
+    def _check(self) -> StudyFile:
+        if not self.variables:
+            raise ValueError("variables: at least one design variable is needed")
+        for name in list(self.variables) + list(self.fixed):
+            if name not in VARIABLES:
+                raise ValueError(f"{'variables' if name in self.variables else 'fixed'}.{name}:"
+                                 f" unknown design variable; known: {', '.join(VARIABLES)}")
+        n_obj = len(self.study.objectives)
+        acq = self.optimizer.acquisition
+        if acq is not None:
+            single = acq in ("lcb", "ei", "poi")
+            if single != (n_obj == 1):
+                raise ValueError(f"optimizer.acquisition: {acq!r} does not fit {n_obj} objective(s) "
+                                 "(lcb/ei/poi for one; hvlcb/hvei/hvpoi/ws/cheb for two)")
+        if self.optimizer.polish and n_obj != 1:
+            raise ValueError(f"optimizer.polish: a local polish needs one objective, the "
+                             f"study has {n_obj}")
+        if self.optimizer.weights is not None and len(self.optimizer.weights) != n_obj:
+            raise ValueError(f"optimizer.weights: need {n_obj} values")
+        return self
+
+
+@dataclasses.dataclass(frozen=True)
+class Study:
+    """A validated study: the scaling spec, the tunnel and the optimizer settings."""
+
+    path: str
+    name: str
+    description: str
+    spec: ScalingSpec
+    tunnel: TunnelEnvelope | None
+    optimizer: OptimizerSection
+    raw: StudyFile
+
+    @property
+    def sweep(self) -> SweepSection | None:
+        """The ``[sweep]`` table (None: a single optimization)."""
+        return self.raw.sweep
+
+    @property
+    def acquisition(self) -> str:
+        opt = self.optimizer
+        if opt.acquisition is not None:
+            return opt.acquisition
+        if len(self.spec.objectives) == 1:
+            return "lcb"
+        return "hvlcb" if opt.approach == "indirect" else "cheb"
+
+
+def constant_material(m: mat.Material, T: float) -> mat.Material:
+    """``m`` with every property frozen at temperature ``T`` (Sec. 9.1, Table 9.1)."""
+    def c(prop: mat.Property | None) -> mat.Property | None:
+        return None if prop is None else mat.Property.constant(prop.name, float(prop(T)))
+
+    return dataclasses.replace(
+        m, density=c(m.density), E1=c(m.E1), E2=c(m.E2), nu12=c(m.nu12), G12=c(m.G12),
+        G13=c(m.G13), G23=c(m.G23), alpha1=c(m.alpha1), alpha2=c(m.alpha2), k1=c(m.k1),
+        k2=c(m.k2), k3=c(m.k3), specific_heat=c(m.specific_heat),
+        base=None if m.base is None else constant_material(m.base, T),
+        description=f"{m.name} at {T:g} K (temperature independent)")
+
+
+def _freeze(panel: PanelSpec, T: float) -> PanelSpec:
+    layers = tuple(dataclasses.replace(layer, material=constant_material(layer.material, T))
+                   for layer in panel.layers)
+    return dataclasses.replace(panel, layers=layers)
+
+
+def _bounds(name: str, value: list[float] | str, tunnel: TunnelEnvelope | None
+            ) -> tuple[float, float]:
+    field = f"variables.{name}"
+    if isinstance(value, str):
+        if value != "tunnel":
+            raise InputError(field, "bounds must be [lower, upper] or \"tunnel\"")
+        if tunnel is None:
+            raise InputError(field, "\"tunnel\" bounds need a [tunnel] table")
+        b = tunnel.bounds()
+        if name not in b:
+            raise InputError(field, f"the tunnel {tunnel.name!r} gives no bounds for {name} "
+                             f"(it bounds {', '.join(b)})")
+        return b[name]
+    if len(value) != 2:
+        raise InputError(field, "bounds must be [lower, upper]")
+    lo, hi = float(value[0]), float(value[1])
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise InputError(field, f"bounds must be finite with lower < upper; got [{lo:g}, {hi:g}]")
+    hard = HARD_LIMITS[name]
+    if lo < hard[0] or hi > hard[1]:
+        raise InputError(field, f"bounds [{lo:g}, {hi:g}] leave the allowed range "
+                         f"[{hard[0]:g}, {hard[1]:g}]")
+    if tunnel is not None and name in tunnel.bounds():
+        tlo, thi = tunnel.bounds()[name]
+        if lo < tlo * (1 - 1e-9) or hi > thi * (1 + 1e-9):
+            raise InputError(field, f"bounds [{lo:g}, {hi:g}] leave the tunnel envelope "
+                             f"{tunnel.name} [{tlo:g}, {thi:g}]")
+    return lo, hi
+
+
+def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
+    """Validate a parsed study and build its :class:`ScalingSpec` (nothing is simulated)."""
+    try:
+        cfg = StudyFile.model_validate(data)
+    except ValidationError as exc:
+        raise _pydantic_error(exc) from None
+    base = Path(path).parent if str(path) != "<memory>" else Path.cwd()
+    case_path = resolve(cfg.prototype.case, "case", base)
+    try:
+        case = load_case(case_path)
+    except InputError as exc:
+        raise InputError(f"prototype.case ({exc.field})", exc.message) from None
+    if case.flow is None:
+        raise InputError("prototype.case", f"{case_path} has no [flow] table")
+    sim_cfg = cfg.simulation
+    proto_panel = case.panel
+    if sim_cfg.mesh is not None:
+        proto_panel = dataclasses.replace(proto_panel, mesh=tuple(sim_cfg.mesh))
+    if cfg.prototype.temperature_independent:
+        proto_panel = _freeze(proto_panel, proto_panel.initial_temperature)
+    proto_flow = case.flow
+    if cfg.prototype.altitude is not None:
+        proto_flow = FlowCondition.from_altitude(
+            cfg.prototype.mach if cfg.prototype.mach is not None else case.flow.mach,
+            cfg.prototype.altitude)
+    elif cfg.prototype.mach is not None:
+        proto_flow = FlowCondition.from_static(cfg.prototype.mach, case.flow.pressure,
+                                               case.flow.temperature)
+    prototype = Configuration(panel=proto_panel, flow=proto_flow, delta_T=cfg.prototype.delta_T)
+
+    tunnel = None
+    if cfg.tunnel is not None:
+        tun = dict(cfg.tunnel)
+        spec_tun: str | dict[str, Any] = tun["name"] if set(tun) == {"name"} else tun
+        tunnel = resolve_tunnel(spec_tun, field="tunnel")
+
+    # -- model template -------------------------------------------------------------------
+    m = cfg.model
+    xi = cfg.study.xi
+    material = resolve_material(m.material, {}, cfg.materials, field="model.material")
+    if m.temperature_independent:
+        material = constant_material(material, m.initial_temperature)
+    thickness = m.thickness if m.thickness is not None else proto_panel.thickness / xi
+    model_panel = PanelSpec(
+        layers=(Layer(material, thickness, 0.0, m.sublayers),), kind=proto_panel.kind,
+        length=proto_panel.length / xi, width=proto_panel.width / xi,
+        boundary=m.boundary or proto_panel.boundary,
+        leading_edge_length=proto_panel.leading_edge_length / xi,
+        flow_angle=proto_panel.flow_angle, mesh=proto_panel.mesh,
+        initial_temperature=m.initial_temperature,
+        emissivity=proto_panel.emissivity if m.emissivity is None else m.emissivity,
+        damping=proto_panel.damping, name="model")
+    if tunnel is not None:
+        lo_p, hi_p = tunnel.p0
+        lo_T, hi_T = tunnel.T0
+        mach = (tunnel.mach_values[0] if tunnel.mach_values
+                else 0.5 * (tunnel.mach_bounds[0] + tunnel.mach_bounds[1]))
+        if "M" in cfg.fixed:
+            mach = cfg.fixed["M"]
+        model_flow = FlowCondition.from_stagnation(mach, math.sqrt(lo_p * hi_p),
+                                                   math.sqrt(lo_T * hi_T))
+    else:
+        model_flow = case.flow
+    model = Configuration(panel=model_panel, flow=model_flow, delta_T=cfg.prototype.delta_T)
+
+    variables = tuple(Variable(name, *_bounds(name, value, tunnel))
+                      for name, value in cfg.variables.items())
+    if tunnel is not None and tunnel.mach_values and len(tunnel.mach_values) > 1 \
+            and "M" not in cfg.fixed:
+        raise InputError("fixed.M", f"tunnel {tunnel.name} has several nozzles "
+                         f"{list(tunnel.mach_values)}: fix M (one study per nozzle, Eq. 6.7)")
+    if tunnel is not None and tunnel.mach_values and "M" in cfg.variables:
+        raise InputError("variables.M", f"tunnel {tunnel.name} has discrete Mach numbers "
+                         f"{list(tunnel.mach_values)}; M cannot be a continuous variable")
+    for name, value in cfg.fixed.items():
+        lo, hi = HARD_LIMITS[name]
+        if not (lo <= value <= hi):
+            raise InputError(f"fixed.{name}", f"must be within [{lo:g}, {hi:g}]; got {value:g}")
+    fixed = dict(cfg.fixed)
+    aero = sim_cfg.aero
+    if aero not in ("pt", "pt1", "pt3", "ls", "pt-bl", "se") and not aero.startswith("rom:"):
+        raise InputError("simulation.aero", f"must be one of pt, pt1, pt3, ls, pt-bl, se or "
+                         f"'rom:PATH'; got {aero!r}")
+    simulation = Simulation(kind=cfg.study.kind, aero=aero, heating=sim_cfg.heating,
+                            boundary_layer=sim_cfg.boundary_layer, time_step=sim_cfg.time_step,
+                            steps=sim_cfg.steps, initial_deflection=sim_cfg.initial_deflection,
+                            lsa_modes=sim_cfg.lsa_modes, unstable_steps=sim_cfg.unstable_steps,
+                            rho_bar=sim_cfg.rho_bar)
+    spec = ScalingSpec(prototype=prototype, model=model, variables=variables, fixed=fixed,
+                       objectives=tuple(cfg.study.objectives), simulation=simulation,
+                       time_scaling=cfg.study.time_scaling, projection=cfg.study.projection,
+                       equalities=tuple(cfg.constraints.equality), xi=xi)
+    return Study(path=str(path), name=cfg.study.name, description=cfg.study.description,
+                 spec=spec, tunnel=tunnel, optimizer=cfg.optimizer, raw=cfg)
+
+
+def load_study(path: str | Path) -> Study:
+    """Read and validate a study file."""
+    return parse_study(read_toml(path), path)
+
+
+# -- sweeps ---------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class SweepPoint:
+    """One point of a ``[sweep]``: a geometric scale and/or a flight condition.
+
+    Attributes
+    ----------
+    label : str
+        Sub-directory name, e.g. ``"xi_2"``, ``"M6_H25km"`` or ``"xi_2_M6_H25km"``.
+    xi : float or None
+        Geometric scale (None: the study's).
+    mach, altitude : float or None
+        Prototype flight condition (altitude in m; None: the study's).
+    """
+
+    label: str
+    xi: float | None = None
+    mach: float | None = None
+    altitude: float | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+def _num(value: float) -> str:
+    return f"{value:g}"
+
+
+def sweep_points(study: Study) -> list[SweepPoint]:
+    """The points of a study's ``[sweep]`` in the order they are run.
+
+    Scales are visited in the listed order. A ``mach`` x ``altitude`` grid is visited in
+    serpentine order (Mach outer; the altitude direction alternates) so that consecutive
+    points are neighbours and recycled samples (Sec. 9.2.4) come from the closest
+    condition already solved. A study without ``[sweep]`` has no points.
+    """
+    sw = study.sweep
+    if sw is None:
+        return []
+    conditions: list[tuple[float | None, float | None]]
+    if sw.conditions is not None:
+        conditions = [(float(m), float(h)) for m, h in sw.conditions]
+    elif sw.mach is not None or sw.altitude is not None:
+        machs = sw.mach or [None]
+        alts = sw.altitude or [None]
+        conditions = []
+        for i, m in enumerate(machs):
+            row = alts if i % 2 == 0 else list(reversed(alts))
+            conditions.extend((m, h) for h in row)
+    else:
+        conditions = [(None, None)]
+    scales: list[float | None] = list(sw.xi) if sw.xi is not None else [None]
+    points = []
+    for xi in scales:
+        for m, h in conditions:
+            parts = []
+            if xi is not None:
+                parts.append(f"xi_{_num(xi)}")
+            cond = ""
+            if m is not None:
+                cond += f"M{_num(m)}"
+            if h is not None:
+                cond += ("_" if cond else "") + f"H{_num(h / 1000.0)}km"
+            if cond:
+                parts.append(cond)
+            points.append(SweepPoint(label="_".join(parts), xi=xi, mach=m, altitude=h))
+    return points
+
+
+def study_data(study: Study) -> dict[str, Any]:
+    """The study as a plain dict that :func:`parse_study` accepts anywhere (the prototype
+    case path made absolute); stored in sweep run directories to rebuild sub-studies."""
+    data = study.raw.model_dump(mode="json", exclude_none=True)
+    base = Path(study.path).parent if study.path != "<memory>" else Path.cwd()
+    data["prototype"]["case"] = str(resolve(data["prototype"]["case"], "case", base).resolve())
+    return data
+
+
+def study_at(study: Study | dict[str, Any], point: SweepPoint | None = None, *,
+             xi: float | None = None, first: bool = True) -> Study:
+    """The single study of one sweep point (no ``[sweep]`` table).
+
+    Parameters
+    ----------
+    study : Study or dict
+        The sweep study (or its :func:`study_data`).
+    point : SweepPoint, optional
+    xi : float, optional
+        Geometric scale (overrides the point's), e.g. for a law prediction.
+    first : bool
+        False: the budget of the later points (``sweep.initial_samples``/``iterations``).
+    """
+    data = study_data(study) if isinstance(study, Study) else dict(study)
+    data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
+    sw = data.pop("sweep", None) or {}
+    scale = xi if xi is not None else (point.xi if point is not None else None)
+    if scale is not None:
+        data.setdefault("study", {})["xi"] = float(scale)
+    if point is not None:
+        if point.mach is not None:
+            data["prototype"]["mach"] = float(point.mach)
+        if point.altitude is not None:
+            data["prototype"]["altitude"] = float(point.altitude)
+        data.setdefault("study", {})["name"] = (f"{data.get('study', {}).get('name', 'study')}"
+                                                f" [{point.label}]")
+    sub = parse_study(data, study.path if isinstance(study, Study) else "<memory>")
+    if not first:
+        update = {}
+        if sw.get("initial_samples") is not None:
+            update["initial_samples"] = int(sw["initial_samples"])
+        if sw.get("iterations") is not None:
+            update["iterations"] = int(sw["iterations"])
+        if update:
+            sub = dataclasses.replace(sub, optimizer=sub.optimizer.model_copy(update=update))
+    return sub
+
+
+__all__ = ["OBJECTIVES", "Study", "StudyFile", "SweepPoint", "constant_material", "load_study",
+           "parse_study", "study_at", "study_data", "sweep_points"]

@@ -1,0 +1,198 @@
+"""Response of a coupled run: time histories, nondimensionalization, save/load (NPZ).
+
+Histories: center deflection, volume-mean and upper-surface mean temperatures, maximum wall
+temperature, modal coordinates of the deflection on the sinusoidal modes
+``sin(i pi x/a) sin(j pi y/b)`` (Eq. 8.9 form, amplitude / thickness), the LSA eigenvalues
+per step, and optionally the nodal displacement/temperature and the fluid pressure and heat
+flux fields. Files are NPZ written without pickle.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from hypate.solvers.aero.base import SurfacePoints
+from hypate.solvers.errors import InputError
+from hypate.solvers.panel import PanelSpec
+
+if TYPE_CHECKING:  # pragma: no cover
+    from hypate.solvers.coupling.model import PanelModel
+    from hypate.solvers.coupling.stability import StabilityResult
+
+Array = NDArray[np.float64]
+FORMAT_VERSION = 1
+#: Sinusoidal modes (i, j) on which the deflection is projected.
+MODE_INDICES = tuple((i, j) for j in (1, 2, 3) for i in (1, 2, 3))
+
+
+def sinusoidal_modes(panel: PanelSpec, points: SurfacePoints) -> tuple[Array, list[tuple[int, int]]]:
+    """Mode shapes ``sin(i pi x/a) sin(j pi y/b)`` on the fluid points, shape (n_modes, n_f).
+
+    A "2d" strip uses j = 1 only, with the y factor dropped.
+    """
+    idx = [(i, 1) for i in (1, 2, 3, 4, 5, 6)] if panel.kind == "2d" else list(MODE_INDICES)
+    x, y = points.x / panel.length, points.y / panel.width
+    shapes = [np.sin(i * math.pi * x) * (np.sin(j * math.pi * y) if panel.kind == "3d" else 1.0)
+              for i, j in idx]
+    return np.array(shapes), idx
+
+
+def modal_coordinates(w: Array, modes: Array, weights: Array) -> Array:
+    """Least-squares (L2-weighted) coordinates of ``w`` (n_f,) on ``modes`` (n_modes, n_f)."""
+    G = (modes * weights) @ modes.T
+    return np.linalg.solve(G, (modes * weights) @ w)
+
+
+@dataclass
+class Response:
+    """Time histories of a coupled run (SI units; see module docstring)."""
+
+    scheme: str
+    thickness: float
+    length: float
+    stagnation_temperature: float
+    initial_temperature: float
+    times: list[float] = field(default_factory=list)
+    center_deflection: list[float] = field(default_factory=list)
+    mean_temperature: list[float] = field(default_factory=list)
+    top_temperature: list[float] = field(default_factory=list)
+    max_wall_temperature: list[float] = field(default_factory=list)
+    modal: list[Array] = field(default_factory=list)
+    lsa: list[Array] = field(default_factory=list)
+    lsa_status: list[str] = field(default_factory=list)
+    u: list[Array] = field(default_factory=list)
+    T: list[Array] = field(default_factory=list)
+    pressure: list[Array] = field(default_factory=list)
+    heat_flux: list[Array] = field(default_factory=list)
+    status: str = "running"
+    message: str = ""
+    instability_time: float | None = None
+    instability_type: str | None = None
+    wall_seconds: float = 0.0
+    timing: dict[str, float] = field(default_factory=dict)
+    mode_indices: list[tuple[int, int]] = field(default_factory=list)
+    keep_fields: bool = True
+    artificial_energy: list[float] = field(default_factory=list)
+
+    # -- building ------------------------------------------------------------------------
+    @classmethod
+    def start(cls, model: PanelModel, scheme: str) -> Response:
+        p = model.panel
+        return cls(scheme=scheme, thickness=p.thickness, length=p.length,
+                   stagnation_temperature=model.flow.stagnation_temperature,
+                   initial_temperature=p.initial_temperature,
+                   mode_indices=list(model.modes[1]), keep_fields=model.settings.keep_fields)
+
+    def record(self, t: float, u: Array, T: Array, model: PanelModel,
+               lsa: StabilityResult | None, u_dot: Array | None = None) -> None:
+        """Append the state at time ``t``; ``u_dot`` (transient schemes) enters the stored
+        surface pressure through the piston-theory velocity term."""
+        st, th = model.structure, model.thermal
+        tr = model.transfer
+        self.times.append(float(t))
+        self.center_deflection.append(float(u[5 * st.mesh.center + 2]))
+        self.mean_temperature.append(float(th.mean_temperature(T)))
+        self.top_temperature.append(float(th.surface_mean(T, "top")))
+        self.max_wall_temperature.append(float(np.max(th.wall_temperature(T))))
+        self.modal.append(modal_coordinates(tr.H_FS @ u, model.modes[0], model.points.weights)
+                          / self.thickness)
+        lam = (np.full(model.settings.lsa_modes, np.nan + 0j) if lsa is None else
+               np.pad(lsa.lambda_p, (0, max(0, model.settings.lsa_modes - lsa.lambda_p.size)),
+                      constant_values=np.nan)[:model.settings.lsa_modes])
+        self.lsa.append(lam)
+        self.lsa_status.append("" if lsa is None else lsa.status)
+        if self.keep_fields:
+            self.u.append(np.array(u, copy=True))
+            self.T.append(np.array(T, copy=True))
+            loads = model.fluid_loads(u, model.wall_temperature(T), u_dot=u_dot)
+            self.pressure.append(loads.pressure.copy())
+            self.heat_flux.append(loads.heat_flux.copy())
+
+    def finish(self, status: str, message: str, instability: tuple[float, str] | None) -> None:
+        self.status = status
+        self.message = message
+        if instability is not None:
+            self.instability_time, self.instability_type = float(instability[0]), instability[1]
+
+    # -- nondimensional views (Sec. 9.2.1.1) -----------------------------------------------
+    def nondimensional_time(self, reference_time: float) -> Array:
+        return np.asarray(self.times) / reference_time
+
+    @property
+    def deflection_over_thickness(self) -> Array:
+        return np.asarray(self.center_deflection) / self.thickness
+
+    @property
+    def temperature_over_stagnation(self) -> Array:
+        return np.asarray(self.mean_temperature) / self.stagnation_temperature
+
+    def summary(self) -> dict[str, Any]:
+        """The public JSON of ``hypate simulate --json``."""
+        return {"times": list(self.times), "center_deflection": list(self.center_deflection),
+                "mean_temperature": list(self.mean_temperature),
+                "instability_time": self.instability_time,
+                "instability_type": self.instability_type}
+
+    # -- persistence (NPZ, no pickle) -----------------------------------------------------
+    def save(self, path: str | Path) -> Path:
+        path = Path(path)
+        meta = {"format_version": FORMAT_VERSION, "scheme": self.scheme,
+                "thickness": self.thickness, "length": self.length,
+                "stagnation_temperature": self.stagnation_temperature,
+                "initial_temperature": self.initial_temperature, "status": self.status,
+                "message": self.message, "instability_time": self.instability_time,
+                "instability_type": self.instability_type, "wall_seconds": self.wall_seconds,
+                "timing": self.timing, "mode_indices": self.mode_indices,
+                "lsa_status": self.lsa_status}
+        arrays: dict[str, Array] = {
+            "times": np.asarray(self.times), "center_deflection": np.asarray(self.center_deflection),
+            "mean_temperature": np.asarray(self.mean_temperature),
+            "top_temperature": np.asarray(self.top_temperature),
+            "max_wall_temperature": np.asarray(self.max_wall_temperature),
+            "modal": np.asarray(self.modal), "lsa": np.asarray(self.lsa),
+            "meta": np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)}
+        for name in ("u", "T", "pressure", "heat_flux", "artificial_energy"):
+            if getattr(self, name):
+                arrays[name] = np.asarray(getattr(self, name))
+        tmp = path.with_name(path.name + ".tmp.npz")
+        np.savez_compressed(tmp, **arrays)
+        tmp.replace(path)
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> Response:
+        path = Path(path)
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                meta = json.loads(bytes(data["meta"]).decode())
+                arrays = {k: data[k] for k in data.files if k != "meta"}
+        except (OSError, ValueError, KeyError) as exc:
+            raise InputError(str(path), f"not a hypate response file ({exc})") from None
+        if meta.get("format_version") != FORMAT_VERSION:
+            raise InputError(str(path), f"unsupported response format {meta.get('format_version')}")
+        r = cls(scheme=meta["scheme"], thickness=meta["thickness"], length=meta["length"],
+                stagnation_temperature=meta["stagnation_temperature"],
+                initial_temperature=meta["initial_temperature"])
+        r.times = arrays["times"].tolist()
+        r.center_deflection = arrays["center_deflection"].tolist()
+        r.mean_temperature = arrays["mean_temperature"].tolist()
+        r.top_temperature = arrays["top_temperature"].tolist()
+        r.max_wall_temperature = arrays["max_wall_temperature"].tolist()
+        r.modal = list(arrays["modal"])
+        r.lsa = list(arrays["lsa"])
+        for name in ("u", "T", "pressure", "heat_flux"):
+            setattr(r, name, list(arrays[name]) if name in arrays else [])
+        if "artificial_energy" in arrays:
+            r.artificial_energy = arrays["artificial_energy"].tolist()
+        r.status, r.message = meta["status"], meta["message"]
+        r.instability_time, r.instability_type = meta["instability_time"], meta["instability_type"]
+        r.wall_seconds, r.timing = meta["wall_seconds"], meta["timing"]
+        r.mode_indices = [tuple(m) for m in meta["mode_indices"]]
+        r.lsa_status = meta["lsa_status"]
+        return r

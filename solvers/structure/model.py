@@ -1,0 +1,1070 @@
+"""Structural model of a panel: DCS9 assembly, boundary conditions and solvers (Ch. 3).
+
+:class:`StructuralModel` is built once per panel (mesh, quadrature data, CSR sparsity
+pattern, penalty data) and evaluates the discrete operators of the equations of motion
+(Eq. 3.43)::
+
+    M u_tt + C u_t + F_I(u, T) = F_S
+
+Public operators (``n_dof = 5 n_nodes``, DOF ``5 node + k`` with k = u, v, w, psi_x, psi_y;
+SI units: m, rad, N, Pa, K):
+
+* :meth:`StructuralModel.internal_force` -- ``F_I(u, T)`` (N), Eqs. (3.36), (3.40)
+* :meth:`StructuralModel.tangent` -- exact ``dF_I/du`` (N/m), Eq. (3.50)
+* :meth:`StructuralModel.linear_stiffness`, :meth:`StructuralModel.geometric_stiffness`
+  -- ``K_L`` (Eq. 3.34a-b) and the initial-stress matrix (the ``L_w2^T N_E`` term of 3.52)
+* :meth:`StructuralModel.mass` (Eq. 3.38), :meth:`StructuralModel.damping` (Eq. 3.44)
+* :meth:`StructuralModel.pressure_load` (Eq. 3.39) and :attr:`pressure_matrix`
+* :meth:`StructuralModel.thermal_load` (Eq. 3.34d)
+
+Temperature input ``T`` everywhere: ``None`` (the stress-free initial temperature), a scalar
+(uniform), an array of shape ``(n_levels,)`` (one through-thickness profile for every node),
+``(n_nodes,)`` (per node, uniform through the thickness) or ``(n_nodes, n_levels)`` at the
+thermal levels ``hypate.solvers.panel.thermal_levels(panel)``; the laminate integrals use the
+profile interpolated to the quadrature points with the shape functions.
+
+Solvers: :func:`modes`, :func:`buckling_delta_T`, :func:`static` (Newton with line search,
+adaptive load stepping, branch switching past bifurcations and an arc-length fallback for
+limit points) and :func:`transient` (generalized-alpha, Eq. 3.45).
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from numpy.typing import ArrayLike, NDArray
+
+from hypate.solvers.errors import InputError
+from hypate.solvers.laminate import LaminateState, laminate
+from hypate.solvers.numerics.sparse import Factor, PatternSolver
+from hypate.solvers.structure.mesh import ShellMesh, panel_mesh
+from hypate.solvers.panel import PanelSpec, thermal_levels
+from hypate.solvers.structure.element import (NDOF, NNODE, Quadrature, btdb, btdb_von_karman,
+                                   generalized_strain, geometric_kernel, mass_kernel,
+                                   membrane_bending_B, shear_B, von_karman_w_B)
+
+Array = NDArray[np.float64]
+TemperatureLike = float | ArrayLike | None
+
+#: Penalty factor alpha_0 of Eq. (3.42).
+PENALTY_FACTOR = 1.0e6
+
+U, V, W, PSI_X, PSI_Y = range(NDOF)
+
+
+@dataclass(frozen=True)
+class _ThermalState:
+    """Laminate data at the quadrature points for one temperature field."""
+
+    C: Array   # (E|1, 9|1, 6, 6)  [[A, B], [B, D]]
+    R: Array   # (E|1, 9|1, 6)     (N_T, M_T)
+    S: Array   # (E|1, 4|1, 2, 2)
+    I: tuple[Array, Array, Array]  # (E|1, 9|1) inertia I1, I2, I3 (Eq. 3.38)
+    # u-independent kernel parts, formed on first use (StructuralModel._linear_tangent)
+    linear: dict = field(default_factory=dict)
+
+
+class StructuralModel:
+    """Discrete DCS9 model of a panel (mesh, quadrature, sparsity pattern, penalty BCs).
+
+    Parameters
+    ----------
+    panel : PanelSpec
+        Layer stack, geometry, curvature, boundary condition and mesh size.
+    mesh : ShellMesh, optional
+        Defaults to :func:`hypate.solvers.structure.mesh.panel_mesh`.
+    penalty : float
+        alpha_0 of Eq. (3.42): the penalty stiffness is ``alpha_0 * max |K_L|`` of the
+        unconstrained linear stiffness at the initial temperature (fixed for the model, so
+        ``F_I`` and its tangent stay consistent).
+    factorization : {"auto", "banded", "splu"}
+        Back end of :class:`hypate.solvers.numerics.sparse.PatternSolver`.
+    """
+
+    def __init__(self, panel: PanelSpec, mesh: ShellMesh | None = None,
+                 penalty: float = PENALTY_FACTOR, factorization: str = "auto") -> None:
+        if not panel.layers:
+            raise InputError("panel.layers", "at least one layer is needed")
+        self.panel = panel
+        self.mesh = mesh if mesh is not None else panel_mesh(panel)
+        self.kx = 0.0 if math.isinf(panel.radius_x) else 1.0 / panel.radius_x
+        self.ky = 0.0 if math.isinf(panel.radius_y) else 1.0 / panel.radius_y
+        self.T0 = float(panel.initial_temperature)
+        self.n_levels = int(thermal_levels(panel).size)
+        m = self.mesh
+        self.n_nodes = m.n_nodes
+        self.n_dof = NDOF * m.n_nodes
+        E = m.n_elem
+        xe = m.coords[m.elements]
+        self.q3 = Quadrature.on(xe, 3)   # membrane, bending, von Karman, mass
+        self.q2 = Quadrature.on(xe, 2)   # transverse shear (reduced)
+        self.edofs = (NDOF * m.elements[:, :, None] + np.arange(NDOF)).reshape(E, NNODE * NDOF)
+        self._build_pattern()
+        self._Bs = shear_B(self.q2, self.kx, self.ky).reshape(E, 4, 2, NNODE * NDOF)
+        self._B0 = membrane_bending_B(self.q3, None, self.kx, self.ky).reshape(
+            E, 9, 6, NNODE * NDOF)
+        self._cache_key: object = None
+        self._cache_state: _ThermalState | None = None
+        self._mass_cache: dict[object, sp.csr_matrix] = {}
+        self.constrained_dofs = self._constrained_dofs()
+        self.free_dofs = np.setdiff1d(np.arange(self.n_dof), self.constrained_dofs)
+        self.penalty = 0.0
+        KLu = self.linear_stiffness(None, constrained=False)
+        self._k_max = float(np.max(np.abs(KLu.data)))
+        self.penalty = float(penalty) * self._k_max   # Eq. (3.42)
+        self._pen_vec = np.zeros(self.n_dof)
+        self._pen_vec[self.constrained_dofs] = self.penalty
+        self._tie, self._tie_data = self._strip_ties()
+        self.solver = PatternSolver(self.pattern, method=factorization,
+                                    orderings=self._grid_orderings())
+        self.pressure_matrix = self._build_pressure_matrix()
+
+    # -- set-up ---------------------------------------------------------------------
+    def _build_pattern(self) -> None:
+        n = self.n_dof
+        ed = self.edofs.astype(np.int64)
+        nd = ed.shape[1]
+        rows = np.broadcast_to(ed[:, :, None], (ed.shape[0], nd, nd)).ravel()
+        cols = np.broadcast_to(ed[:, None, :], (ed.shape[0], nd, nd)).ravel()
+        keys = rows * n + cols
+        uniq, inv = np.unique(keys, return_inverse=True)
+        self._map = inv.astype(np.int64)
+        self._nnz = int(uniq.size)
+        r = uniq // n
+        self._indices = (uniq % n).astype(np.int32)
+        self._indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=n))]).astype(
+            np.int32)
+        self._diag = np.searchsorted(uniq, np.arange(n, dtype=np.int64) * (n + 1))
+        self.pattern = self._csr(np.zeros(self._nnz))
+
+    def _csr(self, data: Array) -> sp.csr_matrix:
+        return sp.csr_matrix((data, self._indices, self._indptr), shape=(self.n_dof, self.n_dof))
+
+    def assemble_matrix(self, Ke: Array, penalty: bool = False) -> sp.csr_matrix:
+        """Assemble element matrices (n_elem, 45, 45) into CSR with the fixed pattern."""
+        data = np.bincount(self._map, weights=Ke.ravel(), minlength=self._nnz)
+        if penalty:
+            data[self._diag] += self._pen_vec
+            if self._tie_data is not None:
+                data += self._tie_data
+        return self._csr(data)
+
+    def assemble_vector(self, fe: Array) -> Array:
+        """Assemble element vectors (n_elem, 45) into a global vector (n_dof,)."""
+        return np.bincount(self.edofs.ravel(), weights=fe.ravel(), minlength=self.n_dof)
+
+    def _constrained_dofs(self) -> Array:
+        """DOFs held at zero by the penalty method (Eqs. 3.40-3.42).
+
+        Simply supported: w = 0 and in-plane immovable (u = v = 0) on every edge; the
+        rotation about the edge is free and the rotation along it is held (psi_y = 0 on
+        x-edges, psi_x = 0 on y-edges, the "hard" support matching the Navier solutions).
+        Clamped: all five DOFs. A "2d" strip holds v = psi_y = 0 on every node and applies
+        the edge condition on x = 0 and x = a only.
+        """
+        m = self.mesh
+        bc = self.panel.boundary
+        if bc not in ("simply_supported", "clamped"):
+            raise InputError("panel.boundary", "must be 'simply_supported' or 'clamped'")
+        dofs: list[Array] = []
+        xedges = np.concatenate([m.edges["x0"], m.edges["xa"]])
+        yedges = np.concatenate([m.edges["y0"], m.edges["yb"]])
+        if self.panel.kind == "2d":
+            allnodes = np.arange(m.n_nodes)
+            dofs += [NDOF * allnodes + V, NDOF * allnodes + PSI_Y]
+            yedges = yedges[:0]
+        for nodes, held_rot in ((xedges, PSI_Y), (yedges, PSI_X)):
+            if bc == "clamped":
+                ks = [U, V, W, PSI_X, PSI_Y]
+            else:
+                ks = [U, V, W, held_rot]
+            dofs += [NDOF * nodes + k for k in ks]
+        return np.unique(np.concatenate(dofs)) if dofs else np.zeros(0, dtype=np.int64)
+
+    def _penalty_force(self, u: Array) -> Array:
+        """Penalty reactions K^c u (Eq. 3.40) including the 2d-strip ties."""
+        f = self._pen_vec * u
+        if self._tie is not None:
+            f = f + self._tie @ u
+        return f
+
+    def _strip_ties(self) -> tuple[sp.csr_matrix | None, Array | None]:
+        """Penalty ties making a "2d" strip a true cylindrical-bending model.
+
+        The strip is one element across; without ties its w, u and psi_x may vary across
+        the three node rows, and a heated strip then shows spurious spanwise modes (found
+        unstable by the LSA in compression). Each of these DOFs of rows 0 and 2 is tied to
+        row 1 by a penalty spring, so every field is independent of y. The tie stiffness is
+        10 x max|K_L| (not the boundary penalty): a spring between two free DOFs as stiff
+        as the boundary penalty would cancel the element stiffness to round-off.
+        """
+        tie_k = 10.0 * self._k_max
+        if self.panel.kind != "2d":
+            return None, None
+        ni = self.mesh.grid_shape[1]
+        i = np.arange(ni)
+        a_nodes = np.concatenate([i, 2 * ni + i])      # rows 0 and 2
+        b_nodes = np.concatenate([ni + i, ni + i])     # row 1
+        rows, cols, vals = [], [], []
+        for k in (U, W, PSI_X):
+            a, b = NDOF * a_nodes + k, NDOF * b_nodes + k
+            rows += [a, b, a, b]
+            cols += [a, b, b, a]
+            vals += [np.full(a.size, tie_k), np.full(a.size, tie_k),
+                     np.full(a.size, -tie_k), np.full(a.size, -tie_k)]
+        tie = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                            shape=(self.n_dof, self.n_dof))
+        tie.sum_duplicates()
+        # scatter into the element pattern (the tied pairs share an element)
+        coo = tie.tocoo()
+        keys = coo.row.astype(np.int64) * self.n_dof + coo.col
+        rr = np.repeat(np.arange(self.n_dof), np.diff(self._indptr))
+        pattern_keys = rr.astype(np.int64) * self.n_dof + self._indices
+        pos = np.searchsorted(pattern_keys, keys)
+        data = np.zeros(self._nnz)
+        np.add.at(data, pos, coo.data)
+        return tie, data
+
+    def _grid_orderings(self) -> list[Array]:
+        """DOF permutations of the natural grid orderings (x fastest, y fastest)."""
+        nj, ni = self.mesh.grid_shape
+        ids = np.arange(self.n_nodes).reshape(nj, ni)
+        out = []
+        for nodes in (ids.ravel(), ids.T.ravel()):
+            out.append((NDOF * nodes[:, None] + np.arange(NDOF)).ravel())
+        return out
+
+    def _build_pressure_matrix(self) -> sp.csr_matrix:
+        q = self.q3
+        NN = np.einsum("eq,qa,qb->eab", q.wdet, q.N, q.N)                 # (E, 9, 9)
+        el = self.mesh.elements
+        rows = np.broadcast_to((NDOF * el + W)[:, :, None], NN.shape).ravel()
+        cols = np.broadcast_to(el[:, None, :], NN.shape).ravel()
+        return sp.csr_matrix((NN.ravel(), (rows, cols)), shape=(self.n_dof, self.n_nodes))
+
+    # -- temperature ----------------------------------------------------------------
+    def nodal_temperature(self, T: TemperatureLike) -> Array | float:
+        """Normalize a temperature input: a float (uniform, no in-plane variation), an array
+        of shape (n_levels,) (one profile) or (n_nodes, n_levels)."""
+        if T is None:
+            return self.T0
+        arr = np.asarray(T, dtype=float)
+        if arr.ndim == 0:
+            return float(arr)
+        if arr.ndim == 1 and arr.size == self.n_nodes:
+            return np.repeat(arr[:, None], self.n_levels, axis=1)
+        if arr.ndim == 1 and arr.size == self.n_levels:
+            return arr
+        if arr.shape == (self.n_nodes, self.n_levels):
+            return arr
+        raise InputError("temperature", f"expected a scalar or shape (n_levels,)=({self.n_levels},),"
+                         f" (n_nodes,)=({self.n_nodes},) or (n_nodes, n_levels), got {arr.shape}")
+
+    def _cached_thermal(self, Tn: Array | float) -> _ThermalState | None:
+        """The cached laminate data when they are for the normalized temperature ``Tn``."""
+        if self._cache_state is None:
+            return None
+        ck = self._cache_key
+        if isinstance(Tn, float):
+            return self._cache_state if isinstance(ck, float) and ck == Tn else None
+        if isinstance(ck, np.ndarray) and ck.shape == np.shape(Tn) and np.array_equal(ck, Tn):
+            return self._cache_state
+        return None
+
+    def _thermal(self, T: TemperatureLike) -> _ThermalState:
+        Tn = self.nodal_temperature(T)
+        cached = self._cached_thermal(Tn)
+        if cached is not None:
+            return cached
+        if isinstance(Tn, float) or Tn.ndim == 1:
+            lam = laminate(self.panel, Tn)
+            st = _ThermalState(C=lam.ABD[None, None], R=lam.thermal_resultants[None, None],
+                               S=lam.S[None, None],
+                               I=tuple(np.asarray(x)[None, None] for x in (lam.I1, lam.I2,
+                                                                           lam.I3)))
+        else:
+            Te = Tn[self.mesh.elements]                                    # (E, 9, L)
+            lam3 = laminate(self.panel, np.einsum("qa,eal->eql", self.q3.N, Te))
+            lam2 = laminate(self.panel, np.einsum("qa,eal->eql", self.q2.N, Te),
+                            parts="shear")  # only S at the reduced shear quadrature
+            st = _ThermalState(C=lam3.ABD, R=lam3.thermal_resultants, S=lam2.S,
+                               I=(lam3.I1, lam3.I2, lam3.I3))
+        self._cache_key = Tn if isinstance(Tn, float) else np.array(Tn, copy=True)
+        self._cache_state = st
+        return st
+
+    def laminate_at_nodes(self, T: TemperatureLike = None) -> LaminateState:
+        """Laminate resultants (A, B, D, S, N_T, M_T, I1..I3) at every node, leading shape
+        (n_nodes,) (or () for a uniform temperature)."""
+        Tn = self.nodal_temperature(T)
+        return laminate(self.panel, Tn)
+
+    # -- element kernels --------------------------------------------------------------
+    def _element_dofs(self, u: Array | None) -> Array | None:
+        if u is None:
+            return None
+        u = np.asarray(u, dtype=float)
+        if u.shape != (self.n_dof,):
+            raise ValueError(f"u must have shape ({self.n_dof},), got {u.shape}")
+        return u[self.edofs].reshape(-1, NNODE, NDOF)
+
+    def _linear_tangent(self, st: _ThermalState) -> Array:
+        """``btdb(B0, C) + btdb(Bs, S)`` (E, 45, 45), the u-independent part of the element
+        tangent, formed once per temperature field (a coupled step evaluates several
+        tangents at one temperature)."""
+        if "K0" not in st.linear:
+            st.linear["K0"] = (btdb(self._B0, st.C, self.q3.wdet)
+                               + btdb(self._Bs, st.S, self.q2.wdet))
+        return st.linear["K0"]
+
+    def _kernel(self, u: Array | None, T: TemperatureLike, force: bool, tangent: bool,
+                nonlinear: bool = True, geometric: bool = True,
+                thermal: bool = True) -> tuple[Array | None, Array | None]:
+        """Element internal forces (E, 45) and tangents (E, 45, 45).
+
+        ``B = B0 + BL`` (Eq. 3.32): the linear operator ``B0`` is fixed and the von Karman
+        part ``BL`` lives on the membrane rows and w columns only, so the force is
+        ``B0^T s + BL^T s_m`` and the tangent the cached ``B0^T C B0`` plus a rank-9 update
+        per quadrature point (:func:`hypate.solvers.structure.element.btdb_von_karman`).
+        """
+        st = self._thermal(T)
+        E = self.mesh.n_elem
+        q3, q2 = self.q3, self.q2
+        ue = self._element_dofs(u)
+        if ue is None:
+            ue = np.zeros((E, NNODE, NDOF))
+        nl = nonlinear and u is not None
+        BL = von_karman_w_B(q3, ue) if nl else None                        # (E, 9, 3, 9)
+        e6 = generalized_strain(q3, ue, self.kx, self.ky, nonlinear=nl)
+        stress = np.einsum("...ij,...j->...i", st.C, e6)                   # (E, 9, 6)
+        if thermal:
+            stress = stress - st.R
+        fe = Ke = None
+        gam = np.einsum("eqia,ea->eqi", self._Bs, ue.reshape(E, -1))      # (E, 4, 2)
+        if force:
+            shear = np.einsum("...ij,...j->...i", st.S, gam)
+            # sum_q B^T s as one (1 x 6q) (6q x 45) product per element
+            sw = stress * q3.wdet[..., None]
+            ss = shear * q2.wdet[..., None]
+            fe = (np.matmul(sw.reshape(E, 1, -1), self._B0.reshape(E, -1, NNODE * NDOF))
+                  + np.matmul(ss.reshape(E, 1, -1), self._Bs.reshape(E, -1, NNODE * NDOF))
+                  )[:, 0]
+            if nl:
+                fe.reshape(E, NNODE, NDOF)[:, :, W] += np.matmul(
+                    np.ascontiguousarray(sw[..., :3]).reshape(E, 1, -1),
+                    BL.reshape(E, -1, NNODE))[:, 0]
+        if tangent:
+            K0 = self._linear_tangent(st)
+            Ke = (btdb_von_karman(K0, self._B0, st.C * q3.wdet[..., None, None], BL) if nl
+                  else K0.copy())
+            if geometric:
+                Kg = geometric_kernel(q3, stress[..., :3])
+                Ke.reshape(E, NNODE, NDOF, NNODE, NDOF)[:, :, W, :, W] += Kg
+        return fe, Ke
+
+    # -- public operators -------------------------------------------------------------
+    def internal_force(self, u: Array, T: TemperatureLike = None) -> Array:
+        """Internal force ``F_I(u, T) = K(u) u - F_T + K^c u`` (Eqs. 3.36, 3.40).
+
+        Parameters
+        ----------
+        u : ndarray of shape (n_dof,)
+            Nodal DOFs (m, rad).
+        T : temperature input (see module docstring), K.
+
+        Returns
+        -------
+        ndarray of shape (n_dof,), N.
+        """
+        fe, _ = self._kernel(u, T, force=True, tangent=False)
+        return self.assemble_vector(fe) + self._penalty_force(u)
+
+    def tangent(self, u: Array, T: TemperatureLike = None) -> sp.csr_matrix:
+        """Exact tangent ``dF_I/du`` (Eq. 3.50, with dK_N/du u and dF_T/du), CSR (N/m)."""
+        _, Ke = self._kernel(u, T, force=False, tangent=True)
+        return self.assemble_matrix(Ke, penalty=True)
+
+    def force_and_tangent(self, u: Array, T: TemperatureLike = None
+                          ) -> tuple[Array, sp.csr_matrix]:
+        """``(F_I, dF_I/du)`` from one kernel pass."""
+        fe, Ke = self._kernel(u, T, force=True, tangent=True)
+        return (self.assemble_vector(fe) + self._penalty_force(u),
+                self.assemble_matrix(Ke, penalty=True))
+
+    def linear_stiffness(self, T: TemperatureLike = None,
+                         constrained: bool = True) -> sp.csr_matrix:
+        """Linear stiffness ``K_L = K_L1 + K_L2`` (Eq. 3.34a-b) with properties at ``T``
+        (no initial-stress term); plus the penalty ``K^c`` when ``constrained``."""
+        _, Ke = self._kernel(None, T, force=False, tangent=True, geometric=False)
+        return self.assemble_matrix(Ke, penalty=constrained)
+
+    def membrane_resultants(self, u: Array | None, T: TemperatureLike = None,
+                            nonlinear: bool = True) -> Array:
+        """``(N_E, M_E)`` at the 3 x 3 quadrature points (Eq. 3.7), shape (n_elem, 9, 6)."""
+        st = self._thermal(T)
+        E = self.mesh.n_elem
+        ue = self._element_dofs(u)
+        if ue is None:
+            ue = np.zeros((E, NNODE, NDOF))
+        e6 = generalized_strain(self.q3, ue, self.kx, self.ky, nonlinear=nonlinear)
+        return np.einsum("...ij,...j->...i", st.C, e6) - st.R
+
+    def geometric_stiffness(self, u: Array | None = None, T: TemperatureLike = None,
+                            nonlinear: bool = True) -> sp.csr_matrix:
+        """Initial-stress matrix of the membrane resultants at ``(u, T)`` on the w DOFs
+        (the ``L_w2^T N_E`` term of Eq. 3.52), CSR (N/m), no penalty."""
+        res = self.membrane_resultants(u, T, nonlinear=nonlinear)
+        Kg = geometric_kernel(self.q3, res[..., :3])
+        E = self.mesh.n_elem
+        Ke = np.zeros((E, NNODE, NDOF, NNODE, NDOF))
+        Ke[:, :, W, :, W] = Kg
+        return self.assemble_matrix(Ke.reshape(E, NNODE * NDOF, NNODE * NDOF))
+
+    def thermal_load(self, T: TemperatureLike, u: Array | None = None) -> Array:
+        """Thermal load vector ``F_T`` (Eq. 3.34d) at ``(u, T)``, shape (n_dof,), N."""
+        st = self._thermal(T)
+        E = self.mesh.n_elem
+        ue = self._element_dofs(u)
+        B = (self._B0 if ue is None else
+             membrane_bending_B(self.q3, ue, self.kx, self.ky).reshape(E, 9, 6, NNODE * NDOF))
+        R = np.broadcast_to(st.R, (E, 9, 6))
+        fe = np.einsum("eqia,eqi->ea", B, R * self.q3.wdet[..., None])
+        return self.assemble_vector(fe)
+
+    def mass(self, T: TemperatureLike = None) -> sp.csr_matrix:
+        """Consistent mass matrix (Eq. 3.38) with densities at ``T`` (default: initial), CSR."""
+        Tn = self.nodal_temperature(T)
+        key = Tn if isinstance(Tn, float) else (np.asarray(Tn).tobytes())
+        if key in self._mass_cache:
+            return self._mass_cache[key]
+        cached = self._cached_thermal(Tn)
+        if cached is not None:  # the stiffness at this temperature evaluated the inertia
+            I1, I2, I3 = cached.I
+        elif isinstance(Tn, float) or Tn.ndim == 1:
+            lam = laminate(self.panel, Tn, parts="inertia")
+            I1, I2, I3 = (np.asarray(x)[None, None] for x in (lam.I1, lam.I2, lam.I3))
+        else:
+            lam = laminate(self.panel, np.einsum("qa,eal->eql", self.q3.N,
+                                                 Tn[self.mesh.elements]), parts="inertia")
+            I1, I2, I3 = lam.I1, lam.I2, lam.I3
+        M = self.assemble_matrix(mass_kernel(self.q3, I1, I2, I3))
+        if len(self._mass_cache) > 8:
+            self._mass_cache.clear()
+        self._mass_cache[key] = M
+        return M
+
+    def damping(self, T: TemperatureLike = None) -> sp.csr_matrix:
+        """Proportional damping ``C = zeta_M M + zeta_K K_L`` (Eq. 3.44), CSR."""
+        zm, zk = self.panel.damping
+        return self._csr(zm * self.mass(T).data + zk * self.linear_stiffness(T).data)
+
+    def pressure_load(self, p: ArrayLike) -> Array:
+        """Load vector ``F_S`` of a pressure (Pa, positive towards +z), Eq. (3.39).
+
+        Parameters
+        ----------
+        p : float, ndarray of shape (n_nodes,) or (n_elem, 9)
+            Uniform, nodal (interpolated with the shape functions) or at the 3 x 3
+            quadrature points of every element.
+
+        Returns
+        -------
+        ndarray of shape (n_dof,), N. For nodal pressure this is ``pressure_matrix @ p``,
+        so ``dF_S/du = pressure_matrix @ dp/du``.
+        """
+        p = np.asarray(p, dtype=float)
+        if p.ndim == 0:
+            return self.pressure_matrix @ np.full(self.n_nodes, float(p))
+        if p.shape == (self.n_nodes,):
+            return self.pressure_matrix @ p
+        if p.shape == (self.mesh.n_elem, 9):
+            E = self.mesh.n_elem
+            fe = np.zeros((E, NNODE, NDOF))
+            fe[:, :, W] = np.einsum("eq,qa->ea", p * self.q3.wdet, self.q3.N)
+            return self.assemble_vector(fe.reshape(E, -1))
+        raise InputError("pressure", f"expected a scalar, shape ({self.n_nodes},) or "
+                         f"({self.mesh.n_elem}, 9), got {p.shape}")
+
+    # -- helpers ----------------------------------------------------------------------
+    def dofs(self, k: int) -> Array:
+        """Global indices of DOF ``k`` (0..4 = u, v, w, psi_x, psi_y) of every node."""
+        return NDOF * np.arange(self.n_nodes) + k
+
+    def deflection(self, u: Array) -> Array:
+        """w of every node, shape (n_nodes,)."""
+        return np.asarray(u)[W::NDOF]
+
+    def factor(self, K: sp.csr_matrix) -> Factor:
+        """Factorize a matrix with the model's pattern (see :mod:`hypate.solvers.numerics.sparse`)."""
+        return self.solver.factor(K)
+
+
+# =====================================================================================
+# solvers
+# =====================================================================================
+@dataclass
+class ModalResult:
+    """Natural frequencies about an equilibrium.
+
+    Attributes
+    ----------
+    frequencies_hz : ndarray of shape (k,)
+        Ascending; a negative value ``-f`` marks an unstable mode (negative eigenvalue
+        ``-(2 pi f)^2``).
+    eigenvalues : ndarray of shape (k,)
+        omega^2 (rad^2/s^2).
+    shapes : ndarray of shape (n_dof, k)
+        Mass-normalized mode shapes.
+    u : ndarray of shape (n_dof,)
+        The equilibrium the modes are about.
+    """
+
+    frequencies_hz: Array
+    eigenvalues: Array
+    shapes: Array
+    u: Array
+
+
+def _shift_invert_eigs(K: sp.csr_matrix, M: sp.csr_matrix, fac: Factor, k: int,
+                       sigma: float = 0.0) -> tuple[Array, Array]:
+    n = K.shape[0]
+    k = min(k, n - 2)
+    op = spla.LinearOperator((n, n), matvec=fac.solve, dtype=float)
+    vals, vecs = spla.eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=op)
+    order = np.argsort(vals)
+    return vals[order], vecs[:, order]
+
+
+def modes(model: StructuralModel, count: int = 6, T: TemperatureLike = None,
+          u: Array | None = None, pressure: ArrayLike = 0.0,
+          equilibrium: bool = True) -> ModalResult:
+    """Natural frequencies about a (heated, deformed) equilibrium.
+
+    Sparse generalized eigenproblem ``K_T phi = omega^2 M phi`` in shift-invert mode about
+    zero, with the factorization of :mod:`hypate.solvers.numerics.sparse`.
+
+    Parameters
+    ----------
+    model : StructuralModel
+    count : int
+        Number of modes.
+    T : temperature input, optional
+        The heated state (K); default: the initial temperature.
+    u : ndarray of shape (n_dof,), optional
+        Equilibrium to linearize about; if omitted and ``equilibrium`` is true, it is
+        found by :func:`static` under ``pressure`` and ``T`` (zero when unloaded).
+    pressure : float or ndarray of shape (n_nodes,)
+        Static pressure (Pa) for the equilibrium.
+    """
+    if count < 1:
+        raise InputError("count", "must be >= 1")
+    loaded = (T is not None) or np.any(np.asarray(pressure) != 0.0)
+    if u is None:
+        if equilibrium and loaded:
+            res = static(model, pressure=pressure, T=T)
+            u = res.u
+        else:
+            u = np.zeros(model.n_dof)
+    K = model.tangent(u, T)
+    M = model.mass(T)
+    fac = model.factor(K)
+    vals, vecs = _shift_invert_eigs(K, M, fac, count)
+    f = np.sign(vals) * np.sqrt(np.abs(vals)) / (2.0 * np.pi)
+    return ModalResult(frequencies_hz=f, eigenvalues=vals, shapes=vecs, u=np.asarray(u))
+
+
+@dataclass
+class BucklingResult:
+    """Linear buckling: ``critical_delta_T`` (K) and the buckling modes (n_dof, k)."""
+
+    critical_delta_T: float
+    factors: Array
+    shapes: Array
+    iterations: int
+
+
+def buckling_delta_T(model: StructuralModel, count: int = 1,
+                     profile: ArrayLike | None = None, max_iter: int = 20,
+                     rtol: float = 1e-6) -> BucklingResult:
+    """Critical uniform temperature rise at first buckling (linear buckling analysis).
+
+    Prebuckling state: ``K_L u0 = F_T(T0 + dT)`` (linear). Buckling: the smallest positive
+    ``lambda`` of ``(K_L + lambda K_G1) phi = 0`` with ``K_G1`` the initial-stress matrix of
+    the prebuckling resultants per kelvin. With temperature-dependent properties the
+    properties are re-evaluated at ``T0 + dT_cr`` until the estimate is stationary.
+
+    Parameters
+    ----------
+    profile : ndarray, optional
+        Shape of the temperature rise (same forms as the temperature input, a rise in K per
+        unit factor); default a uniform 1 K rise.
+    """
+    base = 1.0 if profile is None else np.asarray(profile, dtype=float)
+    dT = 1.0
+    shapes = np.zeros((model.n_dof, 0))
+    lam = np.array([np.nan])
+    it = 0
+    for it in range(1, max_iter + 1):
+        T = model.T0 + dT * base
+        if np.ndim(T) == 0:
+            T = float(T)
+        KL = model.linear_stiffness(T)
+        fac = model.factor(KL)
+        u0 = fac.solve(model.thermal_load(T))
+        KG = model.geometric_stiffness(u0, T, nonlinear=False)
+        KG1 = -KG / dT      # positive for compression
+        n = model.n_dof
+        op = spla.LinearOperator((n, n), matvec=lambda x: fac.solve(KG1 @ x), dtype=float)
+        k = min(max(count, 1) + 3, n - 2)
+        mu, vec = spla.eigs(op, k=k, which="LR", tol=1e-10)
+        pos = np.real(mu) > 0
+        if not np.any(pos):
+            raise RuntimeError("no buckling under a temperature rise (no compressive state)")
+        mu_r = np.real(mu[pos])
+        order = np.argsort(-mu_r)
+        lam = 1.0 / mu_r[order]
+        shapes = np.real(vec[:, pos][:, order])
+        new = float(lam[0])
+        if abs(new - dT) <= rtol * abs(new) or it == max_iter:
+            dT = new
+            break
+        dT = new
+    return BucklingResult(critical_delta_T=float(lam[0]), factors=lam[:count],
+                          shapes=shapes[:, :count], iterations=it)
+
+
+@dataclass
+class StaticResult:
+    """Nonlinear static equilibrium.
+
+    Attributes
+    ----------
+    u : ndarray of shape (n_dof,)
+    converged : bool
+    load_factors : list of float
+        Converged load factors of the path.
+    iterations : int
+        Total Newton iterations.
+    stable : bool
+        Tangent positive definite at the solution.
+    path : list of (float, float)
+        (load factor, centre deflection) along the path.
+    """
+
+    u: Array
+    converged: bool
+    load_factors: list[float] = field(default_factory=list)
+    iterations: int = 0
+    stable: bool = True
+    path: list[tuple[float, float]] = field(default_factory=list)
+
+    def center_deflection(self, model: StructuralModel) -> float:
+        return float(self.u[NDOF * model.mesh.center + W])
+
+    def max_deflection(self, model: StructuralModel) -> float:
+        w = model.deflection(self.u)
+        return float(w[np.argmax(np.abs(w))])
+
+
+class _Problem:
+    """Residual ``R(u, lam) = F_I(u, T(lam)) - lam F_p`` of the proportional load path."""
+
+    def __init__(self, model: StructuralModel, Fp: Array, T: TemperatureLike) -> None:
+        self.model = model
+        self.Fp = Fp
+        self.Tn = model.nodal_temperature(T)
+        self.heated = not (isinstance(self.Tn, float) and self.Tn == model.T0)
+
+    def T(self, lam: float) -> TemperatureLike:
+        if not self.heated:
+            return None
+        Tn = self.Tn
+        return self.model.T0 + lam * (Tn - self.model.T0)
+
+    def residual(self, u: Array, lam: float) -> Array:
+        return self.model.internal_force(u, self.T(lam)) - lam * self.Fp
+
+    def residual_tangent(self, u: Array, lam: float) -> tuple[Array, sp.csr_matrix]:
+        F, K = self.model.force_and_tangent(u, self.T(lam))
+        return F - lam * self.Fp, K
+
+    def dR_dlam(self, u: Array, lam: float) -> Array:
+        if not self.heated:
+            return -self.Fp
+        h = 1e-6 * max(1.0, abs(lam))
+        return ((self.model.internal_force(u, self.T(lam + h))
+                 - self.model.internal_force(u, self.T(lam - h))) / (2.0 * h) - self.Fp)
+
+    def scale(self) -> float:
+        ref = np.linalg.norm(self.Fp) + np.linalg.norm(self.model.thermal_load(self.T(1.0)))
+        return ref if ref > 0.0 else 1.0
+
+
+def _free_norm(model: StructuralModel, r: Array) -> float:
+    return float(np.linalg.norm(r[model.free_dofs]))
+
+
+def _newton(prob: _Problem, u: Array, lam: float, rtol: float, max_iter: int
+            ) -> tuple[Array, bool, int, bool | None]:
+    """Newton-Raphson with a backtracking line search (Eqs. 3.46-3.47) at a fixed load.
+
+    Returns the solution, convergence flag, iterations and whether the last factorized
+    tangent was positive definite.
+    """
+    model = prob.model
+    ref = prob.scale()
+    R, K = prob.residual_tangent(u, lam)
+    rn = _free_norm(model, R)
+    pd: bool | None = None
+    for it in range(1, max_iter + 1):
+        if rn <= rtol * ref:
+            return u, True, it - 1, pd
+        fac = model.factor(K)
+        pd = fac.positive_definite
+        du = -fac.solve(R)
+        theta = 1.0
+        for _ in range(12):                       # Eq. (3.47): backtracking on ||R||
+            u_try = u + theta * du
+            R_try = prob.residual(u_try, lam)
+            rn_try = _free_norm(model, R_try)
+            if np.isfinite(rn_try) and rn_try < rn * (1.0 - 1e-4 * theta) or rn_try <= rtol * ref:
+                break
+            theta *= 0.5
+        else:
+            return u, False, it, pd
+        u = u_try
+        small_step = np.max(np.abs(theta * du)) <= 1e-13 * max(np.max(np.abs(u)), 1e-30)
+        if small_step and rn_try <= 1e-6 * ref:
+            return u, True, it, pd
+        R, K = prob.residual_tangent(u, lam)
+        rn = _free_norm(model, R)
+    return u, rn <= rtol * ref, max_iter, pd
+
+
+def _lowest_mode(model: StructuralModel, K: sp.csr_matrix, T: TemperatureLike) -> Array:
+    """Eigenvector of the most negative eigenvalue of ``K phi = lam M phi``."""
+    M = model.mass(T)
+    fac = model.solver.splu(K.data)
+    vals, vecs = _shift_invert_eigs(K, M, fac, 4)
+    return vecs[:, int(np.argmin(vals))]
+
+
+def _branch_switch(prob: _Problem, u: Array, lam: float, rtol: float, max_iter: int,
+                   amplitude: float) -> tuple[Array, bool, int, bool | None]:
+    """Leave an unstable equilibrium along the lowest (negative) eigenmode of the tangent."""
+    model = prob.model
+    K = model.tangent(u, prob.T(lam))
+    phi = _lowest_mode(model, K, prob.T(lam))
+    w = model.deflection(phi)
+    phi = phi / w[np.argmax(np.abs(w))]
+    total = 0
+    sign = 1.0 if float(np.sum(prob.Fp[W::NDOF])) >= 0.0 else -1.0
+    for s in (sign, -sign):
+        u_try, ok, it, pd = _newton(prob, u + s * amplitude * phi, lam, rtol, max_iter)
+        total += it
+        if ok and pd is not False:
+            return u_try, ok, total, pd
+    return u, False, total, False
+
+
+def static(model: StructuralModel, pressure: ArrayLike = 0.0, T: TemperatureLike = None,
+           u0: Array | None = None, steps: int = 1, rtol: float = 1e-9, max_iter: int = 20,
+           min_step: float = 1.0 / 1024, branch_switch: bool = True,
+           arc_length: bool = True) -> StaticResult:
+    """Nonlinear static equilibrium ``F_I(u, T) = F_S`` under pressure and temperature.
+
+    The load (pressure and temperature rise from the initial temperature) is applied
+    proportionally, ``lam`` from 0 to 1, in ``steps`` increments that halve on failure.
+    Each increment is solved by Newton-Raphson with line search (Eqs. 3.46-3.47). When a
+    converged state has a tangent that is not positive definite (past a bifurcation, e.g.
+    thermal buckling of a flat plate) the solver switches to the stable branch along the
+    lowest eigenmode. When the increment falls below ``min_step`` (a limit point,
+    snap-through) it continues with a Riks arc-length method on the w DOFs.
+
+    Parameters
+    ----------
+    pressure : float or ndarray of shape (n_nodes,) or (n_elem, 9)
+        Pa, positive towards +z.
+    T : temperature input
+        Final temperature (K).
+    u0 : ndarray of shape (n_dof,), optional
+        Starting point (equilibrium at lam = 0 assumed when given).
+    """
+    Fp = model.pressure_load(pressure)
+    prob = _Problem(model, Fp, T)
+    u = np.zeros(model.n_dof) if u0 is None else np.array(u0, dtype=float)
+    result = StaticResult(u=u, converged=True)
+    if np.linalg.norm(Fp) == 0.0 and not prob.heated:
+        result.stable = True
+        return result
+    h = model.panel.thickness
+    lam, dlam = 0.0, 1.0 / max(int(steps), 1)
+    pd: bool | None = None
+    while lam < 1.0 - 1e-14:
+        target = min(1.0, lam + dlam)
+        # predictor: linear extrapolation is left to Newton (start from the last state)
+        u_new, ok, it, pd = _newton(prob, u, target, rtol, max_iter)
+        result.iterations += it
+        if ok and pd is None:           # converged without a factorization: check now
+            pd = model.factor(model.tangent(u_new, prob.T(target))).positive_definite
+        if ok and pd is False and branch_switch:
+            u_new, ok, it, pd = _branch_switch(prob, u_new, target, rtol, max_iter, h)
+            result.iterations += it
+        if ok:
+            u, lam = u_new, target
+            result.load_factors.append(lam)
+            result.path.append((lam, float(u[NDOF * model.mesh.center + W])))
+            dlam = min(2.0 * dlam, 1.0)
+            continue
+        dlam *= 0.5
+        if dlam < min_step:
+            if not arc_length:
+                break
+            u, lam_end, ok, it = _arc_length(prob, u, lam, result, rtol, max_iter)
+            result.iterations += it
+            if ok:
+                lam = lam_end
+                u_new, ok, it, pd = _newton(prob, u, 1.0, rtol, max_iter)
+                result.iterations += it
+                if ok:
+                    u, lam = u_new, 1.0
+                    result.load_factors.append(lam)
+            break
+    result.u = u
+    result.converged = lam >= 1.0 - 1e-14
+    if not result.converged:
+        warnings.warn(f"static: equilibrium not reached (load factor {lam:.4g} of 1)",
+                      RuntimeWarning, stacklevel=2)
+    K = model.tangent(u, prob.T(lam))
+    result.stable = bool(model.factor(K).positive_definite)
+    if result.converged and not result.stable and branch_switch:
+        # e.g. reached along an unstable branch by the arc length: go to a stable one
+        u_s, ok, it, pd = _branch_switch(prob, u, 1.0, rtol, max_iter, h)
+        result.iterations += it
+        if ok and pd is not False:
+            result.u = u_s
+            result.stable = bool(model.factor(model.tangent(u_s, prob.T(1.0)))
+                                 .positive_definite)
+    return result
+
+
+def _arc_length(prob: _Problem, u: Array, lam: float, result: StaticResult, rtol: float,
+                max_iter: int, max_steps: int = 400) -> tuple[Array, float, bool, int]:
+    """Riks arc-length continuation on the w DOFs past limit points until ``lam >= 1``.
+
+    Returns the state at (or just past) ``lam = 1`` -- interpolated back to 1 -- the load
+    factor, success flag and iterations.
+    """
+    model = prob.model
+    ref = prob.scale()
+    wmask = np.zeros(model.n_dof)
+    wmask[W::NDOF] = 1.0
+    R, K = prob.residual_tangent(u, lam)
+    fac = model.factor(K)
+    ut = -fac.solve(prob.dR_dlam(u, lam))          # du/dlam along the tangent
+    ds = 0.05 * model.panel.thickness * max(1.0, math.sqrt(model.n_nodes) / 4)
+    ds_max = 4.0 * ds
+    direction = 1.0
+    prev_dir: Array | None = None
+    total = 0
+    for _ in range(max_steps):
+        nt = math.sqrt(float(np.sum(wmask * ut * ut)) + 1e-300)
+        dl = direction * ds / nt
+        du_tot = dl * ut
+        if prev_dir is not None and float(np.sum(wmask * du_tot * prev_dir)) < 0.0:
+            dl, du_tot = -dl, -du_tot
+        u_i, lam_i = u + du_tot, lam + dl
+        ok = False
+        for it in range(max_iter):
+            total += 1
+            R, K = prob.residual_tangent(u_i, lam_i)
+            if _free_norm(model, R) <= rtol * ref:
+                ok = True
+                break
+            fac = model.factor(K)
+            ur = -fac.solve(R)
+            ul = -fac.solve(prob.dR_dlam(u_i, lam_i))
+            num = float(np.sum(wmask * du_tot * ur))
+            den = float(np.sum(wmask * du_tot * ul))
+            dlam = -num / den if den != 0.0 else 0.0
+            step = ur + dlam * ul
+            u_i = u_i + step
+            lam_i = lam_i + dlam
+            du_tot = du_tot + step
+        if ok and lam_i < 0.0:      # turned back towards the unloaded state: refine
+            ok = False
+        if not ok:
+            ds *= 0.5
+            if ds < 1e-6 * model.panel.thickness:
+                return u, lam, False, total
+            continue
+        prev_dir = du_tot
+        if lam_i >= 1.0:
+            s = (1.0 - lam) / (lam_i - lam)
+            return u + s * (u_i - u), 1.0, True, total
+        u, lam = u_i, lam_i
+        result.load_factors.append(lam)
+        result.path.append((lam, float(u[NDOF * model.mesh.center + W])))
+        _, K = prob.residual_tangent(u, lam)
+        fac = model.factor(K)
+        ut = -fac.solve(prob.dR_dlam(u, lam))
+        if it <= 3:
+            ds = min(1.5 * ds, ds_max)
+    return u, lam, False, total
+
+
+# -- transient ------------------------------------------------------------------------
+@dataclass(frozen=True)
+class GeneralizedAlpha:
+    """Generalized-alpha parameters from the spectral radius rho-bar (Eq. 3.45)."""
+
+    rho_bar: float = 0.95
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.rho_bar <= 1.0:
+            raise InputError("rho_bar", "must be in [0, 1]")
+
+    @property
+    def alpha_f(self) -> float:
+        return self.rho_bar / (self.rho_bar + 1.0)
+
+    @property
+    def alpha_m(self) -> float:
+        return (2.0 * self.rho_bar - 1.0) / (self.rho_bar + 1.0)
+
+    @property
+    def gamma(self) -> float:
+        return 0.5 - self.alpha_m + self.alpha_f
+
+    @property
+    def beta(self) -> float:
+        return 0.25 * (1.0 - self.alpha_m + self.alpha_f) ** 2
+
+
+@dataclass
+class TransientResult:
+    """Time history: ``t`` (n_rec,), ``u``, ``v``, ``a`` (n_rec, n_dof), Newton iterations."""
+
+    t: Array
+    u: Array
+    v: Array
+    a: Array
+    iterations: int
+
+
+def transient(model: StructuralModel, dt: float, n_steps: int, u0: Array | None = None,
+              v0: Array | None = None, rho_bar: float = 0.95,
+              temperature: Callable[[float], TemperatureLike] | None = None,
+              load: Callable[[float], Array] | None = None, nonlinear: bool = True,
+              rtol: float = 1e-10, max_iter: int = 25, record_every: int = 1,
+              t0: float = 0.0) -> TransientResult:
+    """Transient response by the generalized-alpha method (Eq. 3.45) with Newton per step.
+
+    ``M a_(n+1-am) + C v_(n+1-af) + F_I_(n+1-af) = F_S_(n+1-af)`` with the Newmark updates
+    of Eq. (3.45); ``C`` is the proportional damping of the panel (Eq. 3.44), M and C are
+    constant (at the initial temperature). The Newton matrix is Eq. (3.48)-(3.49):
+    ``(1 - am)/(beta dt^2) M + gamma (1 - af)/(beta dt) C + (1 - af) K_T``. ``rho_bar = 0``
+    gives the quasi-steady limit (maximal high-frequency dissipation).
+
+    Parameters
+    ----------
+    dt : float
+        Time step (s).
+    n_steps : int
+    u0, v0 : ndarray of shape (n_dof,), optional
+        Initial displacement and velocity (zero by default); the initial acceleration is
+        computed from the equation of motion.
+    temperature : callable t -> temperature input, optional
+        Default: the initial temperature.
+    load : callable t -> ndarray of shape (n_dof,), optional
+        External load vector ``F_S(t)`` (N), e.g. ``model.pressure_load(p(t))``.
+    nonlinear : bool
+        False: linear model ``K_L u - F_T`` (no von Karman terms).
+    """
+    ga = GeneralizedAlpha(rho_bar)
+    af, am, gm, bt = ga.alpha_f, ga.alpha_m, ga.gamma, ga.beta
+    n = model.n_dof
+    Tf = temperature if temperature is not None else (lambda t: None)
+    Ff = load if load is not None else (lambda t: np.zeros(n))
+    M = model.mass()
+    C = model.damping()
+    has_damping = bool(np.any(C.data != 0.0))
+    KL: sp.csr_matrix | None = None
+    if not nonlinear:
+        KL = model.linear_stiffness()
+
+    def FI(u: Array, T: TemperatureLike) -> Array:
+        if nonlinear:
+            return model.internal_force(u, T)
+        assert KL is not None
+        return KL @ u - (model.thermal_load(T) if T is not None else 0.0)
+
+    u = np.zeros(n) if u0 is None else np.array(u0, dtype=float)
+    v = np.zeros(n) if v0 is None else np.array(v0, dtype=float)
+    t = t0
+    T_n = Tf(t)
+    F_n = Ff(t)
+    FI_n = FI(u, T_n)
+    Mfac = model.solver.factor(M)
+    rhs = F_n - FI_n - (C @ v if has_damping else 0.0)
+    a = Mfac.solve(rhs)
+    cM = (1.0 - am) / (bt * dt * dt)
+    cC = gm * (1.0 - af) / (bt * dt)
+    Keff_lin: Factor | None = None
+    if not nonlinear:
+        assert KL is not None
+        Keff_lin = model.factor(model._csr(cM * M.data + cC * C.data + (1.0 - af) * KL.data))
+    ts, us, vs, as_ = [t], [u.copy()], [v.copy()], [a.copy()]
+    iters = 0
+    for step in range(1, n_steps + 1):
+        t1 = t0 + step * dt
+        T1 = Tf(t1)
+        F1 = Ff(t1)
+        u_pred = u + dt * v + (0.5 - bt) * dt * dt * a   # a_(n+1) = 0 start
+        x = u_pred.copy()
+        Fs = (1.0 - af) * F1 + af * F_n
+        scale = max(float(np.linalg.norm(Fs)), float(np.linalg.norm(FI_n)),
+                    float(np.linalg.norm(M @ a)), 1e-300)
+        for it in range(max_iter):
+            a1 = (x - u_pred) / (bt * dt * dt)
+            v1 = v + dt * ((1.0 - gm) * a + gm * a1)
+            if nonlinear:
+                FI1, KT = model.force_and_tangent(x, T1)
+            else:
+                FI1 = FI(x, T1)
+            R = (M @ ((1.0 - am) * a1 + am * a) + (1.0 - af) * FI1 + af * FI_n - Fs)
+            if has_damping:
+                R += C @ ((1.0 - af) * v1 + af * v)
+            iters += 1
+            if _free_norm(model, R) <= rtol * scale and it > 0:
+                break
+            if nonlinear:
+                fac = model.factor(model._csr(cM * M.data + cC * C.data
+                                              + (1.0 - af) * KT.data))
+            else:
+                assert Keff_lin is not None
+                fac = Keff_lin
+            dx = -fac.solve(R)
+            x = x + dx
+            if np.max(np.abs(dx)) <= 1e-15 * max(np.max(np.abs(x)), 1e-300):
+                break
+        else:
+            warnings.warn(f"transient: Newton did not converge at t = {t1:.6g} s",
+                          RuntimeWarning, stacklevel=2)
+        a1 = (x - u_pred) / (bt * dt * dt)
+        v = v + dt * ((1.0 - gm) * a + gm * a1)
+        u, a = x, a1
+        FI_n = FI(u, T1) if not nonlinear else model.internal_force(u, T1)
+        F_n, T_n = F1, T1
+        if step % record_every == 0 or step == n_steps:
+            ts.append(t1)
+            us.append(u.copy())
+            vs.append(v.copy())
+            as_.append(a.copy())
+    return TransientResult(t=np.asarray(ts), u=np.asarray(us), v=np.asarray(vs),
+                           a=np.asarray(as_), iterations=iters)

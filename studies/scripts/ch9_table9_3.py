@@ -1,0 +1,129 @@
+"""Table 9.3: similarity parameters of the Sec. 9.1 prototype and its scaled models.
+
+Prototype (``studies/cases/sec9_1_prototype.toml``, Table 9.1 properties): 1 m x 1 m x 2 mm
+Inconel 718 plate, M = 6, p = 1e4 Pa, Delta T = 1 K. Model: Ti 6242 at L = 1/xi m,
+xi = 2, 3, 4. The dissertation tabulates the parameters h/L, lambda_F and
+Delta T N_Tx L^2/D_xx (Eq. 9.1) of the prototype and of the models found by its Bayesian
+optimization. Here the model rows are those of the analytical laws (Eq. 9.2), which match
+the prototype exactly; with ``optimize_dirs`` (``--optimize DIR ...``) the models of
+``hypate run studies/sec9_1_xi*.toml`` run directories are tabulated as well.
+
+Run ``python -m hypate.studies.scripts.ch9_table9_3 [--coarse] [--out DIR] [--optimize RUN_DIR ...]``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from hypate.studies.scripts._table import publish, side_by_side, standard_parser
+from hypate.scaling.workflow.shipped import shipped
+
+NAMES = ("h/L", "lambda_F", "DeltaT_NTx_L2/Dxx")
+#: Table 9.3 (prototype, then the optimized models at xi = 2, 3, 4).
+PROTOTYPE = {"h/L": 0.002, "lambda_F": 566.07, "DeltaT_NTx_L2/Dxx": 47.882}
+OPTIMIZED = {2.0: {"h/L": 0.00201, "lambda_F": 566.85, "DeltaT_NTx_L2/Dxx": 47.581},
+             3.0: {"h/L": 0.00200, "lambda_F": 561.38, "DeltaT_NTx_L2/Dxx": 47.759},
+             4.0: {"h/L": 0.00200, "lambda_F": 566.69, "DeltaT_NTx_L2/Dxx": 47.671}}
+
+
+@dataclass(frozen=True)
+class Config:
+    """Geometric scales and optional ``hypate run`` directories of the Sec. 9.1 studies."""
+
+    xis: tuple[float, ...] = (2.0, 3.0, 4.0)
+    optimize_dirs: tuple[str, ...] = ()
+
+    @classmethod
+    def coarse(cls) -> Config:
+        """Same as the default (closed forms only; well under a second)."""
+        return cls()
+
+
+@dataclass(frozen=True)
+class Result:
+    """Prototype parameters, analytical designs per xi and the side-by-side table."""
+
+    prototype: dict[str, float]
+    analytical: dict[float, dict[str, float]]
+    designs: dict[float, dict[str, float]]
+    optimized: dict[str, dict[str, float]]
+    table: pd.DataFrame
+
+
+def sec9_1_configurations():
+    """(prototype, model template) :class:`hypate.scaling.workflow.similarity.Configuration` of Sec. 9.1."""
+    from hypate.scaling.workflow.similarity import Configuration
+    from hypate.solvers.config import load_case
+    from hypate.solvers.materials import library_material
+
+    case = load_case(shipped("case")["sec9_1_prototype"])
+    proto = Configuration(case.panel, case.flow, delta_T=1.0, time=1e-3)
+    layer = dataclasses.replace(case.panel.layers[0], material=library_material("ti6242"))
+    model = Configuration(dataclasses.replace(case.panel, layers=(layer,)), case.flow)
+    return proto, model
+
+
+def read_design_point(run_dir: str | Path) -> dict:
+    """``design_point.json`` of a ``hypate run`` directory."""
+    path = Path(run_dir) / "design_point.json"
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def run(config: Config | None = None) -> Result:
+    """Tabulate Table 9.3 against hypate (Eqs. 9.1-9.3)."""
+    from hypate.scaling.workflow.similarity import analytical_scaling, similarity_parameters
+
+    config = Config() if config is None else config
+    proto, template = sec9_1_configurations()
+    p = similarity_parameters(proto, names=list(NAMES))
+    rows: list[tuple] = [(f"prototype {n}", PROTOTYPE[n], p[n]) for n in NAMES]
+    analytical: dict[float, dict[str, float]] = {}
+    designs: dict[float, dict[str, float]] = {}
+    for xi in config.xis:
+        a = analytical_scaling(proto, template, xi)
+        m = similarity_parameters(a.model, names=list(NAMES))
+        analytical[xi], designs[xi] = dict(m), a.design()
+        ref = OPTIMIZED.get(float(xi), {})
+        for n in NAMES:
+            rows.append((f"xi = {xi:g} {n} (dissertation: BO model; hypate: Eq. 9.2)",
+                         ref.get(n), m[n]))
+        for k, v in a.design().items():
+            rows.append((f"xi = {xi:g} Eq. 9.2 design {k}", None, v, "Fig. 9.4 (not tabulated)"))
+    optimized: dict[str, dict[str, float]] = {}
+    for d in config.optimize_dirs:
+        try:
+            dp = read_design_point(d)
+        except (OSError, ValueError) as exc:
+            warnings.warn(f"{d}: no readable design_point.json ({exc})", stacklevel=2)
+            continue
+        xi = float(dp.get("xi") or 0.0)
+        sim = {s["name"]: s["model"] for s in dp.get("similarity", [])}
+        optimized[str(d)] = {**{n: sim.get(n) for n in NAMES}, **dp.get("design", {})}
+        ref = OPTIMIZED.get(xi, {})
+        for n in NAMES:
+            rows.append((f"xi = {xi:g} {n} (optimized, {Path(d).name})", ref.get(n), sim.get(n)))
+        for k, v in dp.get("design", {}).items():
+            rows.append((f"xi = {xi:g} optimized design {k} ({Path(d).name})",
+                         designs.get(xi, {}).get(k), v, "dissertation column: Eq. 9.2 value"))
+    return Result(dict(p), analytical, designs, optimized, side_by_side(rows))
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``python -m hypate.studies.scripts.ch9_table9_3 [--coarse] [--out DIR] [--optimize RUN_DIR ...]``."""
+    parser = standard_parser(__doc__.splitlines()[0])
+    parser.add_argument("--optimize", nargs="*", default=[], metavar="RUN_DIR",
+                        help="run directories of `hypate run studies/sec9_1_xi*.toml`")
+    args = parser.parse_args(argv)
+    base = Config.coarse() if args.coarse else Config()
+    res = run(dataclasses.replace(base, optimize_dirs=tuple(args.optimize)))
+    title = "Table 9.3: similarity parameters, prototype and scaled models"
+    publish(res.table, args.out, "ch9_table9_3", title)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,184 @@
+"""Ch. 9 design points: Fig. 9.9 / Table 9.8, Tables 9.9-9.10 and Table 9.11.
+
+Tabulates the dissertation's design points next to those of ``hypate run`` directories:
+
+* Table 9.8 (Sec. 9.2.2, ideal tunnel, Fig. 9.9 solid points): ``studies/sec9_2_2_xi{2..5}.toml``;
+* Tables 9.9 / 9.10 (Sec. 9.2.3, WT5-WT7, Case 1 parameter relaxation / Case 2 with the
+  radiant heater): ``studies/sec9_2_3_case{1,2}_wt{5,6,7}.toml``;
+* Table 9.11 (Sec. 9.2.4, errors over the flight envelope in WT7):
+  ``studies/sec9_2_4_envelope.toml`` (its ``sweep.csv``; error = 100 J_s, Eq. 9.8).
+
+The optimizations take hours; this script only reads finished (or interrupted) run
+directories: ``design_point.json`` (``study``, ``xi``, ``design``, ``objectives``) or
+``sweep.csv``. A directory is matched to a table column by its study name; ``assign``
+overrides that (e.g. ``"9.8:xi4"`` to show the quick-start run next to Table 9.8).
+
+Run ``python -m hypate.studies.scripts.ch9_tables RUN_DIR ... [--assign RUN_DIR=9.8:xi4] [--out DIR]``.
+"""
+from __future__ import annotations
+
+import json
+import re
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from hypate.studies.scripts._table import publish, side_by_side, standard_parser
+
+#: Table 9.8 (p0 in MPa).
+TABLE_9_8 = {
+    "xi2": {"M": 6.841, "p0": 64.76, "T0": 2280.0, "L_le": 1.812, "h": 1.000e-2},
+    "xi3": {"M": 5.653, "p0": 39.16, "T0": 1868.0, "L_le": 2.000, "h": 5.971e-3},
+    "xi4": {"M": 5.407, "p0": 38.58, "T0": 2130.0, "L_le": 0.3516, "h": 4.317e-3},
+    "xi5": {"M": 6.250, "p0": 73.30, "T0": 2187.0, "L_le": 0.1950, "h": 4.150e-3},
+}
+#: Table 9.9 (Case 1) and Table 9.10 (Case 2); p0 in MPa ("L_te" in the tables is L_le).
+TABLE_9_9 = {
+    "wt5": {"p0": 2.827, "T0": 1267.0, "L": 0.5, "L_le": 0.7601, "h": 7.034e-3},
+    "wt6": {"p0": 8.274, "T0": 1664.0, "L": 0.5, "L_le": 0.6270, "h": 8.794e-3},
+    "wt7": {"p0": 8.274, "T0": 2317.0, "L": 0.5, "L_le": 0.6419, "h": 1.000e-2},
+}
+TABLE_9_10 = {
+    "wt5": {"p0": 0.4861, "T0": 1222.0, "L": 0.5, "L_le": 2.000, "h": 7.500e-3,
+            "emissivity": 0.5, "T_rad": 1621.0},
+    "wt6": {"p0": 0.9928, "T0": 1821.0, "L": 0.448, "L_le": 1.761, "h": 7.798e-3,
+            "emissivity": 1.0, "T_rad": 1492.0},
+    "wt7": {"p0": 6.543, "T0": 2220.0, "L": 0.4448, "L_le": 1.717, "h": 8.210e-3,
+            "emissivity": 1.0, "T_rad": 1548.0},
+}
+#: Table 9.11: errors (%) at (M, H km).
+TABLE_9_11 = {
+    5.0: (4.82, 4.41, 3.69, 7.20, 9.98), 5.5: (3.40, 2.95, 3.34, 4.51, 5.47),
+    6.0: (2.75, 1.50, 4.52, 3.2, 4.13), 6.5: (6.16, 2.15, 3.24, 2.25, 2.81),
+    7.0: (5.22, 3.58, 2.43, 5.17, 2.01),
+}
+ALTITUDES_KM = (20.0, 22.0, 25.0, 28.0, 30.0)
+TABLES = {"9.8": TABLE_9_8, "9.9": TABLE_9_9, "9.10": TABLE_9_10}
+
+
+@dataclass(frozen=True)
+class Config:
+    """Run directories and optional explicit table assignments (``DIR=9.8:xi4``)."""
+
+    run_dirs: tuple[str, ...] = ()
+    assign: tuple[str, ...] = ()
+
+    @classmethod
+    def coarse(cls) -> Config:
+        """No run directories: the dissertation columns only (the test adds a quick run)."""
+        return cls()
+
+
+@dataclass(frozen=True)
+class Result:
+    """Design points found, envelope errors and the side-by-side table."""
+
+    design_points: dict[str, dict[str, float]]
+    objectives: dict[str, dict[str, float]]
+    envelope_errors: dict[tuple[float, float], float]
+    table: pd.DataFrame
+
+
+def target_of(study: str) -> tuple[str, str] | None:
+    """(table, column) of a shipped Sec. 9.2 study name, e.g. ``("9.8", "xi3")``."""
+    m = re.fullmatch(r"sec9_2_2_(xi\d)", study)
+    if m:
+        return "9.8", m.group(1)
+    m = re.fullmatch(r"sec9_2_3_case([12])_(wt[567])", study)
+    if m:
+        return ("9.9" if m.group(1) == "1" else "9.10"), m.group(2)
+    return None
+
+
+def _hypate_value(name: str, design: dict[str, float]) -> float | None:
+    v = design.get(name)
+    if v is None:
+        return None
+    return float(v) / 1e6 if name == "p0" else float(v)  # Pa -> MPa
+
+
+def _envelope_rows(path: Path, errors: dict[tuple[float, float], float]) -> list[tuple]:
+    df = pd.read_csv(path / "sweep.csv")
+    rows = []
+    for _, r in df.iterrows():
+        if "J_s" not in r or pd.isna(r.get("J_s")):
+            continue
+        mach, h_km = float(r["mach"]), float(r["altitude"]) / 1000.0
+        errors[mach, h_km] = 100.0 * float(r["J_s"])
+        ref = TABLE_9_11.get(mach)
+        d = (ref[ALTITUDES_KM.index(h_km)] if ref is not None and h_km in ALTITUDES_KM
+             else None)
+        rows.append((f"Table 9.11 error at M = {mach:g}, H = {h_km:g} km (%)", d,
+                     errors[mach, h_km], "hypate: 100 J_s (Eq. 9.8)"))
+    return rows
+
+
+def run(config: Config | None = None) -> Result:
+    """Read the run directories and tabulate them against Tables 9.8-9.11."""
+    config = Config() if config is None else config
+    overrides = {}
+    for a in config.assign:
+        d, _, spec = a.rpartition("=")
+        table, _, col = spec.partition(":")
+        overrides[str(Path(d))] = (table, col)
+    rows: list[tuple] = []
+    points: dict[str, dict[str, float]] = {}
+    objectives: dict[str, dict[str, float]] = {}
+    errors: dict[tuple[float, float], float] = {}
+    for d in config.run_dirs:
+        path = Path(d)
+        if (path / "sweep.csv").exists():
+            rows += _envelope_rows(path, errors)
+            continue
+        try:
+            dp = json.loads((path / "design_point.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            warnings.warn(f"{d}: no readable design_point.json or sweep.csv ({exc})",
+                          stacklevel=2)
+            continue
+        target = overrides.get(str(path)) or target_of(str(dp.get("study", "")))
+        if target is None or target[0] not in TABLES or target[1] not in TABLES[target[0]]:
+            warnings.warn(f"{d}: study {dp.get('study')!r} matches no Ch. 9 table column; "
+                          "use assign=('DIR=9.8:xi4',)", stacklevel=2)
+            continue
+        table, col = target
+        design = dp.get("design", {})
+        points[str(d)] = dict(design)
+        objectives[str(d)] = dict(dp.get("objectives", {}))
+        for name, ref in TABLES[table][col].items():
+            unit = " (MPa)" if name == "p0" else ""
+            rows.append((f"Table {table} {col} {name}{unit}", ref, _hypate_value(name, design),
+                         f"{dp.get('study')} ({path.name})"))
+        for name, val in dp.get("objectives", {}).items():
+            rows.append((f"Table {table} {col} {name} at the design point (%)",
+                         "< 10" if table == "9.8" else None, 100.0 * float(val),
+                         {"9.8": "Fig. 9.9 / Sec. 9.2.2: response errors < 10 %",
+                          "9.9": "Fig. 9.13 Case 1: no good design in any realistic tunnel",
+                          "9.10": "Fig. 9.13 Case 2: approximate similarity in every tunnel",
+                          }.get(table, "")))
+        active = dp.get("active_constraints") or []
+        rows.append((f"Table {table} {col} active constraints", None, ", ".join(active) or "-"))
+    if not rows:  # nothing given: the dissertation's columns alone
+        for table, cols in TABLES.items():
+            for col, vals in cols.items():
+                for name, ref in vals.items():
+                    rows.append((f"Table {table} {col} {name}", ref, None, "no run directory"))
+    return Result(points, objectives, errors, side_by_side(rows))
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``python -m hypate.studies.scripts.ch9_tables RUN_DIR ... [--assign DIR=9.8:xi4] [--out DIR]``."""
+    parser = standard_parser(__doc__.splitlines()[0])
+    parser.add_argument("run_dirs", nargs="*", help="`hypate run` output directories")
+    parser.add_argument("--assign", action="append", default=[],
+                        help="DIR=TABLE:COLUMN, e.g. runs/quick=9.8:xi4")
+    args = parser.parse_args(argv)
+    res = run(Config(run_dirs=tuple(args.run_dirs), assign=tuple(args.assign)))
+    title = "Ch. 9: design points (Tables 9.8-9.11)"
+    publish(res.table, args.out, "ch9_tables", title)
+
+
+if __name__ == "__main__":
+    main()
