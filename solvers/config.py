@@ -27,12 +27,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
-
 from hypate.solvers import materials as mat
+from hypate.solvers.aero.factory import AERO_NAMES, is_aero_name
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.panel import Layer, PanelSpec
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 PropertySpec = float | list[tuple[float, float]]
 Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
@@ -150,9 +150,8 @@ class SimulationConfig(_Strict):
 
     @model_validator(mode="after")
     def _check(self) -> SimulationConfig:
-        allowed = ("pt", "pt1", "pt3", "ls", "pt-bl", "se")
-        if self.aero not in allowed and not (self.aero.startswith("rom:") and len(self.aero) > 4):
-            raise ValueError(f"aero: must be one of {', '.join(allowed)} or 'rom:PATH'; "
+        if not is_aero_name(self.aero):
+            raise ValueError(f"aero: must be one of {', '.join(AERO_NAMES)} or 'rom:PATH'; "
                              f"got {self.aero!r}")
         if self.duration < self.time_step:
             raise ValueError("duration: must be at least one time_step")
@@ -187,7 +186,7 @@ def _loc(loc: tuple[Any, ...]) -> str:
     return out
 
 
-def _pydantic_error(exc: ValidationError, prefix: str = "") -> InputError:
+def pydantic_input_error(exc: ValidationError, prefix: str = "") -> InputError:
     err = exc.errors()[0]
     loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and (
         p.startswith("function-") or p in ("float", "list[tuple[float, float]]", "tuple"))))
@@ -318,7 +317,7 @@ def parse_case(data: dict[str, Any], source: str = "<memory>") -> Case:
     try:
         cfg = CaseConfig.model_validate(data)
     except ValidationError as exc:
-        raise _pydantic_error(exc) from None
+        raise pydantic_input_error(exc) from None
     panel = build_panel(cfg.panel, cfg.materials, name=Path(source).stem)
     flow = build_flow(cfg.flow) if cfg.flow is not None else None
     return Case(panel=panel, flow=flow, simulation=cfg.simulation, source=source)

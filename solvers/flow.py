@@ -12,9 +12,9 @@ import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
-
+from ambiance import Atmosphere
 from hypate.solvers.errors import InputError
+from numpy.typing import ArrayLike, NDArray
 
 GAMMA = 1.4
 GAS_CONSTANT = 287.05
@@ -84,7 +84,6 @@ class FlowCondition:
     @classmethod
     def from_altitude(cls, mach: float, altitude: float) -> FlowCondition:
         """Flight at geometric altitude (m), 1976 standard atmosphere."""
-        from ambiance import Atmosphere
 
         mach = _check_mach(mach)
         altitude = float(altitude)

@@ -24,9 +24,8 @@ from importlib import resources
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
-
 from hypate.solvers.errors import InputError
+from numpy.typing import ArrayLike, NDArray
 
 Array = NDArray[np.float64]
 

@@ -9,7 +9,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-
 from hypate.solvers.materials import Material
 
 

@@ -16,9 +16,11 @@ import time
 from dataclasses import replace
 
 import numpy as np
-
 from hypate.scaling.cli.timing import median_seconds
 from hypate.scaling.workflow.shipped import shipped
+from hypate.solvers.aero.factory import make_fluid_model
+from hypate.solvers.config import parse_case, read_toml
+from hypate.solvers.coupling.model import PanelModel, run_tc, settings_from_config
 from hypate.solvers.errors import InputError
 
 
@@ -41,9 +43,6 @@ def _factorization_seconds(model, u, T, repeat: int = 7) -> float:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hypate.solvers.aero.analytic import make_fluid_model
-    from hypate.solvers.config import parse_case, read_toml
-    from hypate.solvers.coupling.model import PanelModel, run_tc, settings_from_config
 
     if not (args.duration > 0 and args.time_step > 0 and args.duration >= args.time_step):
         raise InputError("--duration/--time-step", "must be positive, duration >= time step")

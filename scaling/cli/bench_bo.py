@@ -11,13 +11,17 @@ import argparse
 import json
 
 import numpy as np
-
+from hypate.scaling.engine.benchmarks import BENCHMARKS, get_benchmark, run_nsga2, run_random
+from hypate.scaling.engine.optimizer import (
+    MULTI_OBJECTIVE_ACQUISITIONS,
+    SINGLE_OBJECTIVE_ACQUISITIONS,
+    BayesianOptimizer,
+)
 from hypate.solvers.errors import InputError
 
 
 def register_bench(sub: argparse._SubParsersAction) -> None:
     """Add the ``bo`` target to ``hypate bench``."""
-    from hypate.scaling.engine.benchmarks import BENCHMARKS
 
     p = sub.add_parser("bo", help="Bayesian optimization on a benchmark problem",
                        description="Multi-objective Bayesian optimization on a test problem.")
@@ -36,12 +40,6 @@ def register_bench(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hypate.scaling.engine.benchmarks import BENCHMARKS, get_benchmark, run_nsga2, run_random
-    from hypate.scaling.engine.optimizer import (
-        MULTI_OBJECTIVE_ACQUISITIONS,
-        SINGLE_OBJECTIVE_ACQUISITIONS,
-        BayesianOptimizer,
-    )
 
     if args.problem.lower() not in BENCHMARKS:
         raise InputError("--problem", f"must be one of {', '.join(BENCHMARKS)}")

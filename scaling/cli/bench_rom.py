@@ -10,7 +10,10 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+
 from hypate.scaling.workflow.shipped import resolve
+from hypate.solvers.aero.rom import build_rom_from_config, check_rom
+from hypate.solvers.aero.rom_config import load_rom_config
 
 DEFAULT_CONFIG = Path(__file__).resolve().parents[2] / "studies" / "rom_2d_panel.toml"
 
@@ -26,8 +29,6 @@ def register_bench(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hypate.solvers.aero.rom import build_rom_from_config, check_rom
-    from hypate.solvers.aero.rom_config import load_rom_config
 
     cfg, base = load_rom_config(resolve(args.config, "rom"))
     print(f"ROM convergence ({Path(args.config).name}; {args.test_samples} held-out samples, "

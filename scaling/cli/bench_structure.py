@@ -12,9 +12,11 @@ import argparse
 import json
 
 import numpy as np
-
 from hypate.scaling.cli.timing import median_seconds
 from hypate.solvers.errors import InputError
+from hypate.solvers.materials import library_material
+from hypate.solvers.panel import Layer, PanelSpec
+from hypate.solvers.structure.model import StructuralModel
 
 PERMC_SPECS = ("COLAMD", "MMD_AT_PLUS_A", "NATURAL")
 
@@ -31,9 +33,6 @@ def register_bench(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hypate.solvers.materials import library_material
-    from hypate.solvers.panel import Layer, PanelSpec
-    from hypate.solvers.structure.model import StructuralModel
 
     if args.mesh < 1 or args.repeat < 1:
         raise InputError("--mesh/--repeat", "must be >= 1")

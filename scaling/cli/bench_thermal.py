@@ -20,9 +20,12 @@ import json
 
 import numpy as np
 import scipy.sparse.linalg as spla
-
 from hypate.scaling.cli.timing import median_seconds
 from hypate.solvers.errors import InputError
+from hypate.solvers.materials import honeycomb_core, isotropic, library_material
+from hypate.solvers.numerics.threads import blas_threads
+from hypate.solvers.panel import Layer, PanelSpec
+from hypate.solvers.thermal.model import SurfaceCondition, ThermalLoads, ThermalModel
 
 
 def register_bench(sub: argparse._SubParsersAction) -> None:
@@ -42,10 +45,6 @@ def register_bench(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hypate.solvers.materials import honeycomb_core, isotropic, library_material
-    from hypate.solvers.panel import Layer, PanelSpec
-    from hypate.solvers.thermal.model import (SurfaceCondition, ThermalLoads, ThermalModel,
-                                 _blas_threads)
 
     if args.cells < 2 or args.cells % 2:
         raise InputError("--cells", "must be an even number >= 2")
@@ -95,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
     J = ev.J
     Jlin = lin._evaluate(T_lin, T_lin, dt, 0.5, lin_loads, True).J
     A = full._matrix(J).tocsc()
-    with _blas_threads(1):
+    with blas_threads(1):
         results["factor_banded_cholesky_constant"] = median_seconds(
             lambda: lin._banded.cholesky(Jlin), args.repeat)
         results["factor_banded_lu"] = median_seconds(lambda: full._banded.lu(J), args.repeat)

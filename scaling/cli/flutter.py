@@ -6,8 +6,8 @@ import json
 
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.config import load_panel
-from hypate.solvers.errors import InputError
 from hypate.solvers.coupling.flutter import FlutterAnalysis
+from hypate.solvers.errors import InputError
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import argparse
 
+from hypate.scaling.report.html import write_report  # matplotlib only when needed
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("report", help="regenerate report.html of a run directory",
@@ -20,7 +22,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hypate.scaling.report.html import write_report  # matplotlib only when needed
 
     path = write_report(args.run_dir, study_path=args.study, simulate=args.simulate)
     print(path)

@@ -17,8 +17,16 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
-
 from hypate.scaling.workflow.shipped import resolve
+from hypate.solvers.aero.rom import (
+    build_rom_from_config,
+    check_rom,
+    load_rom,
+    olh_plan,
+    smart_order,
+    write_plan_csv,
+)
+from hypate.solvers.aero.rom_config import load_rom_config
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 
@@ -78,8 +86,6 @@ def _positive_int(value: int | None, name: str) -> None:
 
 
 def run_build(args: argparse.Namespace) -> int:
-    from hypate.solvers.aero.rom import build_rom_from_config
-    from hypate.solvers.aero.rom_config import load_rom_config
 
     _positive_int(args.samples, "--samples")
     _positive_int(args.workers, "--workers")
@@ -106,7 +112,6 @@ def run_build(args: argparse.Namespace) -> int:
 
 
 def run_check(args: argparse.Namespace) -> int:
-    from hypate.solvers.aero.rom import check_rom, load_rom
 
     _positive_int(args.samples, "--samples")
     if not (math.isfinite(args.scale) and args.scale > 0.0):
@@ -132,8 +137,6 @@ def run_check(args: argparse.Namespace) -> int:
 
 
 def run_plan(args: argparse.Namespace) -> int:
-    from hypate.solvers.aero.rom import olh_plan, smart_order, write_plan_csv
-    from hypate.solvers.aero.rom_config import load_rom_config
 
     _positive_int(args.samples, "--samples")
     _positive_int(args.groups, "--groups")

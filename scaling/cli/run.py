@@ -8,13 +8,13 @@ import time
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
-
 from hypate.scaling.engine.pareto import hypervolume
+from hypate.scaling.report.html import write_report_safely
 from hypate.scaling.workflow.run import run_study, run_sweep
 from hypate.scaling.workflow.shipped import default_study, resolve
 from hypate.scaling.workflow.study import load_study
 from hypate.solvers.errors import InputError
+from tqdm import tqdm
 
 #: Reference point of the progress-bar hypervolume (relative errors of 100 %).
 PROGRESS_REF = np.array([1.0, 1.0])
@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         outcome = run_study(study, out, resume=args.resume, workers=args.workers,
                             scheduler=args.scheduler, seed=args.seed, progress=bar,
-                            seed_runs=args.seed_from)
+                            seed_runs=args.seed_from, on_written=write_report_safely)
     finally:
         bar.close()
     point = outcome.design_point
@@ -131,7 +131,7 @@ def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
     try:
         outcome = run_sweep(study, out, resume=args.resume, workers=args.workers,
                             scheduler=args.scheduler, seed=args.seed, progress=progress,
-                            on_point=on_point)
+                            on_point=on_point, on_written=write_report_safely)
     finally:
         for bar in bars:
             bar.close()

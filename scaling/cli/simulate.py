@@ -6,12 +6,11 @@ import json
 import sys
 from pathlib import Path
 
-from tqdm import tqdm
-
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.config import load_case
 from hypate.solvers.coupling.model import simulate
 from hypate.solvers.errors import InputError
+from tqdm import tqdm
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -19,7 +19,9 @@ import sys
 import warnings
 
 from hypate.scaling.workflow.shipped import resolve
+from hypate.solvers.config import load_panel
 from hypate.solvers.errors import InputError
+from hypate.solvers.structure.model import StructuralModel, buckling_delta_T, modes, static
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -60,8 +62,6 @@ def _finite(name: str, value: float) -> float:
 
 
 def _model(path: str):  # noqa: ANN202 - StructuralModel, imported lazily
-    from hypate.solvers.config import load_panel
-    from hypate.solvers.structure.model import StructuralModel
 
     return StructuralModel(load_panel(resolve(path, "case")))
 
@@ -72,7 +72,6 @@ def _temperature(model, delta_T: float) -> float | None:  # noqa: ANN001
 
 
 def run_modes(args: argparse.Namespace) -> int:
-    from hypate.solvers.structure.model import modes
 
     if args.count < 1:
         raise InputError("--count", "must be >= 1")
@@ -95,7 +94,6 @@ def run_modes(args: argparse.Namespace) -> int:
 
 
 def run_buckling(args: argparse.Namespace) -> int:
-    from hypate.solvers.structure.model import buckling_delta_T
 
     model = _model(args.panel)
     with warnings.catch_warnings(record=True) as caught:
@@ -114,7 +112,6 @@ def run_buckling(args: argparse.Namespace) -> int:
 
 
 def run_static(args: argparse.Namespace) -> int:
-    from hypate.solvers.structure.model import static
 
     model = _model(args.panel)
     p = _finite("--pressure", args.pressure)

@@ -27,7 +27,9 @@ import sys
 import warnings
 
 from hypate.scaling.workflow.shipped import resolve
+from hypate.solvers.config import load_panel
 from hypate.solvers.errors import InputError
+from hypate.solvers.thermal.model import ThermalModel, uniform_loads
 
 #: Upper bound on the number of time steps of one run (guards against typos in --time-step).
 MAX_STEPS = 1_000_000
@@ -72,8 +74,6 @@ def _time_steps(duration: float, dt: float) -> list[float]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hypate.solvers.config import load_panel
-    from hypate.solvers.thermal.model import ThermalModel, uniform_loads
 
     q = args.flux
     if not math.isfinite(q):

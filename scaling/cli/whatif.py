@@ -31,18 +31,23 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import json
 import math
 import re
 import sys
 import time
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-
+from hypate.scaling.report.html import plot_sweep, variable_unit
+from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.shipped import resolve
+from hypate.scaling.workflow.study import HARD_LIMITS, load_study
+from hypate.scaling.workflow.tunnels import DESIGN_VARIABLES
 from hypate.solvers.errors import InputError
 
 #: Relative tolerance of "at a bound" (as :meth:`ScalingProblem.active_bounds`).
@@ -132,10 +137,7 @@ class WhatIf:
 
     def __init__(self, study: Any, values: Mapping[str, float], option: str = "--set",
                  base: Mapping[str, float] | None = None) -> None:
-        import dataclasses
 
-        from hypate.scaling.workflow.problem import ScalingProblem
-        from hypate.scaling.workflow.tunnels import DESIGN_VARIABLES
 
         self.study = study
         spec = study.spec
@@ -191,7 +193,6 @@ class WhatIf:
 
     def constraints(self, x: np.ndarray) -> dict[str, Any]:
         """Bounds hit/left, tunnel envelope and manufacturing limits, equality residuals."""
-        from hypate.scaling.workflow.study import HARD_LIMITS
 
         design = self.problem.design(x)
         bounds: list[dict[str, Any]] = []
@@ -293,7 +294,6 @@ def sweep_whatif(study: Any, values: Mapping[str, float], name: str, low: float,
         ``name``, ``values``, ``rows`` (per design: ``value``, ``J_u``, ``J_T``, ``J_s``,
         ``status``, ``message``, ``outside`` flags, ``seconds``), ``csv``, ``png`` paths.
     """
-    from hypate.scaling.report.html import plot_sweep
 
     if name in values:
         raise InputError("--sweep", f"{name} is also given with --set")
@@ -359,7 +359,6 @@ def _pct(v: float | None) -> str:
 
 
 def _print_result(res: dict[str, Any]) -> None:
-    from hypate.scaling.report.html import variable_unit
 
     print(f"what-if {res['study']}: one model design (no optimization)")
     print(f"  {'variable':<10s} {'value':>12s} {'unit':<4s}  source")
@@ -417,9 +416,7 @@ def _jsonable(obj: Any) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    import warnings
 
-    from hypate.scaling.workflow.study import load_study
 
     values = parse_set(args.set_values)
     sweep = parse_sweep(args.sweep) if args.sweep else None

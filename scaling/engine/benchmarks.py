@@ -14,10 +14,12 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from pymoo.core.problem import Problem
-
 from hypate.scaling.engine.pareto import hypervolume
 from hypate.scaling.engine.sampling import latin_hypercube
+from pymoo.algorithms.moo.nsga2 import NSGA2
+from pymoo.core.problem import Problem
+from pymoo.optimize import minimize
+from pymoo.problems import get_problem
 
 __all__ = [
     "Branin",
@@ -168,7 +170,6 @@ def get_benchmark(name: str, n_var: int | None = None) -> Benchmark:
     ``121 - 1/3``, ZDT2 ``121 - 2/3``), DTLZ2 ``[1.1, 1.1]`` (``1.21 - pi/4``),
     BraninCurrin ``[18, 6]`` (59.4065, dense sampling).
     """
-    from pymoo.problems import get_problem
 
     key = name.lower()
     if key in ("zdt1", "zdt2", "zdt3"):
@@ -212,8 +213,6 @@ def _history(F: np.ndarray, ref_point: np.ndarray | None) -> np.ndarray:
 def run_nsga2(bench: Benchmark, n_evaluations: int, seed: int, pop_size: int = 10) -> np.ndarray:
     """pymoo NSGA-II with ``pop_size`` on ``n_evaluations``; history of the archive's
     hypervolume (or best value) per evaluation."""
-    from pymoo.algorithms.moo.nsga2 import NSGA2
-    from pymoo.optimize import minimize
 
     rec = _Recorder(bench.problem)
     minimize(rec, NSGA2(pop_size=pop_size), ("n_evals", n_evaluations), seed=seed, verbose=False)

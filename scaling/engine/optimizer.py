@@ -39,9 +39,6 @@ from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import Bounds, minimize
-from threadpoolctl import threadpool_limits
-
 from hypate.scaling.engine.acquisition import (
     Acquisition,
     ExpectedImprovement,
@@ -55,8 +52,15 @@ from hypate.scaling.engine.acquisition import (
 )
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
 from hypate.scaling.engine.sampling import as_rng, latin_hypercube, raw_latin_hypercube
-from hypate.scaling.engine.store import STATUS_OK, Evaluation, EvaluationStore, evaluations_to_dataframe
+from hypate.scaling.engine.store import (
+    STATUS_OK,
+    Evaluation,
+    EvaluationStore,
+    evaluations_to_dataframe,
+)
 from hypate.scaling.engine.surrogate import ProbabilisticConstraint, fit_surrogate
+from hypate.solvers.numerics.threads import blas_threads
+from scipy.optimize import Bounds, minimize
 
 __all__ = [
     "CheapConstraint",
@@ -149,6 +153,20 @@ def _project(u0: np.ndarray, cons: list, tol: float = 1e-14) -> np.ndarray:
                    method="SLSQP", bounds=Bounds(np.zeros(d), np.ones(d)), constraints=cons,
                    options={"maxiter": 200, "ftol": tol})
     return np.clip(res.x, 0.0, 1.0)
+
+
+def project_cheap(problem: Any, x: np.ndarray) -> np.ndarray:
+    """Clip ``x`` to the bounds of ``problem`` (a pymoo problem with ``cheap_constraints()``)
+    and project it onto its cheap constraints (e.g. the Eq. 9.7 equality), as the optimizer
+    does for its initial design, so that seeds satisfy them exactly."""
+    lo, hi = np.asarray(problem.xl, float), np.asarray(problem.xu, float)
+    x = np.clip(np.asarray(x, float), lo, hi)
+    cons = problem.cheap_constraints()
+    if not cons:
+        return x
+    span = hi - lo
+    u = _project((x - lo) / span, _scipy_cheap(cons, lo, span))
+    return lo + u * span
 
 
 # ------------------------------------------------------------ input coordinates
@@ -1069,7 +1087,7 @@ class BayesianOptimizer:
             if self.blas_threads is None:
                 Xb = self.propose(prior, t)
             else:
-                with threadpool_limits(limits=self.blas_threads):
+                with blas_threads(self.blas_threads):
                     Xb = self.propose(prior, t)
             overhead.append(time.perf_counter() - t0)
             todo = [i for i in range(self.batch_size) if (t, i) not in done]

@@ -15,6 +15,7 @@ grid spanned by the Pareto coordinates is used (``(k + 1)^m`` cells, merged noth
 from __future__ import annotations
 
 import numpy as np
+from pymoo.indicators.hv import HV
 
 __all__ = [
     "dominates",
@@ -124,7 +125,6 @@ def hypervolume(F: np.ndarray, ref_point: np.ndarray) -> float:
     P = _front_below(F, r)
     if len(P) == 0:
         return 0.0
-    from pymoo.indicators.hv import HV
 
     return float(HV(ref_point=r)(P))
 

@@ -18,9 +18,8 @@ this module adapts it to the optimizer (Sec. 6.3.1, step 4(a)):
 from __future__ import annotations
 
 import numpy as np
-from scipy.special import ndtri
-
 from hypate.solvers.numerics.kriging import KrigingRegressor
+from scipy.special import ndtr, ndtri
 
 __all__ = ["fit_surrogate", "ProbabilisticConstraint"]
 
@@ -97,7 +96,6 @@ class ProbabilisticConstraint:
 
     def probability(self, X: np.ndarray) -> np.ndarray:
         """Predicted probability of feasibility ``prod_j Phi((t - mu_j) / sigma_j)``, (N,)."""
-        from scipy.special import ndtr
 
         mu, sd = self.model.predict_moments(np.atleast_2d(X))
         return np.prod(ndtr((self.threshold - mu) / np.maximum(sd, 1e-12)), axis=1)

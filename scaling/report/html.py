@@ -63,15 +63,25 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask  # noqa: E402
-from hypate.solvers.errors import InputError  # noqa: E402
+from hypate.scaling.engine.store import EvaluationStore
+from hypate.scaling.workflow.laws import (  # noqa: E402
+    SWEEP_JSON,
+    laws_figure,
+    laws_of_run,
+    laws_table,
+    load_sweep,
+)
+from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.tunnels import DESIGN_VARIABLES
 from hypate.solvers.coupling.response import Response  # noqa: E402
+from hypate.solvers.errors import InputError  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 
 __all__ = ["RunData", "Section", "SectionProvider", "load_run", "write_report",
            "register_section", "unregister_section", "figure_html", "embed_png",
-           "html_table", "plot_sweep", "render_html", "SECTION_MODULES", "variable_unit", "MISMATCH_THRESHOLD",
+           "html_table", "plot_sweep", "render_html", "variable_unit", "MISMATCH_THRESHOLD",
            "REPORT_NAME", "FIGURES_DIR"]
 
 #: Relative difference above which a similarity parameter is highlighted (10 %).
@@ -97,9 +107,6 @@ class Section:
 #: A dynamic section: ``provider(run) -> Section | None``.
 SectionProvider = Callable[["RunData"], "Section | None"]
 _PROVIDERS: dict[str, SectionProvider] = {}
-#: Modules imported by :func:`write_report` so that they register their sections (a module
-#: missing from an install is skipped).
-SECTION_MODULES: tuple[str, ...] = ("hypate.scaling.workflow.laws",)
 
 
 def register_section(name: str, provider: SectionProvider) -> None:
@@ -268,7 +275,6 @@ def figure_html(fig: Figure, run: RunData, name: str, caption: str) -> str:
 
 def variable_unit(name: str) -> str:
     """SI unit of a design variable (``"-"`` when dimensionless or unknown)."""
-    from hypate.scaling.workflow.tunnels import DESIGN_VARIABLES
 
     base = re.sub(r"\[\d+\]$", "", name)
     var = DESIGN_VARIABLES.get(base)
@@ -298,7 +304,6 @@ def _read_response(path: Path, notes: list[str]) -> Response | None:
 
 
 def _store_frame(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
-    from hypate.scaling.engine.store import EvaluationStore
 
     with EvaluationStore(path) as store:
         df = store.to_dataframe()
@@ -370,7 +375,6 @@ def load_run(run_dir: str | Path, study_path: str | Path | None = None,
         ``run_dir`` is not a run directory (no ``evaluations.sqlite`` nor
         ``evaluations.csv``).
     """
-    from hypate.scaling.workflow.study import load_study
 
     run_dir = Path(run_dir)
     store, csv = run_dir / _STORE, run_dir / "evaluations.csv"
@@ -492,7 +496,6 @@ def _rebuild_point(run: RunData, simulate: bool) -> dict[str, Any] | None:
         "similarity": [], "active_constraints": [], "evaluation": int(row)}
     if run.study is None:
         return point
-    from hypate.scaling.workflow.problem import ScalingProblem
 
     try:
         problem = ScalingProblem(run.study.spec, prototype_response=run.prototype)
@@ -949,9 +952,32 @@ def _statistics_section(run: RunData) -> Section:
     return Section("Run statistics", body)
 
 
+def _laws_section(run: RunData) -> Section | None:
+    """The "Scaling laws" section: shown for a sweep directory or a sweep point's
+    sub-directory (``sweep.json`` in it or in its parent) with finished points at two or more
+    scales; left out otherwise."""
+    directory = Path(run.directory)
+    for cand in (directory, directory.parent):
+        if (cand / SWEEP_JSON).is_file():
+            sweep = load_sweep(cand)
+            break
+    else:
+        return None
+    if len({p.xi for p in sweep.points}) < 2:
+        return None
+    laws = laws_of_run(sweep)
+    img = figure_html(laws_figure(laws), run, "laws",
+                             "Design variables against xi: numerical points (hollow: at a "
+                             "bound, not fitted), fitted law, analytical law (Fig. 9.12)")
+    rows = laws_table(laws)
+    cols = list(rows[0]) if rows else []
+    table = html_table(cols, [[r[c] for c in cols] for r in rows])
+    return Section("Scaling laws", img + table)
+
+
 _BUILTIN: tuple[Callable[[RunData], Section | None], ...] = (
     _study_section, _design_section, _similarity_section, _figures_section, _pareto_section,
-    _statistics_section)
+    _statistics_section, _laws_section)
 
 _CSS = """
 body{font-family:-apple-system,Segoe UI,Helvetica,Arial,sans-serif;max-width:1100px;
@@ -1033,13 +1059,6 @@ def write_report(run_dir: str | Path, *, study_path: str | Path | None = None,
     InputError
         ``run_dir`` is not a run directory, or ``study_path`` does not fit the run.
     """
-    import importlib
-
-    for module in SECTION_MODULES:
-        try:
-            importlib.import_module(module)
-        except ImportError:
-            pass
     run = load_run(run_dir, study_path=study_path, simulate=simulate)
     sections: list[Section] = []
     with warnings.catch_warnings():
@@ -1067,3 +1086,12 @@ def write_report(run_dir: str | Path, *, study_path: str | Path | None = None,
     tmp.write_text(page, encoding="utf-8")
     tmp.replace(path)
     return path
+
+
+def write_report_safely(run_dir: Path) -> Path | None:
+    """``report.html`` + ``figures/`` of a run; a failing report never costs the run."""
+    try:
+        return write_report(run_dir)
+    except (OSError, ValueError, KeyError, RuntimeError, InputError) as exc:
+        warnings.warn(f"report of {run_dir} not written: {exc}", RuntimeWarning, stacklevel=2)
+        return None

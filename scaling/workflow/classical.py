@@ -35,7 +35,6 @@ from typing import Any, Literal
 import cvxpy as cp
 import numpy as np
 import pandas as pd
-
 from hypate.scaling.workflow.similarity import (
     Configuration,
     apply_design,

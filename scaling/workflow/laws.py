@@ -52,7 +52,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import cvxpy as cp
+import matplotlib
+import matplotlib.pyplot as plt
 import numpy as np
+from hypate.scaling.engine.optimizer import project_cheap
+from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem
+from hypate.scaling.workflow.similarity import analytical_scaling, reference_quantities, time_scale
+from hypate.scaling.workflow.study import load_study, study_at, study_data
+from hypate.solvers.errors import InputError
 from scipy import stats
 
 #: Analytical exponents of the design variables (table in the module docstring).
@@ -199,7 +207,6 @@ def fit_power_law(xi: Sequence[float], values: Sequence[float], *,
 def _constrained_fit(lx: np.ndarray, ly: np.ndarray, bounds: tuple[float, float]
                      ) -> tuple[float, float]:
     """Least squares on ``ly = a + k lx`` with ``lo <= k <= hi`` (cvxpy)."""
-    import cvxpy as cp
 
     a, k = cp.Variable(), cp.Variable()
     cons = []
@@ -303,7 +310,6 @@ def analytical_laws(study: Any) -> dict[str, tuple[float | None, float | None]]:
     study : scaling.study.Study
         Any point of the sweep (the prototype and the model template do not depend on xi).
     """
-    from hypate.scaling.workflow.similarity import analytical_scaling, reference_quantities, time_scale
 
     spec = study.spec
     proto = spec.prototype
@@ -352,13 +358,12 @@ class SweepRun:
 
     def study(self, xi: float | None = None) -> Any:
         """The single study at scale ``xi`` (default: the first point's)."""
-        from hypate.scaling.workflow.study import study_at
 
         return study_at(self.study_data, xi=xi if xi is not None else
                         (self.points[0].xi if self.points else None))
 
 
-def _point_from_record(rec: Mapping[str, Any], default_xi: float | None = None
+def point_from_record(rec: Mapping[str, Any], default_xi: float | None = None
                        ) -> DesignPoint | None:
     design = rec.get("design")
     if not design:
@@ -380,7 +385,6 @@ def load_sweep(run_dir: str | Path) -> SweepRun:
     InputError
         No ``sweep.json`` in ``run_dir``.
     """
-    from hypate.solvers.errors import InputError
 
     run_dir = Path(run_dir)
     path = run_dir / SWEEP_JSON
@@ -390,7 +394,7 @@ def load_sweep(run_dir: str | Path) -> SweepRun:
     data = json.loads(path.read_text())
     records = list(data.get("points", []))
     points = [p for rec in records if rec.get("status") == "done"
-              and (p := _point_from_record(rec)) is not None]
+              and (p := point_from_record(rec)) is not None]
     return SweepRun(directory=run_dir, study_data=data["study_data"], points=points,
                     records=records)
 
@@ -410,8 +414,6 @@ def load_runs(run_dirs: Sequence[str | Path]) -> SweepRun:
         A directory without ``design_point.json``, a missing study file, or runs of
         different scaling problems.
     """
-    from hypate.scaling.workflow.study import load_study, study_data
-    from hypate.solvers.errors import InputError
 
     dirs = [Path(d) for d in run_dirs]
     if len(dirs) == 1 and (dirs[0] / SWEEP_JSON).is_file():
@@ -440,7 +442,7 @@ def load_runs(run_dirs: Sequence[str | Path]) -> SweepRun:
                              "(prototype, model, tunnel, variables or simulation differ)")
         rec = {**rec, "label": rec.get("study", d.name), "status": "done"}
         records.append(rec)
-        if (point := _point_from_record(rec)) is not None:
+        if (point := point_from_record(rec)) is not None:
             points.append(point)
     if len({p.xi for p in points}) != len(points):
         raise InputError("RUN_DIR", "two runs at the same geometric scale xi")
@@ -496,11 +498,8 @@ def predict(run: SweepRun, xi: float, *, evaluate: bool = False,
         :meth:`ScalingProblem.similarity`) and, with
         ``evaluate``, ``objectives`` (J_u, J_T, J_s) or ``evaluation_error``.
     """
-    from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem
-    from hypate.scaling.workflow.run import project_cheap
 
     if not run.points:
-        from hypate.solvers.errors import InputError
         raise InputError("RUN_DIR", f"{run.directory}: no finished sweep point to predict from")
     laws = laws_of_run(run) if laws is None else laws
     study = run.study(xi)
@@ -553,9 +552,7 @@ def laws_figure(laws: Sequence[ScalingLaw]):
     """Fig. 9.4/9.12-style figure: each variable against xi on log-log axes, with the
     numerical design points (bound-pinned ones hollow and labelled), the fitted law and
     the analytical line. Returns a matplotlib Figure (Agg)."""
-    import matplotlib
     matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
 
     laws = [law for law in laws if law.values]
     n = max(1, len(laws))
@@ -594,7 +591,6 @@ def laws_section(run_dir: str | Path) -> tuple[str, str]:
     The HTML holds the Fig. 9.12-style figure (inline PNG) and the exponent table; a
     directory without a sweep gives a short explanation instead.
     """
-    from hypate.solvers.errors import InputError
 
     title = "Scaling laws"
     try:
@@ -609,7 +605,6 @@ def laws_section(run_dir: str | Path) -> tuple[str, str]:
     fig = laws_figure(laws)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
-    import matplotlib.pyplot as plt
     plt.close(fig)
     img = base64.b64encode(buf.getvalue()).decode("ascii")
     rows = laws_table(laws)
@@ -625,46 +620,7 @@ def laws_section(run_dir: str | Path) -> tuple[str, str]:
     return title, text
 
 
-def _report_provider(run: Any) -> Any:
-    """Dynamic "Scaling laws" section of :mod:`hypate.scaling.report.html` (registered below): shown
-    for a sweep directory or a sweep point's sub-directory (``sweep.json`` in it or in its
-    parent) with finished points at two or more scales; left out otherwise."""
-    from hypate.scaling.report import html as report
-
-    directory = Path(run.directory)
-    for cand in (directory, directory.parent):
-        if (cand / SWEEP_JSON).is_file():
-            sweep = load_sweep(cand)
-            break
-    else:
-        return None
-    if len({p.xi for p in sweep.points}) < 2:
-        return None
-    laws = laws_of_run(sweep)
-    img = report.figure_html(laws_figure(laws), run, "laws",
-                             "Design variables against xi: numerical points (hollow: at a "
-                             "bound, not fitted), fitted law, analytical law (Fig. 9.12)")
-    rows = laws_table(laws)
-    cols = list(rows[0]) if rows else []
-    table = report.html_table(cols, [[r[c] for c in cols] for r in rows])
-    return report.Section("Scaling laws", img + table)
-
-
-def register_report_section() -> None:
-    """Register the "Scaling laws" section with :func:`hypate.scaling.report.html.register_section`
-    (idempotent; done when this module is imported and the report module exists)."""
-    from hypate.scaling.report import html as report
-
-    report.register_section("scaling_laws", _report_provider)
-
-
-try:  # the report module may be absent in a stripped install; the laws work without it
-    register_report_section()
-except ImportError:  # pragma: no cover
-    pass
-
-
 __all__ = ["ANALYTICAL_EXPONENTS", "TIME_EXPONENTS", "TIME_STEP", "DesignPoint", "PowerLawFit",
            "ScalingLaw", "SweepRun", "analytical_laws", "fit_laws", "fit_power_law",
            "is_pinned", "laws_figure", "laws_json", "laws_of_run", "laws_section", "laws_table",
-           "load_sweep", "predict", "predicted_design", "register_report_section"]
+           "load_sweep", "predict", "predicted_design"]

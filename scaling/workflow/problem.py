@@ -41,15 +41,21 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from pymoo.core.problem import Problem
-
 from hypate.scaling.engine.optimizer import CheapConstraint
-from hypate.scaling.workflow.similarity import (TIME_SCALINGS, Configuration, apply_design,
-                                comparison_records, compare, reference_quantities, time_scale)
-from hypate.solvers.aero.analytic import make_fluid_model
+from hypate.scaling.workflow.similarity import (
+    TIME_SCALINGS,
+    Configuration,
+    apply_design,
+    compare,
+    comparison_records,
+    reference_quantities,
+    time_scale,
+)
+from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.coupling.model import CouplingSettings, PanelModel, run_lc, run_tc
-from hypate.solvers.errors import InputError
 from hypate.solvers.coupling.response import Response
+from hypate.solvers.errors import InputError
+from pymoo.core.problem import Problem
 
 #: Objective names.
 OBJECTIVES = ("J_u", "J_T", "J_s")

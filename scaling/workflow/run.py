@@ -29,16 +29,31 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-
-from hypate.scaling.workflow.classical import (classical_scaling, design_vector, similarity_basis,
-                               similarity_exponents)
-from hypate.scaling.engine.optimizer import (BayesianOptimizer, LogLinearCoordinates, OptimizationResult,
-                               _project, _scipy_cheap, evaluate_design)
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.study import Study
-from hypate.solvers.errors import InputError
+from hypate.scaling.engine.optimizer import (
+    BayesianOptimizer,
+    LogLinearCoordinates,
+    OptimizationResult,
+    evaluate_design,
+    project_cheap,
+)
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
+from hypate.scaling.workflow.classical import (
+    classical_scaling,
+    design_vector,
+    similarity_basis,
+    similarity_exponents,
+)
+from hypate.scaling.workflow.laws import (
+    ANALYTICAL_EXPONENTS,
+    analytical_laws,
+    fit_laws,
+    point_from_record,
+    predicted_design,
+)
+from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.study import Study, study_at, study_data, sweep_points
 from hypate.solvers.coupling.response import Response
+from hypate.solvers.errors import InputError
 
 #: Parameters matched by the classical baseline (Eqs. 9.1, 6.3), per study kind.
 CLASSICAL_MATCH = {"aeroelastic": ["h/L", "lambda_F", "DeltaT_NTx_L2/Dxx"],
@@ -193,19 +208,6 @@ class _RetryFuture:
             return self._future.result(timeout)
 
 
-def project_cheap(problem: ScalingProblem, x: np.ndarray) -> np.ndarray:
-    """Clip ``x`` to the bounds and project it onto the cheap equality constraints (Eq. 9.7)
-    as the optimizer does for its initial design, so that seeds satisfy them exactly."""
-    lo, hi = np.asarray(problem.xl, float), np.asarray(problem.xu, float)
-    x = np.clip(np.asarray(x, float), lo, hi)
-    cons = problem.cheap_constraints()
-    if not cons:
-        return x
-    span = hi - lo
-    u = _project((x - lo) / span, _scipy_cheap(cons, lo, span))
-    return lo + u * span
-
-
 #: Seeds taken from each earlier run given to :func:`seeds_from_runs`.
 SEEDS_PER_RUN = 10
 
@@ -282,8 +284,12 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
               progress: Callable[[int, int, Any], None] | None = None,
               seeds: Sequence[tuple[Sequence[float], str]] | None = None,
               prototype_response: Response | None = None,
-              seed_runs: Sequence[str | Path] = ()) -> RunOutcome:
+              seed_runs: Sequence[str | Path] = (),
+              on_written: Callable[[Path], object] | None = None) -> RunOutcome:
     """Run (or resume) a study into ``out``.
+
+    ``on_written(out)`` is called once the outputs are written: the CLI and ``hypate.run_study``
+    write the report there (the workflow does not know the report).
 
     Parameters
     ----------
@@ -377,19 +383,9 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
         close()
     wall = time.perf_counter() - t0
     point = write_outputs(study, problem, result, out, wall_seconds=wall)
-    write_report_safely(out)
+    if on_written is not None:
+        on_written(out)
     return RunOutcome(directory=out, result=result, design_point=point, problem=problem)
-
-
-def write_report_safely(run_dir: Path) -> Path | None:
-    """``report.html`` + ``figures/`` of a run; a failing report never costs the run."""
-    from hypate.scaling.report.html import write_report  # matplotlib only when a report is written
-
-    try:
-        return write_report(run_dir)
-    except (OSError, ValueError, KeyError, RuntimeError, InputError) as exc:
-        warnings.warn(f"report of {run_dir} not written: {exc}", RuntimeWarning, stacklevel=2)
-        return None
 
 
 def evaluations_table(study: Study, result: OptimizationResult) -> pd.DataFrame:
@@ -508,8 +504,6 @@ def sweep_seeds(study: Study, sub: Study, problem: ScalingProblem, index: int,
     (Eq. 9.7). The result depends only on finished points, so a resumed sweep recomputes
     the same seeds.
     """
-    from hypate.scaling.workflow.laws import (ANALYTICAL_EXPONENTS, _point_from_record, analytical_laws,
-                              fit_laws, predicted_design)
 
     sw = study.sweep
     if sw is None or index == 0:
@@ -517,7 +511,7 @@ def sweep_seeds(study: Study, sub: Study, problem: ScalingProblem, index: int,
     names = sub.spec.names
     xi_new = sub.spec.xi
     done = [r for r in records[:index] if r.get("status") == "done"]
-    points = [p for r in done if (p := _point_from_record(r)) is not None]
+    points = [p for r in done if (p := point_from_record(r)) is not None]
     laws = []
     if len({p.xi for p in points}) >= 2:
         laws = fit_laws(points, variables=names, analytical=analytical_laws(sub),
@@ -565,7 +559,6 @@ def _point_record(point: Any, sub: Study, directory: Path, status: str,
 def write_sweep_summary(study: Study, out: Path, records: Sequence[dict[str, Any]]) -> None:
     """``sweep.json`` (study data + one record per point) and ``sweep.csv`` (one row per
     point: label, xi, mach, altitude, status, design variables, objectives)."""
-    from hypate.scaling.workflow.study import study_data
 
     _write_json(out / SWEEP_JSON, {"study": study.name, "study_path": study.path,
                                    "study_data": study_data(study), "points": list(records)})
@@ -585,8 +578,10 @@ def write_sweep_summary(study: Study, out: Path, records: Sequence[dict[str, Any
 def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: int = 1,
               scheduler: str | None = None, seed: int | None = None,
               progress: Callable[[int, int, Any], None] | None = None,
-              on_point: Callable[[int, int, Any], None] | None = None) -> SweepOutcome:
-    """Run (or resume) a sweep study: one optimization per sweep point.
+              on_point: Callable[[int, int, Any], None] | None = None,
+              on_written: Callable[[Path], object] | None = None) -> SweepOutcome:
+    """Run (or resume) a sweep study: one optimization per sweep point (``on_written`` as in
+    :func:`run_study`, called for each point and again for all once the sweep is done).
 
     Each point (:func:`hypate.scaling.workflow.study.sweep_points`) runs :func:`run_study` into
     ``out/<label>`` (its own store), sequentially, with the executor of ``workers`` /
@@ -605,7 +600,6 @@ def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: i
     on_point : callable, optional
         ``on_point(index, n_points, point)`` before each point starts or is skipped.
     """
-    from hypate.scaling.workflow.study import study_at, sweep_points
 
     points = sweep_points(study)
     if not points:
@@ -646,22 +640,21 @@ def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: i
         outcome = run_study(sub, sub_dir, resume=resume and (sub_dir / STORE_NAME).exists(),
                             workers=workers, scheduler=scheduler, seed=seed,
                             progress=progress, seeds=seeds,
-                            prototype_response=problem.prototype_response)
+                            prototype_response=problem.prototype_response,
+                            on_written=on_written)
         prototypes[key] = outcome.problem.prototype_response
         records[i] = _point_record(point, sub, sub_dir, "done", outcome.design_point)
         write_sweep_summary(study, out, records)
     write_sweep_summary(study, out, records)
     for record_dir in (out / p.label for p in points):
-        if (record_dir / "design_point.json").exists():
-            write_report_safely(record_dir)  # again: the laws section now sees every point
+        if on_written is not None and (record_dir / "design_point.json").exists():
+            on_written(record_dir)  # again: the report's laws section now sees every point
     return SweepOutcome(directory=out, points=records)
 
 
-def load_response(path: Path) -> Response | None:
-    return Response.load(path) if path.exists() else None
 
 
 __all__ = ["RunOutcome", "SweepOutcome", "run_study", "run_sweep", "sweep_seeds",
-           "write_sweep_summary", "project_cheap", "surrogate_coordinates", "seeds_from_runs",
+           "write_sweep_summary", "surrogate_coordinates", "seeds_from_runs",
            "write_outputs", "classical_baseline", "make_executor", "evaluations_table",
            "choose_design_point", "STORE_NAME"]

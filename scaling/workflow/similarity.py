@@ -59,7 +59,7 @@ from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
-
+from hypate.scaling.workflow.tunnels import DESIGN_VARIABLES
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition, sutherland_viscosity
 from hypate.solvers.laminate import laminate, strain_rotation
@@ -547,7 +547,6 @@ def apply_design(template: Configuration, design: Mapping[str, float]) -> Config
     InputError
         Unknown names, non-positive values, mixed stagnation/static flow variables.
     """
-    from hypate.scaling.workflow.tunnels import DESIGN_VARIABLES
 
     panel = template.panel
     unknown = [n for n in design if n not in DESIGN_VARIABLES and not _LAYER_RE.match(n)]

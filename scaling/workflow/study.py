@@ -57,17 +57,29 @@ import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
-
-from hypate.scaling.workflow.problem import EQUALITY_CONSTRAINTS, OBJECTIVES, ScalingSpec, Simulation, Variable
+from hypate.scaling.workflow.problem import (
+    EQUALITY_CONSTRAINTS,
+    OBJECTIVES,
+    ScalingSpec,
+    Simulation,
+    Variable,
+)
+from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.similarity import Configuration
 from hypate.scaling.workflow.tunnels import TunnelEnvelope, resolve_tunnel
 from hypate.solvers import materials as mat
-from hypate.scaling.workflow.shipped import resolve
-from hypate.solvers.config import MaterialConfig, _pydantic_error, load_case, read_toml, resolve_material
+from hypate.solvers.aero.factory import AERO_NAMES, is_aero_name
+from hypate.solvers.config import (
+    MaterialConfig,
+    load_case,
+    pydantic_input_error,
+    read_toml,
+    resolve_material,
+)
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.panel import Layer, PanelSpec
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 #: Design variables a study may optimize (names of scaling.similarity.apply_design).
 VARIABLES = ("M", "p0", "T0", "p_inf", "T_inf", "L", "L_le", "h", "emissivity", "T_rad",
@@ -322,7 +334,7 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
     try:
         cfg = StudyFile.model_validate(data)
     except ValidationError as exc:
-        raise _pydantic_error(exc) from None
+        raise pydantic_input_error(exc) from None
     base = Path(path).parent if str(path) != "<memory>" else Path.cwd()
     case_path = resolve(cfg.prototype.case, "case", base)
     try:
@@ -397,8 +409,8 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
             raise InputError(f"fixed.{name}", f"must be within [{lo:g}, {hi:g}]; got {value:g}")
     fixed = dict(cfg.fixed)
     aero = sim_cfg.aero
-    if aero not in ("pt", "pt1", "pt3", "ls", "pt-bl", "se") and not aero.startswith("rom:"):
-        raise InputError("simulation.aero", f"must be one of pt, pt1, pt3, ls, pt-bl, se or "
+    if not is_aero_name(aero):
+        raise InputError("simulation.aero", f"must be one of {', '.join(AERO_NAMES)} or "
                          f"'rom:PATH'; got {aero!r}")
     simulation = Simulation(kind=cfg.study.kind, aero=aero, heating=sim_cfg.heating,
                             boundary_layer=sim_cfg.boundary_layer, time_step=sim_cfg.time_step,

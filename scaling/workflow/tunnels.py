@@ -35,6 +35,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from hypate.solvers.config import read_toml
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 
@@ -371,7 +372,6 @@ def resolve_tunnel(spec: str | Mapping[str, Any], field: str = "tunnel") -> Tunn
 def load_tunnels(path: str | Path) -> dict[str, TunnelEnvelope]:
     """User envelopes from a TOML file with ``[tunnels.NAME]`` tables (same keys as the
     shipped data file)."""
-    from hypate.solvers.config import read_toml
 
     data = read_toml(path)
     tables = data.get("tunnels")

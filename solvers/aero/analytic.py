@@ -20,11 +20,10 @@ from functools import partial
 
 import numpy as np
 import scipy.sparse as sp
-from numpy.typing import ArrayLike
-
-from hypate.solvers.aero.base import (Array, FluidLoads, FluidModel, SurfacePoints, SurfaceState)
+from hypate.solvers.aero.base import Array, FluidLoads, FluidModel, SurfacePoints, SurfaceState
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import SUTHERLAND_S, FlowCondition, sutherland_viscosity
+from numpy.typing import ArrayLike
 
 #: Pressure laws accepted by :class:`AnalyticFluid`.
 PRESSURE_MODELS = ("pt", "pt1", "pt3", "ls")
@@ -351,28 +350,3 @@ class AnalyticFluid(FluidModel):
                 d_s_dT if eff else None, d_s_dTs if eff else None, S if eff else None,
                 heat_derivatives=heat_derivatives)
         return loads
-
-
-#: Names accepted by ``[simulation] aero`` for the analytic models.
-ANALYTIC_AERO = {"pt": ("pt", False), "pt1": ("pt1", False), "pt3": ("pt3", False),
-                 "ls": ("ls", False), "pt-bl": ("pt", True)}
-
-
-def make_fluid_model(aero: str, heating: str = "eckert", regime: str = "turbulent"
-                     ) -> FluidModel:
-    """A fluid model from the config names (``[simulation] aero``, ``heating``)."""
-    if aero in ANALYTIC_AERO:
-        pressure, eff = ANALYTIC_AERO[aero]
-        return AnalyticFluid(pressure, eff, heating, regime)
-    if aero == "se":
-        from hypate.solvers.aero.shock_expansion import ShockExpansionFluid  # imports this module
-
-        return ShockExpansionFluid(boundary_layer=True, heating=heating, regime=regime)
-    if aero.startswith("rom:"):
-        from hypate.solvers.aero.rom import load_rom  # local import: the ROM imports this module
-
-        if not aero[4:]:
-            raise InputError("simulation.aero", "'rom:PATH' needs the path of a ROM file")
-        return load_rom(aero[4:], regime=regime)
-    raise InputError("simulation.aero", f"must be one of {', '.join(ANALYTIC_AERO)}, 'se' or "
-                     f"'rom:PATH'; got {aero!r}")

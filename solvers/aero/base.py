@@ -21,10 +21,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
-from numpy.typing import NDArray
-
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
+from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
 

@@ -93,14 +93,19 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.csgraph as csgraph
-from scipy.stats import qmc
-
-from hypate.solvers.numerics.kriging import KrigingRegressor
-from hypate.solvers.aero.analytic import (BoundaryLayerShape, eckert_with_derivatives,
-                                   piston_pressure)
+from hypate.solvers.aero.analytic import (
+    BoundaryLayerShape,
+    eckert_with_derivatives,
+    piston_pressure,
+)
 from hypate.solvers.aero.base import Array, FluidLoads, FluidModel, SurfacePoints, SurfaceState
+from hypate.solvers.aero.shock_expansion import ShockExpansionFluid
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
+from hypate.solvers.numerics.kriging import KrigingRegressor
+from scipy.stats import qmc
+from sklearn.cluster import KMeans
+from sklearn.neighbors import kneighbors_graph
 
 __all__ = [
     "FORMAT_VERSION", "PodBasis", "PodKriging", "RomGeometry", "RomFluid", "load_rom",
@@ -949,7 +954,6 @@ def _source_chunk(geometry: RomGeometry, source_opts: dict[str, Any], flow: Flow
                   scale: float, amplitudes: Array, wall_temperature: Array
                   ) -> tuple[Array, Array]:
     """Worker: shock-expansion samples for a chunk (module-level for process pools)."""
-    from hypate.solvers.aero.shock_expansion import ShockExpansionFluid
 
     src = ShockExpansionFluid(boundary_layer=source_opts.get("boundary_layer", True),
                               regime=source_opts.get("regime", "turbulent"))
@@ -1134,7 +1138,6 @@ class SmartOrder:
 def _balanced_groups(X: Array, n_groups: int, rng: np.random.Generator) -> Array:
     """Partition into ``n_groups`` equal-sized groups: k-means centroids, then a greedy
     capacity-constrained assignment by increasing distance (a METIS-free graph partition)."""
-    from sklearn.cluster import KMeans
 
     N = X.shape[0]
     if n_groups == 1:
@@ -1173,7 +1176,6 @@ def smart_order(samples: Array, naive: Array, n_groups: int = 1,
     rng : numpy.random.Generator, int or None
         Seed of the k-means partition.
     """
-    from sklearn.neighbors import kneighbors_graph
 
     X = np.asarray(samples, float)
     N, dim = X.shape

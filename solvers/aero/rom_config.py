@@ -52,11 +52,10 @@ import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
-
-from hypate.solvers.config import _pydantic_error, read_toml
+from hypate.solvers.config import pydantic_input_error, read_toml
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 __all__ = ["RomBuildConfig", "load_rom_config", "parse_rom_config"]
 
@@ -204,7 +203,7 @@ def parse_rom_config(data: dict[str, Any]) -> RomBuildConfig:
     try:
         cfg = RomBuildConfig.model_validate(data)
     except ValidationError as exc:
-        raise _pydantic_error(exc) from None
+        raise pydantic_input_error(exc) from None
     try:
         cfg.reference.flow()
     except InputError as exc:

@@ -29,14 +29,13 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
 from hypate.solvers.aero.analytic import AnalyticFluid
 from hypate.solvers.coupling.model import CouplingSettings, EquilibriumError, PanelModel, run_lc
+from hypate.solvers.coupling.stability import StabilityResult, gep, pep
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.laminate import laminate
 from hypate.solvers.panel import PanelSpec
-from hypate.solvers.coupling.stability import StabilityResult, gep, pep
 from hypate.solvers.structure.model import StructuralModel, buckling_delta_T, modes
 
 

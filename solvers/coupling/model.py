@@ -23,19 +23,27 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from numpy.typing import NDArray
-
 from hypate.solvers.aero.analytic import PointwiseJacobians
 from hypate.solvers.aero.base import FluidLoads, FluidModel, SurfaceState
+from hypate.solvers.aero.factory import make_fluid_model
+from hypate.solvers.coupling.response import Response, sinusoidal_modes
+from hypate.solvers.coupling.stability import (
+    StabilityResult,
+    gep,
+    pep,
+    shift_invert_gep,
+    start_vector,
+)
+from hypate.solvers.coupling.transfer import Transfer, fluid_points
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
-from hypate.solvers.numerics.sparse import gmres, single_threaded_blas
+from hypate.solvers.numerics.sparse import gmres
+from hypate.solvers.numerics.threads import single_threaded_blas
 from hypate.solvers.panel import PanelSpec
-from hypate.solvers.coupling.response import Response, sinusoidal_modes
-from hypate.solvers.coupling.stability import StabilityResult, gep, pep, shift_invert_gep, start_vector
+from hypate.solvers.structure.dynamics import AlphaStepper
 from hypate.solvers.structure.model import StructuralModel
 from hypate.solvers.thermal.model import SurfaceCondition, ThermalLoads, ThermalModel
-from hypate.solvers.coupling.transfer import Transfer, fluid_points
+from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
 
@@ -938,7 +946,6 @@ def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float = 1.0, record_e
     ``u^E = u``; S2: ``p^E = p``, ``u^E`` by Eq. 5.5). Per step it is O(dt^3) for S1 (Eq. 5.23)
     and O(dt^4) for S2 (Eq. 5.24).
     """
-    from hypate.solvers.structure.dynamics import AlphaStepper
 
     if scheme not in ("s1", "s2"):
         raise InputError("simulation.scheme", "loosely coupled schemes are 's1' and 's2'")
@@ -1118,7 +1125,6 @@ def simulate(panel: PanelSpec, flow: FlowCondition, sim, progress=None,
 
     The entry point of ``hypate simulate`` and of the scaling problem's evaluations.
     """
-    from hypate.solvers.aero.analytic import make_fluid_model
 
     fluid = make_fluid_model(sim.aero, sim.heating, sim.boundary_layer)
     settings = replace(settings_from_config(sim), keep_fields=keep_fields)

@@ -12,20 +12,36 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
+from hypate.solvers.aero.base import SurfacePoints
+from hypate.solvers.coupling.stability import StabilityResult
+from hypate.solvers.errors import InputError
+from hypate.solvers.flow import FlowCondition
+from hypate.solvers.panel import PanelSpec
 from numpy.typing import NDArray
 
-from hypate.solvers.aero.base import SurfacePoints
-from hypate.solvers.errors import InputError
-from hypate.solvers.panel import PanelSpec
-
-if TYPE_CHECKING:  # pragma: no cover
-    from hypate.solvers.coupling.model import PanelModel
-    from hypate.solvers.coupling.stability import StabilityResult
-
 Array = NDArray[np.float64]
+
+
+class RecordedModel(Protocol):
+    """What a response reads from the coupled model it records (the coupling's
+    ``PanelModel``): the response knows this interface, not the model's module."""
+
+    panel: PanelSpec
+    flow: FlowCondition
+    modes: tuple[Array, list[tuple[int, int]]]
+    points: SurfacePoints
+    settings: Any
+    structure: Any
+    thermal: Any
+    transfer: Any
+
+    def fluid_loads(self, u: Array, T_wall: Array, u_dot: Array | None = None) -> Any: ...
+
+    def wall_temperature(self, T: Array) -> Array: ...
+
 FORMAT_VERSION = 1
 #: Sinusoidal modes (i, j) on which the deflection is projected.
 MODE_INDICES = tuple((i, j) for j in (1, 2, 3) for i in (1, 2, 3))
@@ -82,14 +98,14 @@ class Response:
 
     # -- building ------------------------------------------------------------------------
     @classmethod
-    def start(cls, model: PanelModel, scheme: str) -> Response:
+    def start(cls, model: RecordedModel, scheme: str) -> Response:
         p = model.panel
         return cls(scheme=scheme, thickness=p.thickness, length=p.length,
                    stagnation_temperature=model.flow.stagnation_temperature,
                    initial_temperature=p.initial_temperature,
                    mode_indices=list(model.modes[1]), keep_fields=model.settings.keep_fields)
 
-    def record(self, t: float, u: Array, T: Array, model: PanelModel,
+    def record(self, t: float, u: Array, T: Array, model: RecordedModel,
                lsa: StabilityResult | None, u_dot: Array | None = None) -> None:
         """Append the state at time ``t``; ``u_dot`` (transient schemes) enters the stored
         surface pressure through the piston-theory velocity term."""

@@ -20,9 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from hypate.solvers.numerics.threads import single_threaded_blas
 from numpy.typing import NDArray
-
-from hypate.solvers.numerics.sparse import single_threaded_blas
 
 Array = NDArray[np.float64]
 CArray = NDArray[np.complex128]

@@ -19,11 +19,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from numpy.typing import NDArray
-
 from hypate.solvers.aero.base import SurfacePoints
 from hypate.solvers.panel import PanelSpec
 from hypate.solvers.structure.element import NDOF, shape_functions
+from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
 

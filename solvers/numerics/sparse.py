@@ -17,40 +17,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.sparse.csgraph import reverse_cuthill_mckee
+from hypate.solvers.numerics.threads import single_threaded_blas
 from numpy.typing import NDArray
+from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 Array = NDArray[np.float64]
-
-_CONTROLLER: object | None = None
-
-
-def single_threaded_blas() -> AbstractContextManager[object]:
-    """Context limiting BLAS to one thread.
-
-    The banded factorization works on small blocks; on a busy 2-core machine OpenBLAS
-    threads spin and a 7 ms factorization occasionally takes a second (measured). The
-    threadpoolctl controller is built once, so entering the context costs ~0.1 ms.
-    """
-    global _CONTROLLER
-    if _CONTROLLER is None:
-        try:
-            from threadpoolctl import ThreadpoolController
-        except ImportError:  # pragma: no cover - threadpoolctl ships with scikit-learn
-            _CONTROLLER = False
-        else:
-            _CONTROLLER = ThreadpoolController()
-    if _CONTROLLER is False:
-        return nullcontext()
-    return _CONTROLLER.limit(limits=1, user_api="blas")  # type: ignore[union-attr]
-
 
 #: SuperLU column ordering used by the fallback (fastest measured on shell tangents).
 DEFAULT_PERMC = "MMD_AT_PLUS_A"

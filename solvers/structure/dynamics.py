@@ -15,9 +15,8 @@ import warnings
 
 import numpy as np
 import scipy.sparse as sp
-from numpy.typing import NDArray
-
 from hypate.solvers.structure.model import GeneralizedAlpha, StructuralModel
+from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
 

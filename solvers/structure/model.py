@@ -37,16 +37,25 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from numpy.typing import ArrayLike, NDArray
-
 from hypate.solvers.errors import InputError
 from hypate.solvers.laminate import LaminateState, laminate
 from hypate.solvers.numerics.sparse import Factor, PatternSolver
-from hypate.solvers.structure.mesh import ShellMesh, panel_mesh
 from hypate.solvers.panel import PanelSpec, thermal_levels
-from hypate.solvers.structure.element import (NDOF, NNODE, Quadrature, btdb, btdb_von_karman,
-                                   generalized_strain, geometric_kernel, mass_kernel,
-                                   membrane_bending_B, shear_B, von_karman_w_B)
+from hypate.solvers.structure.element import (
+    NDOF,
+    NNODE,
+    Quadrature,
+    btdb,
+    btdb_von_karman,
+    generalized_strain,
+    geometric_kernel,
+    mass_kernel,
+    membrane_bending_B,
+    shear_B,
+    von_karman_w_B,
+)
+from hypate.solvers.structure.mesh import ShellMesh, panel_mesh
+from numpy.typing import ArrayLike, NDArray
 
 Array = NDArray[np.float64]
 TemperatureLike = float | ArrayLike | None

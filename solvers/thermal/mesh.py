@@ -24,10 +24,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
-
 from hypate.solvers.errors import InputError
 from hypate.solvers.panel import PanelSpec, layer_of_level_interval, thermal_levels
+from numpy.typing import NDArray
 
 IntArray = NDArray[np.int64]
 Array = NDArray[np.float64]

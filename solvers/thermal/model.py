@@ -27,10 +27,9 @@ Newton iteration contracts.
 """
 from __future__ import annotations
 
-import contextlib
 import math
-from abc import ABC, abstractmethod
 import warnings
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal, Union
@@ -38,18 +37,13 @@ from typing import Literal, Union
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from numpy.typing import ArrayLike, NDArray
-from scipy.linalg import lapack
-
-try:  # a dependency of scikit-learn; optional here
-    from threadpoolctl import ThreadpoolController
-except ImportError:  # pragma: no cover
-    ThreadpoolController = None
-
 from hypate.solvers.errors import InputError
 from hypate.solvers.materials import STEFAN_BOLTZMANN, Material
+from hypate.solvers.numerics.threads import blas_threads
 from hypate.solvers.panel import PanelSpec
 from hypate.solvers.thermal.mesh import HexMesh, build_hex_mesh
+from numpy.typing import ArrayLike, NDArray
+from scipy.linalg import lapack
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -226,19 +220,6 @@ class _Evaluation:
 # ---------------------------------------------------------------------------------------
 # Linear solvers
 # ---------------------------------------------------------------------------------------
-_CONTROLLER: list = []
-
-
-def _blas_threads(n: int | None):
-    """Context limiting BLAS threads (measured: OpenBLAS threads on this 2-core machine under
-    load turn a 13 us banded factorization into 0.7 s; one thread avoids that)."""
-    if n is None or ThreadpoolController is None:
-        return contextlib.nullcontext()
-    if not _CONTROLLER:
-        _CONTROLLER.append(ThreadpoolController())
-    return _CONTROLLER[0].limit(limits=n, user_api="blas")
-
-
 class _Factor(ABC):
     """A factorized Jacobian: ``solve(b)`` in the original node ordering."""
 
@@ -999,7 +980,7 @@ class ThermalModel:
     def _newton(self, T_start: Array, T_old: Array | None, dt: float | None, alpha: float,
                 loads: ThermalLoads, jacobian: str | None = None,
                 contraction: float | None = None) -> StepResult:
-        with _blas_threads(self.blas_threads):
+        with blas_threads(self.blas_threads):
             return self._newton_iterations(T_start, T_old, dt, alpha, loads,
                                            jacobian or self.jacobian_mode,
                                            self.contraction if contraction is None

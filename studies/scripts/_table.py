@@ -7,6 +7,7 @@ dissertation value is missing, zero or not numeric).
 """
 from __future__ import annotations
 
+import argparse
 import math
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -105,7 +106,6 @@ def show(df: pd.DataFrame, title: str | None = None) -> None:
 
 def standard_parser(description: str):
     """``argparse`` parser with the common ``--coarse`` and ``--out DIR`` options."""
-    import argparse
 
     p = argparse.ArgumentParser(description=description)
     p.add_argument("--coarse", action="store_true", help="the coarse (test) configuration")

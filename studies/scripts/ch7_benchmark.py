@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
-
-from hypate.studies.scripts._table import side_by_side, simple_main
 from hypate.scaling.workflow.shipped import shipped
+from hypate.solvers.aero.factory import make_fluid_model
+from hypate.solvers.config import parse_case, read_toml
+from hypate.solvers.coupling.model import PanelModel, run_lc, run_tc, settings_from_config
+from hypate.studies.scripts._table import side_by_side, simple_main
 
 CASE = shipped("case")["sec7_3_benchmark"]
 #: Snap-through onset (s): Table 8.2 AM case 2 (= the Sec. 7.3 benchmark).
@@ -48,9 +49,6 @@ def benchmark_model(time_step: float, duration: float, *, aero: str | None = Non
     mesh : tuple of int, optional
         Element counts (one for 2D, two for 3D).
     """
-    from hypate.solvers.aero.analytic import make_fluid_model
-    from hypate.solvers.config import parse_case, read_toml
-    from hypate.solvers.coupling.model import PanelModel, settings_from_config
 
     case = parse_case(read_toml(str(CASE)), source=str(CASE))
     sim = case.simulation
@@ -111,7 +109,6 @@ class Result:
 
 def run(config: Config | None = None) -> Result:
     """Run the TC (and, by default, LC S2) scheme on the Sec. 7.3 benchmark."""
-    from hypate.solvers.coupling.model import run_lc, run_tc
 
     config = Config() if config is None else config
     tc = run_tc(benchmark_model(config.tc_time_step, config.duration))

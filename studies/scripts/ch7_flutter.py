@@ -12,7 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import pandas as pd
-
+from hypate.solvers.coupling.flutter import FlutterAnalysis
+from hypate.solvers.materials import isotropic
+from hypate.solvers.panel import Layer, PanelSpec
 from hypate.studies.scripts._table import side_by_side, simple_main
 
 #: Sec. 7.2.3 values (time domain, LSA).
@@ -52,8 +54,6 @@ def panel(mesh: int):
 
     lambda is independent of E and rho; emissivity 0 (no heat transfer in this test).
     """
-    from hypate.solvers.materials import isotropic
-    from hypate.solvers.panel import Layer, PanelSpec
 
     mat = isotropic("plate", 2700.0, 70e9, 0.3, 1.2e-6, 100.0, 900.0)
     return PanelSpec(layers=(Layer(mat, 0.002),), mesh=(mesh, mesh), emissivity=0.0)
@@ -61,7 +61,6 @@ def panel(mesh: int):
 
 def run(config: Config | None = None) -> Result:
     """Sweep lambda at T_cr and 2 T_cr (Sec. 7.2.3, Figs. 7.13-7.15)."""
-    from hypate.solvers.coupling.flutter import FlutterAnalysis
 
     config = Config() if config is None else config
     p = panel(config.mesh)

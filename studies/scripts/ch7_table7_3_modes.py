@@ -13,7 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-
+from hypate.solvers.materials import isotropic
+from hypate.solvers.panel import Layer, PanelSpec
+from hypate.solvers.structure.model import StructuralModel, modes
 from hypate.studies.scripts._table import side_by_side, simple_main
 
 INCH, LBFT3, PSI = 0.0254, 16.018463373960142, 6894.757293168361
@@ -46,9 +48,6 @@ class Result:
 
 def run(config: Config | None = None) -> Result:
     """Compute the first five frequencies of the Table 7.2 panel (Table 7.3)."""
-    from hypate.solvers.materials import isotropic
-    from hypate.solvers.panel import Layer, PanelSpec
-    from hypate.solvers.structure.model import StructuralModel, modes
 
     config = Config() if config is None else config
     mat = isotropic("table7_2", 110.0 * LBFT3, 5.6e6 * PSI, 0.35, 1e-5, 1.0, 1.0)

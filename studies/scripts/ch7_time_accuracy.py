@@ -45,7 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-
+from hypate.solvers.coupling.model import run_lc
 from hypate.studies.scripts._table import publish, side_by_side, standard_parser
 from hypate.studies.scripts.ch7_benchmark import benchmark_model
 
@@ -96,7 +96,6 @@ def mean_artificial_energy(resp, dt: float, horizon: float) -> float:
 
 def run_schemes(config: Config) -> dict[tuple[str, float], tuple[dict, float]]:
     """``(scheme, dt) -> (fields at the horizon, mean |dE| per step)`` for S1 and S2."""
-    from hypate.solvers.coupling.model import run_lc
 
     out = {}
     for scheme in ("s1", "s2"):

@@ -27,8 +27,13 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-
+from hypate.solvers.aero.factory import make_fluid_model
+from hypate.solvers.coupling.model import CouplingSettings, PanelModel, run_tc
+from hypate.solvers.flow import FlowCondition
+from hypate.solvers.materials import homogenized_stiffener, library_material
+from hypate.solvers.panel import Layer, PanelSpec
 from hypate.studies.scripts._table import side_by_side, simple_main
+from hypate.studies.scripts.ch7_benchmark import benchmark_model
 
 #: Table 8.1 / 8.2: L_le/a -> (delta/a, RANS onset s or None, AM onset s).
 TABLE_8_2 = {0.5: (0.01, 0.13, 1.98), 1.0: (0.02, 1.38, 2.02), 1.5: (0.03, 2.64, 2.04),
@@ -86,8 +91,6 @@ def _onset(resp) -> float | None:
 
 def stiffened_panel(case: str, flow_angle_deg: float, mesh: tuple[int, int]):
     """Sec. 8.3 panel: 1.5 mm Inconel 718 sheet on 12 mm smeared stiffeners (Eq. 8.10)."""
-    from hypate.solvers.materials import homogenized_stiffener, library_material
-    from hypate.solvers.panel import Layer, PanelSpec
 
     inc = library_material("inconel718")
     t1, l1, t2, l2 = STIFFENERS[case]
@@ -100,9 +103,6 @@ def stiffened_panel(case: str, flow_angle_deg: float, mesh: tuple[int, int]):
 def failed_area_history(case: str, flow_angle_deg: float, config: Config
                         ) -> tuple[np.ndarray, np.ndarray, str]:
     """(times, failed upper-surface fraction, status) of one Sec. 8.3 run (TC scheme)."""
-    from hypate.solvers.aero.analytic import make_fluid_model
-    from hypate.solvers.coupling.model import CouplingSettings, PanelModel, run_tc
-    from hypate.solvers.flow import FlowCondition
 
     panel = stiffened_panel(case, flow_angle_deg, config.sec8_3_mesh)
     flow = FlowCondition.from_altitude(6.0, 25000.0)
@@ -124,8 +124,6 @@ def _first_time(t: np.ndarray, mask: np.ndarray) -> float | None:
 
 def run(config: Config | None = None) -> Result:
     """Run the Ch. 8 trend cases and tabulate them against the dissertation."""
-    from hypate.solvers.coupling.model import run_tc
-    from hypate.studies.scripts.ch7_benchmark import benchmark_model
 
     config = Config() if config is None else config
     rows: list[tuple] = []

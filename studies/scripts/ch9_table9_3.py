@@ -19,9 +19,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
-
-from hypate.studies.scripts._table import publish, side_by_side, standard_parser
 from hypate.scaling.workflow.shipped import shipped
+from hypate.scaling.workflow.similarity import (
+    Configuration,
+    analytical_scaling,
+    similarity_parameters,
+)
+from hypate.solvers.config import load_case
+from hypate.solvers.materials import library_material
+from hypate.studies.scripts._table import publish, side_by_side, standard_parser
 
 NAMES = ("h/L", "lambda_F", "DeltaT_NTx_L2/Dxx")
 #: Table 9.3 (prototype, then the optimized models at xi = 2, 3, 4).
@@ -57,9 +63,6 @@ class Result:
 
 def sec9_1_configurations():
     """(prototype, model template) :class:`hypate.scaling.workflow.similarity.Configuration` of Sec. 9.1."""
-    from hypate.scaling.workflow.similarity import Configuration
-    from hypate.solvers.config import load_case
-    from hypate.solvers.materials import library_material
 
     case = load_case(shipped("case")["sec9_1_prototype"])
     proto = Configuration(case.panel, case.flow, delta_T=1.0, time=1e-3)
@@ -76,7 +79,6 @@ def read_design_point(run_dir: str | Path) -> dict:
 
 def run(config: Config | None = None) -> Result:
     """Tabulate Table 9.3 against hypate (Eqs. 9.1-9.3)."""
-    from hypate.scaling.workflow.similarity import analytical_scaling, similarity_parameters
 
     config = Config() if config is None else config
     proto, template = sec9_1_configurations()

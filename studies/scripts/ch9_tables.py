@@ -24,7 +24,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
-
 from hypate.studies.scripts._table import publish, side_by_side, standard_parser
 
 #: Table 9.8 (p0 in MPa).

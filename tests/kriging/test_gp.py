@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypate.solvers.numerics.kriging import KERNELS, KrigingRegressor
 from sklearn.base import clone
 from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import RBF, ConstantKernel, Matern
-
-from hypate.solvers.numerics.kriging import KERNELS, KrigingRegressor
 
 
 def _data(n=20, d=3, seed=0):

@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.stats import norm
-
-from hypate.solvers.numerics.kriging import KrigingRegressor
 from hypate.scaling.engine.acquisition import (
     ExpectedImprovement,
     HypervolumeEI,
@@ -24,6 +21,8 @@ from hypate.scaling.engine.acquisition import (
     probability_of_improvement,
 )
 from hypate.scaling.engine.pareto import hypervolume_improvement, nondominated_boxes, pareto_front
+from hypate.solvers.numerics.kriging import KrigingRegressor
+from scipy.stats import norm
 
 
 # --------------------------------------------------------------- hand values

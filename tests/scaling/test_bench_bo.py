@@ -5,9 +5,8 @@ import json
 
 import numpy as np
 import pytest
-
-from hypate.scaling.engine.benchmarks import get_benchmark, run_nsga2
 from hypate.scaling.cli.main import main
+from hypate.scaling.engine.benchmarks import get_benchmark, run_nsga2
 from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.pareto import hypervolume
 

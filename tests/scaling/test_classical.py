@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from hypate.scaling.workflow.classical import classical_scaling, design_vector
 from hypate.scaling.workflow.similarity import (
     Configuration,

@@ -7,7 +7,6 @@ import subprocess
 import sys
 
 import pytest
-
 from hypate.scaling.cli.main import build_parser, main
 
 

@@ -6,9 +6,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from hypate.scaling.workflow.laws import (DesignPoint, SweepRun, analytical_laws, fit_laws, fit_power_law,
-                          is_pinned, laws_json, predict)
+from hypate.scaling.workflow.laws import (
+    DesignPoint,
+    SweepRun,
+    analytical_laws,
+    fit_laws,
+    fit_power_law,
+    is_pinned,
+    laws_json,
+    predict,
+)
 from hypate.scaling.workflow.similarity import analytical_scaling
 from hypate.scaling.workflow.study import load_study, study_at, study_data
 

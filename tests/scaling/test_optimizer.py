@@ -7,10 +7,7 @@ from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 import numpy as np
 import pandas as pd
 import pytest
-from pymoo.core.problem import Problem
-
 from conftest import richardson_derivative
-from hypate.solvers.numerics.kriging import KrigingRegressor
 from hypate.scaling.engine.acquisition import Acquisition, ExpectedImprovement
 from hypate.scaling.engine.benchmarks import (
     Branin,
@@ -21,14 +18,16 @@ from hypate.scaling.engine.benchmarks import (
     get_benchmark,
 )
 from hypate.scaling.engine.optimizer import (
-    LogLinearCoordinates,
     CHEAP_TOL,
     BayesianOptimizer,
     CheapConstraint,
+    LogLinearCoordinates,
     optimize_acquisition,
 )
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask
 from hypate.scaling.engine.store import EvaluationStore
+from hypate.solvers.numerics.kriging import KrigingRegressor
+from pymoo.core.problem import Problem
 
 
 # --------------------------------------------------------------- inner optimization

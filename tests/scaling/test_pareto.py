@@ -3,9 +3,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from pymoo.indicators.hv import HV
-from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
-
 from hypate.scaling.engine.pareto import (
     hypervolume,
     hypervolume_2d,
@@ -14,6 +11,8 @@ from hypate.scaling.engine.pareto import (
     nondominated_boxes,
     pareto_front,
 )
+from pymoo.indicators.hv import HV
+from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting
 
 
 @pytest.mark.parametrize("seed", range(5))

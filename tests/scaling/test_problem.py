@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from hypate.scaling.engine.optimizer import evaluate_design
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.similarity import analytical_scaling

@@ -9,10 +9,9 @@ import subprocess
 from pathlib import Path
 
 import pytest
-
 from conftest import tiny_study_text
-from hypate.scaling.report import html as report
 from hypate.scaling.cli.main import main
+from hypate.scaling.report import html as report
 
 TINY = tiny_study_text()  # 2x2 mesh, 4 steps, 1 + 4 + 2 evaluations
 

@@ -9,7 +9,6 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from hypate.scaling.cli.main import main
 
 SMALL_TOML = """

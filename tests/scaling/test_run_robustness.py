@@ -9,11 +9,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from pymoo.core.problem import Problem
-
 from conftest import kill_after, stored_evaluations, tiny_study_text
 from hypate.scaling.workflow.run import run_study
 from hypate.scaling.workflow.study import load_study
+from pymoo.core.problem import Problem
 
 STUDY = tiny_study_text(name="robust", mesh=3, steps=8, time_step=20.0, initial=6,
                         iterations=6, seed=5)

@@ -3,9 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.stats import qmc
-
 from hypate.scaling.engine.sampling import _cached_olh, latin_hypercube, raw_latin_hypercube
+from scipy.stats import qmc
 
 
 def _is_latin(U: np.ndarray) -> bool:

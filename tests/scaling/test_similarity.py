@@ -8,7 +8,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from hypate.scaling.workflow.similarity import (
     PARAMETERS,
     Configuration,

@@ -5,7 +5,6 @@ import sqlite3
 
 import numpy as np
 import pytest
-
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
 
 

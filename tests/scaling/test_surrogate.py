@@ -3,9 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy.stats import norm
-
 from hypate.scaling.engine.surrogate import ProbabilisticConstraint, fit_surrogate
+from scipy.stats import norm
 
 BOUNDS = np.array([[-1.0, 2.0], [0.0, 3.0]])
 

@@ -7,11 +7,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
-from hypate.scaling.workflow.run import STORE_NAME, run_sweep
 from hypate.scaling.engine.store import EvaluationStore
+from hypate.scaling.workflow.run import STORE_NAME, run_sweep
 from hypate.scaling.workflow.study import load_study, study_at, sweep_points
 
 REPO = Path(__file__).resolve().parents[2]

@@ -6,7 +6,6 @@ import math
 from pathlib import Path
 
 import pytest
-
 from hypate.scaling.cli.main import main
 from hypate.solvers.materials import STEFAN_BOLTZMANN
 

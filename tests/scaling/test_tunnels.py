@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import pytest
-
 from hypate.scaling.workflow.tunnels import (
     DESIGN_VARIABLES,
     TunnelEnvelope,

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
 

@@ -3,10 +3,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from hypate.solvers.aero.analytic import (AnalyticFluid, BoundaryLayerShape, adiabatic_wall_temperature,
-                                   eckert_heat_flux, make_fluid_model, piston_pressure)
+from hypate.solvers.aero.analytic import (
+    AnalyticFluid,
+    BoundaryLayerShape,
+    adiabatic_wall_temperature,
+    eckert_heat_flux,
+    piston_pressure,
+)
 from hypate.solvers.aero.base import SurfacePoints, SurfaceState, dense
+from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 

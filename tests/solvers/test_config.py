@@ -5,7 +5,6 @@ import math
 from pathlib import Path
 
 import pytest
-
 from hypate.scaling.cli.main import main
 from hypate.solvers.config import load_case, load_panel
 

@@ -8,14 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.sparse as sp
-
 from hypate.scaling.cli.main import main
-from hypate.solvers.aero.analytic import make_fluid_model
+from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.coupling.model import CouplingSettings, PanelModel, run_tc
+from hypate.solvers.coupling.response import Response
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.materials import isotropic, library_material
 from hypate.solvers.panel import Layer, PanelSpec
-from hypate.solvers.coupling.response import Response
 
 FLOW = FlowCondition.from_altitude(6.0, 25000.0)
 

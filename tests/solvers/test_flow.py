@@ -4,7 +4,6 @@ from __future__ import annotations
 import math
 
 import pytest
-
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition, sutherland_viscosity, sutherland_viscosity_derivative
 

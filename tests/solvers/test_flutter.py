@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from hypate.solvers.coupling.flutter import FlutterAnalysis
 from hypate.solvers.materials import isotropic
 from hypate.solvers.panel import Layer, PanelSpec

@@ -3,10 +3,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
+from hypate.solvers.coupling.flutter import (
+    FlutterAnalysis,
+    lco_amplitude_from_signal,
+    onset_from_amplitudes,
+)
 from hypate.solvers.errors import InputError
-from hypate.solvers.coupling.flutter import (FlutterAnalysis, lco_amplitude_from_signal,
-                             onset_from_amplitudes)
 from hypate.solvers.materials import isotropic
 from hypate.solvers.panel import Layer, PanelSpec
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-
 from hypate.solvers.numerics.sparse import gmres
 
 

@@ -5,7 +5,6 @@ import warnings
 
 import numpy as np
 import pytest
-
 from hypate.solvers import materials as m
 from hypate.solvers.errors import InputError
 

@@ -3,12 +3,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from hypate.solvers.errors import InputError
 from hypate.solvers.materials import isotropic
-from hypate.solvers.structure.mesh import panel_mesh, shell_mesh
 from hypate.solvers.panel import Layer, PanelSpec
 from hypate.solvers.structure.element import Quadrature, gauss_rule, shape_functions
+from hypate.solvers.structure.mesh import panel_mesh, shell_mesh
 
 
 def test_grid_contract_and_node_sets():

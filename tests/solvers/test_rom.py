@@ -8,10 +8,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from hypate.solvers.aero import rom as R
-from hypate.solvers.aero.analytic import make_fluid_model
 from hypate.solvers.aero.base import SurfacePoints, SurfaceState, dense
+from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.aero.rom_config import load_rom_config, parse_rom_config
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition

@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from hypate.solvers.aero.rom import build_rom_from_config, save_rom
 from hypate.solvers.aero.rom_config import load_rom_config
 from hypate.solvers.config import parse_case

@@ -5,14 +5,24 @@ import math
 
 import numpy as np
 import pytest
-from scipy.optimize import brentq
-
-from hypate.solvers.aero.analytic import eckert_heat_flux, linearized_supersonic_pressure, piston_pressure
+from hypate.solvers.aero.analytic import (
+    eckert_heat_flux,
+    linearized_supersonic_pressure,
+    piston_pressure,
+)
 from hypate.solvers.aero.base import SurfacePoints, SurfaceState, dense
-from hypate.solvers.aero.shock_expansion import (ShockExpansionFluid, eckert_heat_flux_edge, expansion,
-                                          inverse_prandtl_meyer, max_deflection, oblique_shock,
-                                          oblique_shock_angle, prandtl_meyer)
+from hypate.solvers.aero.shock_expansion import (
+    ShockExpansionFluid,
+    eckert_heat_flux_edge,
+    expansion,
+    inverse_prandtl_meyer,
+    max_deflection,
+    oblique_shock,
+    oblique_shock_angle,
+    prandtl_meyer,
+)
 from hypate.solvers.flow import FlowCondition
+from scipy.optimize import brentq
 
 G = 1.4
 

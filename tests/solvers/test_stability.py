@@ -6,8 +6,14 @@ import pytest
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-
-from hypate.solvers.coupling.stability import LowRank, classify, gep, pep, shift_invert_gep, start_vector
+from hypate.solvers.coupling.stability import (
+    LowRank,
+    classify,
+    gep,
+    pep,
+    shift_invert_gep,
+    start_vector,
+)
 
 
 def _system(n: int = 40, c: float = 0.0):

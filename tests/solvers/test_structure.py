@@ -3,11 +3,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from hypate.solvers.materials import isotropic, library_material, orthotropic
 from hypate.solvers.panel import Layer, PanelSpec, thermal_levels
-from hypate.solvers.structure.model import (GeneralizedAlpha, StructuralModel, buckling_delta_T, modes,
-                               static, transient)
+from hypate.solvers.structure.model import (
+    GeneralizedAlpha,
+    StructuralModel,
+    buckling_delta_T,
+    modes,
+    static,
+    transient,
+)
 
 INCH, LBFT3, PSI = 0.0254, 16.018463373960142, 6894.757293168361
 
@@ -181,8 +186,12 @@ def test_von_karman_split_of_the_element_tangent_equals_the_full_product():
     # B = B0 + BL (Eq. 3.32): the cached B0^T C B0 plus the w-column update must equal
     # btdb of the full nonlinear operator (round-off only: 1e-13 relative), on a doubly
     # curved panel (B0 has w entries k_x N, k_y N) with a non-uniform temperature
-    from hypate.solvers.structure.element import (btdb, btdb_von_karman, membrane_bending_B,
-                                       von_karman_w_B)
+    from hypate.solvers.structure.element import (
+        btdb,
+        btdb_von_karman,
+        membrane_bending_B,
+        von_karman_w_B,
+    )
 
     panel = PanelSpec(layers=(Layer(library_material("ti6242"), 2e-3, 0.0, 2),),
                       length=0.5, width=0.4, mesh=(3, 2), radius_x=2.0, radius_y=-3.0)

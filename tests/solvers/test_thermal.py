@@ -11,13 +11,17 @@ import math
 import numpy as np
 import pytest
 import scipy.sparse as sp
-
 from hypate.solvers.errors import InputError
-from hypate.solvers.materials import (STEFAN_BOLTZMANN, honeycomb_core, isotropic,
-                               library_material, orthotropic)
+from hypate.solvers.materials import (
+    STEFAN_BOLTZMANN,
+    honeycomb_core,
+    isotropic,
+    library_material,
+    orthotropic,
+)
 from hypate.solvers.panel import Layer, PanelSpec
-from hypate.solvers.thermal.model import SurfaceCondition, ThermalLoads, ThermalModel
 from hypate.solvers.thermal.mesh import build_hex_mesh
+from hypate.solvers.thermal.model import SurfaceCondition, ThermalLoads, ThermalModel
 
 
 def const_material(name: str, k: float, rho: float = 8000.0, cp: float = 500.0):

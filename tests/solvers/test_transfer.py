@@ -5,10 +5,9 @@ import math
 
 import numpy as np
 import pytest
-
+from hypate.solvers.coupling.transfer import W_DOF, Transfer, fluid_points
 from hypate.solvers.materials import library_material
 from hypate.solvers.panel import Layer, PanelSpec, thermal_levels
-from hypate.solvers.coupling.transfer import W_DOF, Transfer, fluid_points
 
 
 def _panel(kind: str = "3d", angle: float = 0.0) -> PanelSpec:

@@ -15,7 +15,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-
 from hypate.scaling.workflow.laws import laws_of_run, load_runs
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.run import run_study

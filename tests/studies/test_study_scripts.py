@@ -31,7 +31,13 @@ def test_scripts_import_quietly_and_expose_run() -> None:
 
 
 def test_table_7_3(tmp_path) -> None:
-    from hypate.studies.scripts.ch7_table7_3_modes import ANALYTICAL_HZ, DISSERTATION_HZ, Config, main, run
+    from hypate.studies.scripts.ch7_table7_3_modes import (
+        ANALYTICAL_HZ,
+        DISSERTATION_HZ,
+        Config,
+        main,
+        run,
+    )
 
     res = run(Config.coarse())
     # Table 7.3: within 1 % of the analytical column, 0.2 % of the dissertation's DCS9

@@ -1,0 +1,40 @@
+"""The fluid-model factory: ``[simulation] aero`` / ``heating`` names -> a FluidModel.
+
+The one list of aero-model names (case files, study files and the CLI validate against
+:data:`AERO_NAMES`); each fidelity lives in its own module and none knows this one.
+"""
+from __future__ import annotations
+
+from hypate.solvers.aero.analytic import AnalyticFluid
+from hypate.solvers.aero.base import FluidModel
+from hypate.solvers.aero.rom import load_rom
+from hypate.solvers.aero.shock_expansion import ShockExpansionFluid
+from hypate.solvers.errors import InputError
+
+#: Analytic models: name -> (pressure model, effective shape of the boundary layer).
+ANALYTIC_AERO = {"pt": ("pt", False), "pt1": ("pt1", False), "pt3": ("pt3", False),
+                 "ls": ("ls", False), "pt-bl": ("pt", True)}
+#: Every fixed name accepted by ``[simulation] aero``; ``"rom:PATH"`` loads a ROM file.
+AERO_NAMES: tuple[str, ...] = (*ANALYTIC_AERO, "se")
+ROM_PREFIX = "rom:"
+
+
+def is_aero_name(aero: str) -> bool:
+    """Whether ``aero`` names a fluid model (a fixed name or ``rom:PATH``)."""
+    return aero in AERO_NAMES or (aero.startswith(ROM_PREFIX) and len(aero) > len(ROM_PREFIX))
+
+
+def make_fluid_model(aero: str, heating: str = "eckert", regime: str = "turbulent"
+                     ) -> FluidModel:
+    """A fluid model from the config names (``[simulation] aero``, ``heating``)."""
+    if aero in ANALYTIC_AERO:
+        pressure, eff = ANALYTIC_AERO[aero]
+        return AnalyticFluid(pressure, eff, heating, regime)
+    if aero == "se":
+        return ShockExpansionFluid(boundary_layer=True, heating=heating, regime=regime)
+    if aero.startswith(ROM_PREFIX):
+        if not aero[len(ROM_PREFIX):]:
+            raise InputError("simulation.aero", "'rom:PATH' needs the path of a ROM file")
+        return load_rom(aero[len(ROM_PREFIX):], regime=regime)
+    raise InputError("simulation.aero", f"must be one of {', '.join(AERO_NAMES)} or "
+                     f"'rom:PATH'; got {aero!r}")
