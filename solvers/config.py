@@ -14,7 +14,8 @@ Public schema (keys are a contract; see README "Case files"):
 * ``[flow]`` ``mach`` and exactly one of ``altitude`` | (``p0``, ``T0``) |
   (``pressure``, ``temperature``);
 * ``[simulation]`` ``scheme``, ``aero``, ``heating``, ``boundary_layer``, ``time_step``,
-  ``duration``.
+  ``duration``; optional ``external_heat_flux`` (uniform q_ext absorbed by the upper
+  surface, W/m^2, within +-1e7; Eq. 6.1d).
 
 Every error becomes :class:`~solvers.errors.InputError` naming the key path
 (``panel.layers[0].thickness``) and the allowed range.
@@ -142,6 +143,7 @@ class SimulationConfig(_Strict):
     duration: Positive = 160.0
     radiation_temperature: Annotated[float, Field(gt=0.0, le=5000.0)] | None = None
     external_pressure: Annotated[float, Field(ge=-1e7, le=1e7)] = 0.0
+    external_heat_flux: Annotated[float, Field(ge=-1e7, le=1e7, allow_inf_nan=False)] = 0.0
     lsa_modes: Annotated[int, Field(ge=1, le=50)] = 6
     unstable_steps: Annotated[int, Field(ge=1, le=1000)] = 2
     passes: Annotated[int, Field(ge=1, le=20)] = 1
@@ -271,12 +273,10 @@ def build_panel(cfg: PanelConfig, materials: dict[str, MaterialConfig] | None = 
     for i, lc in enumerate(cfg.layers):
         m = resolve_material(lc.material, resolved, raw, field=f"panel.layers[{i}].material")
         layers.append(Layer(m, lc.thickness, math.radians(lc.angle), lc.sublayers))
-    nx = cfg.mesh[0]
-    ny = 1 if cfg.kind == "2d" else cfg.mesh[1]
     panel = PanelSpec(layers=tuple(layers), kind=cfg.kind, length=cfg.length,
                       width=cfg.width, boundary=cfg.boundary,
                       leading_edge_length=cfg.leading_edge_length,
-                      flow_angle=math.radians(cfg.flow_angle), mesh=(nx, ny),
+                      flow_angle=math.radians(cfg.flow_angle), mesh=tuple(cfg.mesh),
                       initial_temperature=cfg.initial_temperature, emissivity=cfg.emissivity,
                       damping=(cfg.damping[0], cfg.damping[1]), radius_x=cfg.radius_x,
                       radius_y=cfg.radius_y, name=name)

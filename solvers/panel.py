@@ -50,7 +50,9 @@ class PanelSpec:
     flow_angle : float
         beta, rad.
     mesh : tuple of int
-        Shell elements (streamwise, spanwise).
+        Shell elements (streamwise, spanwise). A "2d" strip is one element across: its mesh
+        is normalized to ``(nx, 1)`` on construction (``(nx,)`` or any ``ny`` given), so the
+        shell mesh, the thermal grid and the transfer matrices all read ``panel.mesh``.
     initial_temperature : float
         K; also the stress-free temperature.
     emissivity : float
@@ -77,6 +79,11 @@ class PanelSpec:
     radius_x: float = math.inf
     radius_y: float = math.inf
     name: str = field(default="panel", compare=False)
+
+    def __post_init__(self) -> None:
+        if self.kind == "2d":
+            # the one place of the rule "a 2d strip has ny = 1" (frozen: set through object)
+            object.__setattr__(self, "mesh", (self.mesh[0], 1))
 
     @property
     def thickness(self) -> float:

@@ -177,12 +177,18 @@ class ScalingSpec:
 # -- simulation of one configuration --------------------------------------------------------
 def simulate_configuration(config: Configuration, sim: Simulation, time_step: float,
                            keep_fields: bool = False) -> Response:
-    """Run the simulator on one configuration for ``sim.steps`` steps of ``time_step``."""
+    """Run the simulator on one configuration for ``sim.steps`` steps of ``time_step``.
+
+    The explicit external heat flux ``config.external_heat_flux`` (q_ext, Eq. 6.1d) heats
+    the upper surface; a radiant heater's part of q_ext (``Configuration.heat_flux``) is the
+    radiation exchange with ``radiation_temperature`` and is not added again.
+    """
     fluid = make_fluid_model(sim.aero, sim.heating, sim.boundary_layer)
     settings = CouplingSettings(
         time_step=time_step, duration=time_step * sim.steps,
         radiation_temperature=config.radiation_temperature,
-        external_pressure=config.external_pressure, lsa_modes=sim.lsa_modes,
+        external_pressure=config.external_pressure,
+        external_heat_flux=float(config.external_heat_flux), lsa_modes=sim.lsa_modes,
         unstable_steps=sim.unstable_steps, keep_fields=keep_fields,
         initial_temperature_rise=float(config.delta_T or 0.0),
         initial_deflection=sim.initial_deflection)

@@ -62,6 +62,13 @@ class CouplingSettings:
     external_pressure : float
         Uniform pressure on the panel's lower surface minus p_inf (Pa): positive pushes
         the panel towards +z (into the flow).
+    external_heat_flux : float
+        Uniform external heat flux q_ext (W/m^2) absorbed by the upper surface (a design
+        or what-if value; a radiant heater is ``radiation_temperature``), the q_ext of
+        ``Bi_ext = q_ext h / (k T_T)`` (Eq. 6.1d): added to the fluid heat flux delivered to
+        the thermal model, ``Q = H_TF (q + q_ext)`` (Eq. 5.1b). Not ramped by ``run_lc``'s
+        ``ramp_time`` and not part of the recorded (fluid) heat flux. 0 = none (the results
+        are exactly those without it).
     lsa_modes : int
         Eigenvalues computed per LSA.
     lsa_every : int
@@ -93,6 +100,7 @@ class CouplingSettings:
     duration: float = 160.0
     radiation_temperature: float | None = None
     external_pressure: float = 0.0
+    external_heat_flux: float = 0.0
     lsa_modes: int = 6
     lsa_every: int = 1
     unstable_steps: int = 2
@@ -115,6 +123,8 @@ class CouplingSettings:
             raise InputError("simulation.unstable_steps", "must be >= 1")
         if self.passes < 1:
             raise InputError("simulation.passes", "must be >= 1")
+        if not math.isfinite(self.external_heat_flux):
+            raise InputError("simulation.external_heat_flux", "must be finite (W/m^2)")
 
     @property
     def n_steps(self) -> int:
@@ -470,10 +480,11 @@ class PanelModel:
     @property
     def thermal_frozen(self) -> bool:
         """True when nothing heats or cools the panel (no aerodynamic heating, no
-        radiation): the temperature field stays at its initial value and the thermal steps
-        are skipped."""
+        radiation, no external heat flux): the temperature field stays at its initial value
+        and the thermal steps are skipped."""
         heating = getattr(self.fluid, "heating", "eckert")
-        return heating == "none" and self.panel.emissivity == 0.0
+        return (heating == "none" and self.panel.emissivity == 0.0
+                and self.settings.external_heat_flux == 0.0)
 
     # -- fields on the fluid grid -------------------------------------------------------
     def wall_temperature(self, T: Array) -> Array:
@@ -527,9 +538,16 @@ class PanelModel:
         return sp.csr_matrix(tr.H_SF @ (loads.jacobians["dp_dwdot"] @ tr.H_FS))
 
     # -- thermal coupling -------------------------------------------------------------------
+    def upper_heat_input(self, q_fluid: Array) -> Array:
+        """Nodal heat input (W) of the upper surface, ``H_TF (q + q_ext)`` (Eq. 5.1b): the
+        fluid heat flux ``q`` on the fluid points plus the uniform external heat flux
+        ``settings.external_heat_flux`` (Eq. 6.1d), both W/m^2."""
+        return self._H_TF_top @ (q_fluid + self.settings.external_heat_flux)
+
     def thermal_loads(self, u: Array) -> ThermalLoads:
         """Upper surface: aerodynamic heat flux implicit in the wall temperature (Eq. 5.31a)
-        plus radiation to ``T_rad``; lower surface insulated."""
+        plus the external heat flux (Eq. 6.1d) and radiation to ``T_rad``; lower surface
+        insulated."""
         H_FT, H_TF = self._H_FT_top, self._H_TF_top
         cache: list = []
 
@@ -554,7 +572,7 @@ class PanelModel:
                 dQ = DeferredMatrix(build, (n_top, n_top))
             else:
                 dQ = (H_TF @ sp.csr_matrix(J["dq_dTw"]) @ H_FT).tocsr()
-            out = (H_TF @ loads.heat_flux, dQ)
+            out = (self.upper_heat_input(loads.heat_flux), dQ)
             cache[:] = [np.array(T_top, copy=True), *out]
             return out
 
@@ -906,9 +924,10 @@ def _run_tc(model: PanelModel, progress) -> Response:
 
 
 def _explicit_thermal_loads(model: PanelModel, q_fluid: Array) -> ThermalLoads:
-    """Thermal loads with a given (estimated) fluid heat flux and radiation (S1/S2)."""
-    top = SurfaceCondition(flux=model._H_TF_top @ q_fluid, emissivity=model.panel.emissivity,
-                           T_rad=model.T_rad, nodal_load=True)
+    """Thermal loads with a given (estimated) fluid heat flux plus the external heat flux
+    (Eq. 6.1d) and radiation (S1/S2)."""
+    top = SurfaceCondition(flux=model.upper_heat_input(q_fluid),
+                           emissivity=model.panel.emissivity, T_rad=model.T_rad, nodal_load=True)
     return ThermalLoads(top=top)
 
 
@@ -1114,7 +1133,8 @@ def settings_from_config(sim) -> CouplingSettings:
     """:class:`CouplingSettings` from a validated ``[simulation]`` table."""
     return CouplingSettings(time_step=sim.time_step, duration=sim.duration,
                             radiation_temperature=sim.radiation_temperature,
-                            external_pressure=sim.external_pressure, lsa_modes=sim.lsa_modes,
+                            external_pressure=sim.external_pressure,
+                            external_heat_flux=sim.external_heat_flux, lsa_modes=sim.lsa_modes,
                             unstable_steps=sim.unstable_steps, passes=sim.passes,
                             fluid_density=sim.fluid_density)
 

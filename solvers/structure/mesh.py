@@ -118,10 +118,9 @@ def shell_mesh(a: float, b: float, nx: int, ny: int) -> ShellMesh:
 
 
 def panel_mesh(panel: PanelSpec) -> ShellMesh:
-    """The shell mesh of a panel: ``panel.mesh`` elements; a "2d" strip has ``ny = 1``."""
-    nx, ny = panel.mesh
-    if panel.kind == "2d":
-        ny = 1
-    elif panel.kind != "3d":
+    """The shell mesh of a panel: ``panel.mesh`` elements (``(nx, 1)`` for a "2d" strip,
+    normalized by :class:`~hypate.solvers.panel.PanelSpec`)."""
+    if panel.kind not in ("3d", "2d"):
         raise InputError("panel.kind", "must be '3d' or '2d'")
+    nx, ny = panel.mesh
     return shell_mesh(panel.length, panel.width, nx, ny)

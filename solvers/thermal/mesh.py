@@ -124,11 +124,10 @@ class HexMesh:
 def inplane_grid(panel: PanelSpec) -> tuple[Array, Array]:
     """Coordinates of the shared in-plane node grid (m), shapes (2nx+1,), (2ny+1,).
 
-    A "2d" panel always has ``ny = 1`` (like :func:`hypate.solvers.structure.mesh.panel_mesh`).
+    ``panel.mesh`` is the shell mesh (a "2d" strip's is ``(nx, 1)``, normalized by
+    :class:`~hypate.solvers.panel.PanelSpec`).
     """
     nx, ny = (int(v) for v in panel.mesh)
-    if panel.kind == "2d":
-        ny = 1  # a cylindrical-bending strip is one element across (as solvers.mesh)
     if nx < 1 or ny < 1:
         raise InputError("panel.mesh", "needs at least one element in each direction")
     if not (panel.length > 0.0 and panel.width > 0.0):

@@ -8,6 +8,8 @@ import pandas as pd
 import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
+from hypate.scaling.cli.whatif import evaluate_whatif
+from hypate.scaling.workflow.study import load_study
 
 TINY = tiny_study_text(sections='\n[constraints]\nequality = ["T_inf"]\n')
 
@@ -93,3 +95,19 @@ def test_whatif_base_from_run(study: Path, tmp_path: Path, capsys) -> None:
     res = _json(capsys)
     assert res["design"] == {**design, "p0": 6e6}
     assert res["sources"]["M"] == "design point" and res["sources"]["p0"] == "set"
+
+
+def test_whatif_external_heat_flux_reaches_the_simulation(study: Path) -> None:
+    # q_ext (Eq. 6.1d) was only in the similarity table (Bi_ext), the simulated J_u and
+    # J_T bit-identical; now it heats the model's upper surface. q_ext = 0 is the default
+    # exactly.
+    s = load_study(study)
+    base = evaluate_whatif(s, {})
+    zero = evaluate_whatif(s, {"q_ext": 0.0})
+    heated = evaluate_whatif(s, {"q_ext": 2e5})
+    assert base["status"] == zero["status"] == heated["status"] == "ok"
+    assert zero["objectives"] == base["objectives"]
+    bi_ext = {r["name"]: r["model"] for r in heated["similarity"]}["Bi_ext"]
+    assert bi_ext > 0.1
+    J0, J1 = base["objectives"]["J_T"], heated["objectives"]["J_T"]
+    assert abs(J1 - J0) > 1e-2 * J0, (J0, J1)

@@ -102,6 +102,8 @@ MALFORMED = [
     ("bad scheme", VALID.replace('scheme = "tc"', 'scheme = "rk4"'), "simulation.scheme"),
     ("bad aero", VALID.replace('aero = "pt-bl"', 'aero = "cfd"'), "simulation.aero"),
     ("duration < step", VALID.replace("duration = 160.0", "duration = 0.1"), "simulation.duration"),
+    ("heat flux 1e9", VALID.replace("duration = 160.0", "duration = 160.0\nexternal_heat_flux = 1e9"),
+     "simulation.external_heat_flux"),
     ("negative modulus", VALID.replace("youngs_modulus = 70.0e9", "youngs_modulus = -70.0e9"),
      "materials.my_alloy.youngs_modulus"),
     ("reversed table", VALID.replace("[[300.0, 130.0], [600.0, 150.0]]", "[[600.0, 130.0], [300.0, 150.0]]"),

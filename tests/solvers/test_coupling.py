@@ -10,7 +10,14 @@ import pytest
 import scipy.sparse as sp
 from hypate.scaling.cli.main import main
 from hypate.solvers.aero.factory import make_fluid_model
-from hypate.solvers.coupling.model import CouplingSettings, PanelModel, run_tc
+from hypate.solvers.config import parse_case
+from hypate.solvers.coupling.model import (
+    CouplingSettings,
+    PanelModel,
+    run_lc,
+    run_tc,
+    settings_from_config,
+)
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.materials import isotropic, library_material
@@ -76,6 +83,40 @@ def test_heat_input_transfer_conserves_total_heat() -> None:
     d = np.random.default_rng(1).normal(0, 1.0, Tw.size)
     fd = (loads.top.flux(Tw + 1e-3 * d)[0] - loads.top.flux(Tw - 1e-3 * d)[0]) / 2e-3
     assert np.linalg.norm(dQ @ d - fd) <= 1e-6 * np.linalg.norm(fd)
+
+
+@pytest.mark.parametrize("kind, scheme, time_step, steps",
+                         [("3d", "tc", 1.0, 3), ("2d", "s2", 1e-3, 10), ("3d", "s1", 1e-3, 10)])
+def test_external_heat_flux_heats_the_panel_by_the_energy_balance(
+        kind: str, scheme: str, time_step: float, steps: int) -> None:
+    # q_ext is the only heat input (no aerodynamic heating, emissivity 0, insulated lower
+    # surface) into a slab of constant rho c_p: Crank-Nicolson conserves energy exactly
+    # (1^T K = 0), so after time t the panel stores q_ext a b t (J) and its volume-mean
+    # temperature has risen by q_ext t / (rho c_p h) (Eq. 6.1d's q_ext; round-off: 1e-9)
+    rho, cp, h, q, a, b = 2800.0, 900.0, 0.002, 2e5, 0.5, 0.4
+    mat = isotropic("slab", rho, 70e9, 0.3, 0.0, 150.0, cp)  # no expansion: stays flat
+    panel = PanelSpec(layers=(Layer(mat, h, 0.0, 2),), kind=kind, length=a, width=b,
+                      mesh=(4, 4), emissivity=0.0)
+    settings = CouplingSettings(time_step=time_step, duration=steps * time_step,
+                                external_heat_flux=q)
+    model = PanelModel(panel, FLOW, make_fluid_model("pt", "none"), settings)
+    assert not model.thermal_frozen  # q_ext heats even without aerodynamic heating
+    resp = run_tc(model) if scheme == "tc" else run_lc(model, scheme)
+    assert resp.status == "completed", resp.message
+    t = np.asarray(resp.times)
+    assert t[-1] == pytest.approx(steps * time_step)
+    rise = np.asarray(resp.mean_temperature) - panel.initial_temperature
+    np.testing.assert_allclose(rise, q * t / (rho * cp * h), rtol=1e-9, atol=1e-9)
+    assert model.thermal.stored_energy(resp.T[-1]) == pytest.approx(q * a * b * t[-1],
+                                                                    rel=1e-9)
+
+
+def test_case_file_external_heat_flux_reaches_the_settings() -> None:
+    data = {"panel": {"layers": [{"material": "ti6242", "thickness": 0.002}]},
+            "simulation": {"external_heat_flux": 5e4}}
+    assert settings_from_config(parse_case(data).simulation).external_heat_flux == 5e4
+    assert settings_from_config(parse_case({**data, "simulation": {}}).simulation
+                                ).external_heat_flux == 0.0
 
 
 def test_tc_heats_and_bulges_into_the_flow(tmp_path: Path) -> None:

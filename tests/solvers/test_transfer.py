@@ -1,6 +1,7 @@
 """Transfer matrices (Eq. 5.1): exactness on polynomial fields and conservation."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -8,6 +9,8 @@ import pytest
 from hypate.solvers.coupling.transfer import W_DOF, Transfer, fluid_points
 from hypate.solvers.materials import library_material
 from hypate.solvers.panel import Layer, PanelSpec, thermal_levels
+from hypate.solvers.structure.mesh import panel_mesh
+from hypate.solvers.thermal.mesh import inplane_grid
 
 
 def _panel(kind: str = "3d", angle: float = 0.0) -> PanelSpec:
@@ -84,3 +87,22 @@ def test_geometrically_similar_panels_get_identical_transfer(scale: float) -> No
 
     ref, scaled = slope_matrix(1.0), slope_matrix(scale)
     assert np.allclose(scaled, ref, rtol=0.0, atol=1e-9 * np.abs(ref).max())
+
+
+@pytest.mark.parametrize("mesh", [(6, 6), (6, 1), (6,)])
+def test_2d_strip_mesh_is_normalized_once_and_all_grids_agree(mesh: tuple[int, ...]) -> None:
+    # PanelSpec states "a 2d strip is one element across" (a study's mesh override goes
+    # through dataclasses.replace, past the case file's check): shell mesh, thermal grid
+    # and transfer matrices all read panel.mesh and agree in size
+    panel = dataclasses.replace(_panel("2d"), mesh=mesh)
+    assert panel.mesh == (6, 1)
+    assert PanelSpec(layers=panel.layers, kind="2d", mesh=(6, 6)).mesh == (6, 1)
+    assert dataclasses.replace(_panel("3d"), mesh=(6, 6)).mesh == (6, 6)  # 3d untouched
+    shell = panel_mesh(panel)
+    x, y = inplane_grid(panel)
+    assert (shell.nx, shell.ny) == (6, 1) and (x.size, y.size) == (13, 3)
+    levels = len(thermal_levels(panel))
+    tr = Transfer.build(panel, fluid_points(panel), levels)
+    assert tr.H_FS.shape[1] == tr.H_SF.shape[0] == 5 * shell.n_nodes
+    assert tr.H_FT.shape[1] == tr.H_TF.shape[0] == levels * x.size * y.size
+    assert shell.n_nodes == x.size * y.size
