@@ -55,6 +55,16 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def command_line_field(args: argparse.Namespace, field: str) -> str:
+    """The name a user typed for an error's ``field``: the library names parameters
+    (``seed_runs``, ``scheduler``), a command maps them to its flags with
+    ``set_defaults(field_flags={"seed_runs": "--seed-from", ...})``; other fields (study and
+    case keys such as ``optimizer.seed``) are shown as they are."""
+    flags = dict(getattr(args, "field_flags", {}) or {})
+    head, sep, tail = field.partition(" ")  # "set p0": the input, then what in it
+    return flags[head] + sep + tail if head in flags else field
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``hypate`` console script; returns the exit code."""
     parser = build_parser()
@@ -65,7 +75,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except InputError as exc:
-        print(f"hypate: error: {exc}", file=sys.stderr)
+        print(f"hypate: error: {command_line_field(args, exc.field)}: {exc.message}",
+              file=sys.stderr)
         return EXIT_USAGE
     except FileNotFoundError as exc:
         print(f"hypate: error: file not found: {exc.filename}", file=sys.stderr)

@@ -10,9 +10,10 @@ from pathlib import Path
 import numpy as np
 from hypate.scaling.engine.pareto import hypervolume
 from hypate.scaling.report.html import write_report_safely
-from hypate.scaling.workflow.run import run_study, run_sweep
+from hypate.scaling.workflow.run import run_study
 from hypate.scaling.workflow.shipped import default_study, resolve
 from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.sweep import run_sweep
 from hypate.solvers.errors import InputError
 from tqdm import tqdm
 
@@ -37,7 +38,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "evaluations.sqlite/.csv, pareto.csv and design_point.json to --out; "
                        "a study with a [sweep] table runs one optimization per sweep point "
                        "into --out/<point> and writes --out/sweep.json and sweep.csv.")
-    p.add_argument("study", nargs="?", help="study TOML file (default: studies/quickstart.toml)")
+    p.add_argument("study", nargs="?", help="study TOML file or a shipped study's name (default: the quick-start)")
     p.add_argument("--out", help="run directory (default: runs/<study name>, numbered -2, "
                    "-3 ... when it exists)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out")
@@ -48,7 +49,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="seed the initial sample with the 10 best designs of an earlier run "
                    "(repeatable; e.g. Case 1 for the Case 2 strategy); variables it lacks "
                    "take the model template's values")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, field_flags={"out": "--out", "resume": "--resume",
+                                          "workers": "--workers", "scheduler": "--scheduler",
+                                          "seed_runs": "--seed-from"})
 
 
 class _Progress:

@@ -58,7 +58,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 from hypate.scaling.engine.optimizer import project_cheap
 from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem
-from hypate.scaling.workflow.similarity import analytical_scaling, reference_quantities, time_scale
+from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON, SWEEP_JSON
+from hypate.scaling.workflow.similarity import (
+    analytical_scaling,
+    reference_quantities,
+    time_scale,
+)
 from hypate.scaling.workflow.study import load_study, study_at, study_data
 from hypate.solvers.errors import InputError
 from scipy import stats
@@ -74,7 +79,6 @@ TIME_EXPONENTS: dict[str, float] = {"fourier": -2.0, "fourier_thickness": -2.0,
 TIME_STEP = "time_step"
 #: Relative distance to a bound (of the span) below which a value is pinned.
 PIN_RTOL = 1e-3
-SWEEP_JSON = "sweep.json"
 
 
 @dataclass(frozen=True)
@@ -422,7 +426,7 @@ def load_runs(run_dirs: Sequence[str | Path]) -> SweepRun:
     records: list[dict[str, Any]] = []
     reference: dict[str, Any] | None = None
     for d in dirs:
-        path = d / "design_point.json"
+        path = d / DESIGN_POINT_JSON
         if not path.is_file():
             raise InputError("RUN_DIR", f"{d} holds neither a sweep ({SWEEP_JSON}) nor a "
                              "finished run (design_point.json)")

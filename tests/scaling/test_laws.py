@@ -162,7 +162,7 @@ def _sec91_sweep(name: str, tmp_path: Path):
     import os
 
     from hypate.scaling.workflow.laws import load_sweep
-    from hypate.scaling.workflow.run import run_sweep
+    from hypate.scaling.workflow.sweep import run_sweep
 
     given = os.environ.get("HYPATE_RUNS")
     out = Path(given) / name if given else tmp_path / "run"
@@ -216,7 +216,7 @@ def test_sec91_equal_poisson_ratio_sweep_recovers_eq_9_2(tmp_path: Path) -> None
 @pytest.mark.slow
 def test_sec922_sweep_h_follows_the_analytical_line_and_l_le_departs(tmp_path: Path) -> None:
     from hypate.scaling.workflow.laws import laws_of_run, laws_section, load_sweep
-    from hypate.scaling.workflow.run import run_sweep
+    from hypate.scaling.workflow.sweep import run_sweep
 
     study = load_study(_sweep_study(tmp_path, "sec9_2_2_xi2.toml", "[2, 3, 4, 5]"))
     run_sweep(study, tmp_path / "run")

@@ -90,7 +90,7 @@ class _Killer(Problem):
 
 def test_a_dying_worker_costs_only_its_evaluation() -> None:
     from hypate.scaling.engine.optimizer import BayesianOptimizer
-    from hypate.scaling.workflow.run import ResilientProcessPool
+    from hypate.scaling.engine.executors import ResilientProcessPool
 
     pool = ResilientProcessPool(2)
     try:

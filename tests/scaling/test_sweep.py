@@ -10,8 +10,9 @@ import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.store import EvaluationStore
-from hypate.scaling.workflow.run import STORE_NAME, run_sweep
+from hypate.scaling.workflow.rundir import STORE as STORE_NAME
 from hypate.scaling.workflow.study import load_study, study_at, sweep_points
+from hypate.scaling.workflow.sweep import run_sweep
 
 REPO = Path(__file__).resolve().parents[2]
 TINY_SWEEP = tiny_study_text(name="tiny_sweep", xi=2.0, tail="""

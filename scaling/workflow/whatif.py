@@ -1,0 +1,298 @@
+"""What-ifs: evaluate one model design of a study, no optimization (``hypate whatif``).
+
+The tunnel engineer's question "what if we only get 6 MPa stagnation pressure?" is::
+
+    hypate whatif studies/quickstart.toml --set p0=6e6
+
+Rules (documented in ``--help`` and the README):
+
+* ``--set NAME=VALUE`` (repeatable) sets a design value in SI units. ``NAME`` is one of the
+  study's design variables, one of its ``[fixed]`` values (overridden), or any other design
+  variable of :data:`hypate.scaling.workflow.tunnels.DESIGN_VARIABLES` (applied as an extra fixed value and
+  flagged). Unknown names exit 2 naming ``--set``.
+* Variables not set take the **midpoint of their bounds** (arithmetic mean), so no value is
+  required; the output says which values were set and which are midpoints. With
+  ``--base RUN_DIR`` (or a ``design_point.json``) they take the run's design point instead:
+  "the optimized model, but with only 6 MPa".
+* A value outside its bounds (or outside the tunnel envelope / manufacturing limits) is
+  evaluated anyway -- that is the point of a what-if -- and flagged in the output.
+* ``--sweep NAME=LOW:HIGH:N`` evaluates N designs with ``NAME`` linearly spaced from LOW to
+  HIGH (other values as above) and writes ``whatif_<NAME>.png`` and ``whatif_<NAME>.csv`` to
+  ``--out`` (default: the current directory).
+
+Printed: J_u, J_T, J_s (relative RMS errors, Eq. 6.4 / 9.8), the similarity-parameter table
+(prototype / model / relative difference, ``*`` above 10 %), and the constraint activity:
+bounds hit or left and the residuals of the study's cheap equality constraints (Eq. 9.7).
+``--json`` prints one JSON object instead (fields in :func:`evaluate_whatif`). A model that
+fails (e.g. flutters before the prototype's end) is a valid answer: status ``"failed"``
+with the reason, exit code 0.
+"""
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import math
+import re
+import time
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON
+from hypate.scaling.workflow.study import HARD_LIMITS
+from hypate.scaling.workflow.tunnels import DESIGN_VARIABLES
+from hypate.solvers.errors import InputError
+
+#: ``plot(rows, name, path, bounds=..., title=...) -> Path`` draws a sweep's figure.
+SweepPlot = Callable[..., Path]
+
+
+#: Relative tolerance of "at a bound" (as :meth:`ScalingProblem.active_bounds`).
+BOUND_RTOL = 1e-3
+
+
+#: Tolerance of a satisfied cheap equality constraint (log-space residual).
+EQUALITY_TOL = 1e-8
+
+
+#: Relative difference above which a similarity parameter is flagged (10 %).
+MISMATCH = 0.10
+
+
+# -- the what-if problem --------------------------------------------------------------------
+class WhatIf:
+    """A study's scaling problem with user-set design values (midpoints elsewhere).
+
+    Parameters
+    ----------
+    study : scaling.study.Study
+    values : mapping
+        ``{name: value}`` set by the user (SI units).
+    option : str
+        The input named in errors (``set``, ``sweep``; the CLI shows its flag).
+    """
+
+    def __init__(self, study: Any, values: Mapping[str, float], option: str = "set",
+                 base: Mapping[str, float] | None = None) -> None:
+
+
+        self.study = study
+        spec = study.spec
+        known = list(spec.names) + [n for n in spec.fixed if n not in spec.names]
+        others = [n for n in DESIGN_VARIABLES if n not in known]
+        fixed = dict(spec.fixed)
+        self.extra: list[str] = []
+        for name, value in values.items():
+            if name in spec.names:
+                continue
+            if name in spec.fixed:
+                fixed[name] = float(value)
+            elif name in DESIGN_VARIABLES:
+                fixed[name] = float(value)
+                self.extra.append(name)
+            else:
+                raise InputError(option, f"unknown design variable {name!r}; the study's "
+                                 f"variables are {', '.join(spec.names)}"
+                                 + (f" (fixed: {', '.join(spec.fixed)})" if spec.fixed else "")
+                                 + f"; other design variables: {', '.join(others)}")
+        self.spec = dataclasses.replace(spec, fixed=fixed) if fixed != spec.fixed else spec
+        self.problem = ScalingProblem(self.spec)
+        self.values = dict(values)
+        self.option = option
+        self.base = {k: float(v) for k, v in (base or {}).items() if k in spec.names}
+
+    def design_vector(self, overrides: Mapping[str, float] | None = None) -> np.ndarray:
+        """Design vector: set values, then ``overrides``, midpoints elsewhere."""
+        vals = {**self.base, **self.values, **(overrides or {})}
+        return np.array([float(vals.get(v.name, 0.5 * (v.lower + v.upper)))
+                         for v in self.spec.variables])
+
+    def sources(self, overrides: Mapping[str, float] | None = None) -> dict[str, str]:
+        """Where each design value comes from: set / sweep / midpoint / fixed / extra."""
+        out = {}
+        for v in self.spec.variables:
+            out[v.name] = ("sweep" if overrides and v.name in overrides else
+                           "set" if v.name in self.values else
+                           "design point" if v.name in self.base else "midpoint")
+        for name in self.spec.fixed:
+            if name not in out:
+                out[name] = ("extra (not a study variable)" if name in self.extra else
+                             "fixed (set)" if name in self.values else "fixed")
+        return out
+
+    def check(self, x: np.ndarray) -> None:
+        """Raise InputError (naming the option) when the design cannot be built at all."""
+        try:
+            self.problem.model_configuration(x)
+        except InputError as exc:
+            name = exc.field.split(".", 1)[-1]
+            raise InputError(f"{self.option} {name}", exc.message) from None
+
+    def constraints(self, x: np.ndarray) -> dict[str, Any]:
+        """Bounds hit/left, tunnel envelope and manufacturing limits, equality residuals."""
+
+        design = self.problem.design(x)
+        bounds: list[dict[str, Any]] = []
+        limits = {v.name: (v.lower, v.upper, "bounds") for v in self.spec.variables}
+        tunnel = self.study.tunnel
+        if tunnel is not None:
+            for name, (lo, hi) in tunnel.bounds().items():
+                if name in design and name not in limits:
+                    limits[name] = (lo, hi, f"tunnel {tunnel.name}")
+        for name, (lo, hi) in HARD_LIMITS.items():
+            if name in design and name not in limits:
+                limits[name] = (lo, hi, "allowed range")
+        active, outside = [], []
+        for name, (lo, hi, kind) in limits.items():
+            value = float(design[name])
+            span = hi - lo
+            if value < lo - 1e-12 * max(1.0, abs(lo)):
+                state = "below lower"
+            elif value > hi + 1e-12 * max(1.0, abs(hi)):
+                state = "above upper"
+            elif value <= lo + BOUND_RTOL * span:
+                state = "at lower"
+            elif value >= hi - BOUND_RTOL * span:
+                state = "at upper"
+            else:
+                state = "inside"
+            if state.startswith("at"):
+                active.append(f"{name}={state[3:]}")
+            elif state != "inside":
+                outside.append(f"{name} {state} ({kind} [{lo:g}, {hi:g}])")
+            bounds.append({"name": name, "value": value, "lower": lo, "upper": hi,
+                           "kind": kind, "state": state})
+        equalities = []
+        for name, con in zip(self.spec.equalities, self.problem.cheap_constraints()):
+            r = float(np.max(np.abs(np.atleast_1d(con.fun(np.asarray(x, float))))))
+            equalities.append({"name": name, "residual": r, "satisfied": r <= EQUALITY_TOL})
+        return {"bounds": bounds, "active": active, "outside": outside,
+                "equalities": equalities}
+
+    def evaluate(self, x: np.ndarray) -> dict[str, Any]:
+        """J_u, J_T, J_s of one design; a failing model gives status ``"failed"``."""
+        t0 = time.perf_counter()
+        out: dict[str, Any] = {"status": "ok", "message": "",
+                               "objectives": {"J_u": None, "J_T": None, "J_s": None}}
+        try:
+            err = self.problem.errors(x)
+        except InputError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - any model failure is an answer, not a crash
+            out["status"], out["message"] = "failed", f"{type(exc).__name__}: {exc}"
+        else:
+            out["objectives"] = {k: (float(v) if math.isfinite(v) else None)
+                                 for k, v in err.items()}
+        out["seconds"] = time.perf_counter() - t0
+        return out
+
+
+def evaluate_whatif(study: Any, values: Mapping[str, float],
+                    base: Mapping[str, float] | None = None) -> dict[str, Any]:
+    """Evaluate one what-if design of ``study``.
+
+    Parameters
+    ----------
+    study : scaling.study.Study
+    values : mapping
+        ``{name: value}`` (SI); others take ``base`` values or their midpoints.
+    base : mapping, optional
+        Values of the unset variables (e.g. a run's design point).
+
+    Returns
+    -------
+    dict
+        ``study``, ``design`` (name -> value, fixed values included), ``sources`` (name ->
+        ``"set"``/``"midpoint"``/``"fixed"``...), ``objectives`` (``J_u``, ``J_T``, ``J_s``;
+        ``None`` when the model failed), ``status`` (``"ok"``/``"failed"``), ``message``,
+        ``similarity`` (list of ``{"name", "prototype", "model", "relative_difference"}``),
+        ``constraints`` (``bounds`` list, ``active`` names, ``outside`` flags,
+        ``equalities`` residuals), ``model_time_step`` (s), ``seconds``.
+    """
+    w = WhatIf(study, values, base=base)
+    x = w.design_vector()
+    w.check(x)
+    result = {"study": study.name, "design": w.problem.design(x), "sources": w.sources()}
+    result.update(w.evaluate(x))
+    result["similarity"] = w.problem.similarity(x)
+    result["constraints"] = w.constraints(x)
+    result["model_time_step"] = w.problem.model_time_step(w.problem.model_configuration(x))
+    return result
+
+
+def sweep_whatif(study: Any, values: Mapping[str, float], name: str, low: float, high: float,
+                 n: int, out_dir: str | Path = ".", base: Mapping[str, float] | None = None,
+                 plot: SweepPlot | None = None) -> dict[str, Any]:
+    """Evaluate ``n`` designs with ``name`` in ``linspace(low, high, n)``; write the CSV and,
+    with ``plot`` (the report's ``plot_sweep``: the workflow draws no figures), the PNG.
+
+    Returns
+    -------
+    dict
+        ``name``, ``values``, ``rows`` (per design: ``value``, ``J_u``, ``J_T``, ``J_s``,
+        ``status``, ``message``, ``outside`` flags, ``seconds``), ``csv``, ``png`` paths.
+    """
+
+    if name in values:
+        raise InputError("sweep", f"{name} is also given with set")
+    w = WhatIf(study, values, base=base)
+    if name not in w.spec.names:
+        WhatIf(study, {**values, name: low}, option="sweep")  # validates the name
+    grid = np.linspace(low, high, n)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for value in grid:
+        if name in w.spec.names:
+            x = w.design_vector({name: float(value)})
+            ww = w
+        else:
+            ww = WhatIf(study, {**values, name: float(value)}, option="sweep", base=base)
+            x = ww.design_vector()
+        ww.check(x)
+        ev = ww.evaluate(x)
+        row = {"value": float(value), **ev["objectives"], "status": ev["status"],
+               "message": ev["message"], "outside": ww.constraints(x)["outside"],
+               "seconds": ev["seconds"], "design": ww.problem.design(x)}
+        rows.append(row)
+    safe = re.sub(r"[^\w.-]+", "_", name)
+    csv_path = out_dir / f"whatif_{safe}.csv"
+    design_names = list(rows[0]["design"])
+    with csv_path.open("w", newline="") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(design_names + ["J_u", "J_T", "J_s", "status", "message", "outside",
+                                        "seconds"])
+        for r in rows:
+            writer.writerow([repr(float(r["design"][k])) for k in design_names]
+                            + ["" if r[o] is None else repr(r[o]) for o in ("J_u", "J_T", "J_s")]
+                            + [r["status"], r["message"], "; ".join(r["outside"]),
+                               f"{r['seconds']:.3f}"])
+    bounds = next(((v.lower, v.upper) for v in w.spec.variables if v.name == name), None)
+    png = None if plot is None else plot(rows, name, out_dir / f"whatif_{safe}.png",
+                                         bounds=bounds,
+                                         title=f"{study.name}: what if {name} varies")
+    for r in rows:
+        r.pop("design")
+    return {"name": name, "values": grid.tolist(), "rows": rows, "csv": str(csv_path),
+            "png": None if png is None else str(png), "base_design": w.problem.design(w.design_vector()),
+            "sources": w.sources({name: low})}
+
+
+def load_base(path: str | Path) -> dict[str, float]:
+    """The ``design`` of a run directory's ``design_point.json`` (InputError on ``--base``)."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / DESIGN_POINT_JSON
+    try:
+        design = json.loads(path.read_text()).get("design")
+    except (OSError, ValueError, AttributeError) as exc:
+        raise InputError("base", f"cannot read a design point from {path}: {exc}") from None
+    if not isinstance(design, dict) or not design:
+        raise InputError("base", f"{path} holds no design point")
+    return {str(k): float(v) for k, v in design.items()}
+
+
+__all__ = ["WhatIf", "evaluate_whatif", "load_base", "sweep_whatif"]
