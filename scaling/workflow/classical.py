@@ -35,9 +35,8 @@ from typing import Any, Literal
 import cvxpy as cp
 import numpy as np
 import pandas as pd
+from hypate.scaling.workflow.configuration import Configuration, apply_design
 from hypate.scaling.workflow.similarity import (
-    Configuration,
-    apply_design,
     compare,
     comparison_records,
     parameter_names,

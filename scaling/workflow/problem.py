@@ -42,10 +42,9 @@ from typing import Any
 
 import numpy as np
 from hypate.scaling.engine.optimizer import CheapConstraint
+from hypate.scaling.workflow.configuration import Configuration, apply_design
 from hypate.scaling.workflow.similarity import (
     TIME_SCALINGS,
-    Configuration,
-    apply_design,
     compare,
     comparison_records,
     reference_quantities,

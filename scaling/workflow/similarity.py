@@ -52,28 +52,28 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
-from hypate.scaling.workflow.tunnels import DESIGN_VARIABLES
+from hypate.scaling.workflow.configuration import (
+    Configuration,
+    ReferenceTemperatures,
+    positive,
+    scaled_panel,
+)
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition, sutherland_viscosity
 from hypate.solvers.laminate import laminate, strain_rotation
-from hypate.solvers.materials import STEFAN_BOLTZMANN
 from hypate.solvers.panel import PanelSpec
 
 __all__ = [
     "PARAMETERS",
     "AnalyticalScaling",
-    "Configuration",
     "ReferenceQuantities",
-    "ReferenceTemperatures",
     "analytical_scaling",
-    "apply_design",
     "compare",
     "comparison_records",
     "fourier_time_scale",
@@ -84,95 +84,9 @@ __all__ = [
     "parameter_names",
     "reference_quantities",
     "relative_difference",
-    "scaled_panel",
     "similarity_parameters",
     "structural_time_scale",
 ]
-
-
-# -- inputs ----------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class ReferenceTemperatures:
-    """Reference temperatures (K); ``None`` means the default rule (Eq. 9.7).
-
-    Attributes
-    ----------
-    wall : float or None
-        ``T_w``; default the panel's initial temperature.
-    structural : float or None
-        ``T_S`` (stiffness, expansion, density); default ``T_w``.
-    thermal : float or None
-        ``T_T`` (conductivity, heat capacity); default ``T_w``.
-    fluid : float or None
-        ``T_F`` (viscosity, fluid conductivity); default the free-stream temperature.
-    """
-
-    wall: float | None = None
-    structural: float | None = None
-    thermal: float | None = None
-    fluid: float | None = None
-
-    def resolve(self, panel: PanelSpec, flow: FlowCondition) -> ReferenceTemperatures:
-        """All four temperatures filled in by the default rule, validated positive."""
-        wall = float(panel.initial_temperature if self.wall is None else self.wall)
-        out = ReferenceTemperatures(
-            wall=wall,
-            structural=float(wall if self.structural is None else self.structural),
-            thermal=float(wall if self.thermal is None else self.thermal),
-            fluid=float(flow.temperature if self.fluid is None else self.fluid))
-        for key in ("wall", "structural", "thermal", "fluid"):
-            value = getattr(out, key)
-            if not (math.isfinite(value) and value > 0.0):
-                raise InputError(f"temperatures.{key}", f"must be a positive temperature (K); "
-                                 f"got {value:g}")
-        return out
-
-
-@dataclass(frozen=True)
-class Configuration:
-    """One test article (prototype in flight or model in a tunnel), SI units.
-
-    Attributes
-    ----------
-    panel : PanelSpec
-    flow : FlowCondition
-    temperatures : ReferenceTemperatures or None
-        Reference temperatures; ``None`` or ``None`` fields follow the defaults of Eq. (9.7)
-        (see the module docstring).
-    delta_T : float or None
-        Uniform temperature rise Delta T (K) of Eq. (9.1a); ``None`` if not applicable.
-    time : float or None
-        Reference time t (s), e.g. the time step or the duration, for the time parameters of
-        Eq. (6.1b); ``None`` leaves them out.
-    external_pressure : float
-        p_ext (Pa), Eq. (6.1e).
-    external_heat_flux : float
-        Explicit q_ext (W/m^2), Eq. (6.1d).
-    radiation_temperature : float or None
-        Radiant heater temperature T_rad (K); adds ``emissivity sigma T_rad^4`` to q_ext.
-    """
-
-    panel: PanelSpec
-    flow: FlowCondition
-    temperatures: ReferenceTemperatures | None = None
-    delta_T: float | None = None
-    time: float | None = None
-    external_pressure: float = 0.0
-    external_heat_flux: float = 0.0
-    radiation_temperature: float | None = None
-
-    @property
-    def heat_flux(self) -> float:
-        """Total external heat flux q_ext (W/m^2) absorbed by the upper surface."""
-        q = float(self.external_heat_flux)
-        if self.radiation_temperature is not None:
-            q += self.panel.emissivity * STEFAN_BOLTZMANN * self.radiation_temperature**4
-        return q
-
-    def resolved_temperatures(self) -> ReferenceTemperatures:
-        """The reference temperatures with the defaults of Eq. (9.7) filled in."""
-        temps = self.temperatures if self.temperatures is not None else ReferenceTemperatures()
-        return temps.resolve(self.panel, self.flow)
 
 
 # -- reference quantities -------------------------------------------------------------------------
@@ -489,125 +403,6 @@ def comparison_records(table: pd.DataFrame) -> list[dict[str, Any]]:
     return out
 
 
-# -- building model configurations from design variables ------------------------------------------
-_LAYER_RE = re.compile(r"^h\[(\d+)\]$")
-_STATIC = ("p_inf", "T_inf")
-
-
-def scaled_panel(template: PanelSpec, *, length: float | None = None,
-                 thickness: float | None = None, leading_edge_length: float | None = None,
-                 width: float | None = None) -> PanelSpec:
-    """A copy of ``template`` with a new length (width scaled with it unless given), total
-    thickness (all layers scaled proportionally) and/or leading-edge length."""
-    changes: dict[str, Any] = {}
-    if length is not None:
-        _positive("L", length, "m")
-        changes["length"] = float(length)
-        changes["width"] = float(template.width * length / template.length)
-    if width is not None:
-        changes["width"] = _positive("width", width, "m")
-    if leading_edge_length is not None:
-        changes["leading_edge_length"] = _positive("L_le", leading_edge_length, "m")
-    if thickness is not None:
-        factor = _positive("h", thickness, "m") / template.thickness
-        changes["layers"] = tuple(dataclasses.replace(layer, thickness=layer.thickness * factor)
-                                  for layer in template.layers)
-    return dataclasses.replace(template, **changes)
-
-
-def _positive(name: str, value: float, unit: str) -> float:
-    value = float(value)
-    if not (math.isfinite(value) and value > 0.0):
-        raise InputError(f"design.{name}", f"must be a positive number ({unit}); got {value:g}")
-    return value
-
-
-def apply_design(template: Configuration, design: Mapping[str, float]) -> Configuration:
-    """The configuration obtained by setting design variables on a template.
-
-    Parameters
-    ----------
-    template : Configuration
-        Model template: material layup, aspect ratio, Mach number, fixed values.
-    design : mapping
-        ``{name: value}`` with names from :data:`hypate.scaling.workflow.tunnels.DESIGN_VARIABLES`:
-
-        * ``L`` (width follows at the template's aspect ratio), ``width``, ``L_le``,
-          ``h`` (layers scaled proportionally; applied before any ``h[k]``), ``h[k]``,
-          ``emissivity``;
-        * tunnel setting ``M``, ``p0``, ``T0`` (isentropic nozzle; unspecified ones from the
-          template flow's stagnation state) or static ``p_inf``, ``T_inf`` (Mach from
-          ``M`` or the template); the two groups ``p0``/``T0`` and ``p_inf``/``T_inf``
-          cannot be mixed;
-        * ``delta_T``, ``time``, ``p_ext``, ``q_ext``, ``T_rad``;
-        * ``T_w`` sets ``T_w = T_S = T_T`` (Eq. 9.7).
-
-    Raises
-    ------
-    InputError
-        Unknown names, non-positive values, mixed stagnation/static flow variables.
-    """
-
-    panel = template.panel
-    unknown = [n for n in design if n not in DESIGN_VARIABLES and not _LAYER_RE.match(n)]
-    if unknown:
-        raise InputError(f"design.{unknown[0]}", "unknown design variable; known: "
-                         f"{', '.join(DESIGN_VARIABLES)}")
-    panel = scaled_panel(panel, length=design.get("L"), thickness=design.get("h"),
-                         leading_edge_length=design.get("L_le"), width=design.get("width"))
-    layer_changes = {int(m.group(1)): design[n] for n in design
-                     if (m := _LAYER_RE.match(n)) is not None}
-    if layer_changes:
-        layers = list(panel.layers)
-        for k, value in layer_changes.items():
-            if k >= len(layers):
-                raise InputError(f"design.h[{k}]", f"the panel has {len(layers)} layers")
-            layers[k] = dataclasses.replace(layers[k], thickness=_positive(f"h[{k}]", value,
-                                                                            "m"))
-        panel = dataclasses.replace(panel, layers=tuple(layers))
-    if "emissivity" in design:
-        eps = float(design["emissivity"])
-        if not 0.0 <= eps <= 1.0:
-            raise InputError("design.emissivity", f"must be in [0, 1]; got {eps:g}")
-        panel = dataclasses.replace(panel, emissivity=eps)
-
-    flow = template.flow
-    stag = [n for n in ("p0", "T0") if n in design]
-    static = [n for n in _STATIC if n in design]
-    if stag and static:
-        raise InputError(f"design.{static[0]}", "cannot mix stagnation (p0, T0) and static "
-                         "(p_inf, T_inf) flow variables")
-    mach = float(design.get("M", flow.mach))
-    try:
-        if static:
-            flow = FlowCondition.from_static(mach, float(design.get("p_inf", flow.pressure)),
-                                             float(design.get("T_inf", flow.temperature)))
-        elif stag or "M" in design:
-            flow = FlowCondition.from_stagnation(
-                mach, float(design.get("p0", flow.stagnation_pressure)),
-                float(design.get("T0", flow.stagnation_temperature)))
-    except InputError as exc:
-        raise InputError(f"design.{exc.field}", exc.message) from None
-
-    temps = template.temperatures
-    if "T_w" in design:
-        tw = _positive("T_w", design["T_w"], "K")
-        temps = dataclasses.replace(temps or ReferenceTemperatures(), wall=tw, structural=tw,
-                                    thermal=tw)
-    changes: dict[str, Any] = {"panel": panel, "flow": flow, "temperatures": temps}
-    if "delta_T" in design:
-        changes["delta_T"] = _positive("delta_T", design["delta_T"], "K")
-    if "time" in design:
-        changes["time"] = _positive("time", design["time"], "s")
-    if "p_ext" in design:
-        changes["external_pressure"] = float(design["p_ext"])
-    if "q_ext" in design:
-        changes["external_heat_flux"] = float(design["q_ext"])
-    if "T_rad" in design:
-        changes["radiation_temperature"] = _positive("T_rad", design["T_rad"], "K")
-    return dataclasses.replace(template, **changes)
-
-
 # -- analytical scaling laws (Sec. 9.1.2.1) -------------------------------------------------------
 def structural_time_scale(prototype: ReferenceQuantities, model: ReferenceQuantities) -> float:
     """``dt_m / dt_p`` keeping ``I L^4 / (D_xx t^2)`` equal (Eq. 9.1b).
@@ -647,7 +442,7 @@ def fourier_time_scale(prototype: ReferenceQuantities, model: ReferenceQuantitie
     material = ((prototype.solid_conductivity * model.solid_rho_cp)
                 / (model.solid_conductivity * prototype.solid_rho_cp))
     ratio = (model.length / prototype.length if xi is None
-             else 1.0 / _positive("xi", xi, "-"))
+             else 1.0 / positive("xi", xi, "-"))
     return material * ratio**2
 
 
@@ -773,7 +568,7 @@ def analytical_scaling(prototype: Configuration, model_template: Configuration, 
         The scaled model reproduces ``h/L``, ``lambda_F`` and ``DeltaT_NTx_L2/Dxx`` (and, with
         a time step, ``I_L4/(Dxx_t2)``) of the prototype exactly.
     """
-    xi = _positive("xi", xi, "-")
+    xi = positive("xi", xi, "-")
     ref_p = reference_quantities(prototype)
     L_m = ref_p.length / xi
     h_m = ref_p.thickness / xi

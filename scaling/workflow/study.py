@@ -57,6 +57,7 @@ import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
+from hypate.scaling.workflow.configuration import Configuration
 from hypate.scaling.workflow.problem import (
     EQUALITY_CONSTRAINTS,
     OBJECTIVES,
@@ -65,8 +66,8 @@ from hypate.scaling.workflow.problem import (
     Variable,
 )
 from hypate.scaling.workflow.shipped import resolve
-from hypate.scaling.workflow.similarity import Configuration
 from hypate.scaling.workflow.tunnels import TunnelEnvelope, resolve_tunnel
+from hypate.scaling.workflow.variables import HARD_LIMITS, OPTIMIZABLE
 from hypate.solvers import materials as mat
 from hypate.solvers.aero.factory import AERO_NAMES, is_aero_name
 from hypate.solvers.config import (
@@ -80,15 +81,6 @@ from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.panel import Layer, PanelSpec
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
-
-#: Design variables a study may optimize (names of scaling.similarity.apply_design).
-VARIABLES = ("M", "p0", "T0", "p_inf", "T_inf", "L", "L_le", "h", "emissivity", "T_rad",
-             "p_ext", "delta_T")
-#: Manufacturing / facility limits no design may leave (Table 9.7 and physics).
-HARD_LIMITS = {"h": (1e-4, 0.05), "L": (0.01, 5.0), "L_le": (0.0, 10.0),
-               "emissivity": (0.0, 1.0), "T_rad": (1.0, 5000.0), "M": (1.0001, 30.0),
-               "p0": (1.0, 1e9), "T0": (1.0, 1e4), "p_inf": (1e-3, 1e7), "T_inf": (1.0, 5000.0),
-               "delta_T": (1e-6, 2000.0), "p_ext": (-1e7, 1e7)}
 
 PosFloat = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
 
@@ -235,9 +227,9 @@ class StudyFile(_Strict):
         if not self.variables:
             raise ValueError("variables: at least one design variable is needed")
         for name in list(self.variables) + list(self.fixed):
-            if name not in VARIABLES:
+            if name not in OPTIMIZABLE:
                 raise ValueError(f"{'variables' if name in self.variables else 'fixed'}.{name}:"
-                                 f" unknown design variable; known: {', '.join(VARIABLES)}")
+                                 f" unknown design variable; known: {', '.join(OPTIMIZABLE)}")
         n_obj = len(self.study.objectives)
         acq = self.optimizer.acquisition
         if acq is not None:

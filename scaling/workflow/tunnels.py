@@ -35,13 +35,12 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from hypate.scaling.workflow.variables import DESIGN_VARIABLES
 from hypate.solvers.config import read_toml
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 
 __all__ = [
-    "DESIGN_VARIABLES",
-    "DesignVariable",
     "TunnelEnvelope",
     "bound_set",
     "bound_set_names",
@@ -54,36 +53,6 @@ __all__ = [
 
 Bounds = tuple[float, float]
 
-
-@dataclass(frozen=True)
-class DesignVariable:
-    """Documentation record of a model/tunnel design variable (Tables 6.1, 9.2, 9.7)."""
-
-    name: str
-    unit: str
-    description: str
-
-
-#: Design variables understood by :func:`hypate.scaling.workflow.similarity.apply_design` (SI units).
-DESIGN_VARIABLES: dict[str, DesignVariable] = {v.name: v for v in (
-    DesignVariable("M", "-", "free-stream Mach number (continuous only in an 'ideal' tunnel)"),
-    DesignVariable("p0", "Pa", "tunnel stagnation pressure (Table 9.6)"),
-    DesignVariable("T0", "K", "tunnel stagnation temperature (Table 9.6)"),
-    DesignVariable("p_inf", "Pa", "free-stream static pressure (Table 9.2)"),
-    DesignVariable("T_inf", "K", "free-stream static temperature"),
-    DesignVariable("L", "m", "panel length a (width scaled with it: same aspect ratio)"),
-    DesignVariable("width", "m", "panel width b"),
-    DesignVariable("L_le", "m", "leading-edge (rigid wall) length ahead of the panel"),
-    DesignVariable("h", "m", "total thickness (all layers scaled proportionally)"),
-    DesignVariable("h[k]", "m", "thickness of layer k (bottom = 0)"),
-    DesignVariable("emissivity", "-", "upper-surface emissivity of the model"),
-    DesignVariable("T_rad", "K", "radiant heater temperature (incomplete testing)"),
-    DesignVariable("p_ext", "Pa", "external (cavity) pressure (incomplete testing)"),
-    DesignVariable("q_ext", "W/m^2", "external heat flux (incomplete testing)"),
-    DesignVariable("delta_T", "K", "uniform temperature rise (Sec. 9.1)"),
-    DesignVariable("time", "s", "reference time (time step or duration)"),
-    DesignVariable("T_w", "K", "reference wall temperature; T_S = T_T = T_w (Eq. 9.7)"),
-)}
 
 _ENVELOPE_KEYS = ("name", "description", "mach", "mach_values", "p0", "T0", "test_section",
                   "run_time")

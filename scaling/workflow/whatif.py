@@ -8,7 +8,7 @@ Rules (documented in ``--help`` and the README):
 
 * ``--set NAME=VALUE`` (repeatable) sets a design value in SI units. ``NAME`` is one of the
   study's design variables, one of its ``[fixed]`` values (overridden), or any other design
-  variable of :data:`hypate.scaling.workflow.tunnels.DESIGN_VARIABLES` (applied as an extra fixed value and
+  variable of :data:`hypate.scaling.workflow.variables.DESIGN_VARIABLES` (applied as an extra fixed value and
   flagged). Unknown names exit 2 naming ``--set``.
 * Variables not set take the **midpoint of their bounds** (arithmetic mean), so no value is
   required; the output says which values were set and which are midpoints. With
@@ -42,8 +42,7 @@ from typing import Any
 import numpy as np
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON
-from hypate.scaling.workflow.study import HARD_LIMITS
-from hypate.scaling.workflow.tunnels import DESIGN_VARIABLES
+from hypate.scaling.workflow.variables import DESIGN_VARIABLES, HARD_LIMITS
 from hypate.solvers.errors import InputError
 
 #: ``plot(rows, name, path, bounds=..., title=...) -> Path`` draws a sweep's figure.

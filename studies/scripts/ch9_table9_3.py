@@ -19,12 +19,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
+from hypate.scaling.workflow.configuration import Configuration
 from hypate.scaling.workflow.shipped import shipped
-from hypate.scaling.workflow.similarity import (
-    Configuration,
-    analytical_scaling,
-    similarity_parameters,
-)
+from hypate.scaling.workflow.similarity import analytical_scaling, similarity_parameters
 from hypate.solvers.config import load_case
 from hypate.solvers.materials import library_material
 from hypate.studies.scripts._table import publish, side_by_side, standard_parser

@@ -89,8 +89,8 @@ class _Killer(Problem):
 
 
 def test_a_dying_worker_costs_only_its_evaluation() -> None:
-    from hypate.scaling.engine.optimizer import BayesianOptimizer
     from hypate.scaling.engine.executors import ResilientProcessPool
+    from hypate.scaling.engine.optimizer import BayesianOptimizer
 
     pool = ResilientProcessPool(2)
     try:

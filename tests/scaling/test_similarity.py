@@ -8,19 +8,21 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypate.scaling.workflow.similarity import (
-    PARAMETERS,
+from hypate.scaling.workflow.configuration import (
     Configuration,
     ReferenceTemperatures,
-    analytical_scaling,
     apply_design,
+    scaled_panel,
+)
+from hypate.scaling.workflow.similarity import (
+    PARAMETERS,
+    analytical_scaling,
     compare,
     comparison_records,
     fourier_time_scale,
     log_mismatch,
     matched_time,
     reference_quantities,
-    scaled_panel,
     similarity_parameters,
     structural_time_scale,
 )

@@ -1,0 +1,79 @@
+"""THE design-variable table: every name a design, a what-if or a study may set, with its SI
+unit, meaning, hard limits and whether a study may optimize it (Tables 6.1, 9.2, 9.7).
+
+How each enters a configuration is :func:`hypate.scaling.workflow.similarity.apply_design`,
+which accepts exactly these names; the study schema, the tunnel bound sets, the what-if, the
+report and the laws read this table and nothing else.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+Bounds = tuple[float, float]
+#: A layer thickness ``h[k]`` (k = 0 at the bottom).
+LAYER_PATTERN = re.compile(r"^h\[(\d+)\]$")
+
+
+@dataclass(frozen=True)
+class DesignVariable:
+    """One design variable.
+
+    Attributes
+    ----------
+    name, unit, description : str
+    limits : (float, float) or None
+        Manufacturing / facility limits no design may leave (Table 9.7 and physics).
+    optimizable : bool
+        Whether a study's ``[variables]`` may list it.
+    """
+
+    name: str
+    unit: str
+    description: str
+    limits: Bounds | None = None
+    optimizable: bool = False
+
+
+DESIGN_VARIABLES: dict[str, DesignVariable] = {v.name: v for v in (
+    DesignVariable("M", "-", "free-stream Mach number (continuous only in an 'ideal' tunnel)",
+                   (1.0001, 30.0), True),
+    DesignVariable("p0", "Pa", "tunnel stagnation pressure (Table 9.6)", (1.0, 1e9), True),
+    DesignVariable("T0", "K", "tunnel stagnation temperature (Table 9.6)", (1.0, 1e4), True),
+    DesignVariable("p_inf", "Pa", "free-stream static pressure (Table 9.2)", (1e-3, 1e7), True),
+    DesignVariable("T_inf", "K", "free-stream static temperature", (1.0, 5000.0), True),
+    DesignVariable("L", "m", "panel length a (width scaled with it: same aspect ratio)",
+                   (0.01, 5.0), True),
+    DesignVariable("width", "m", "panel width b"),
+    DesignVariable("L_le", "m", "leading-edge (rigid wall) length ahead of the panel",
+                   (0.0, 10.0), True),
+    DesignVariable("h", "m", "total thickness (all layers scaled proportionally)",
+                   (1e-4, 0.05), True),
+    DesignVariable("h[k]", "m", "thickness of layer k (bottom = 0)"),
+    DesignVariable("emissivity", "-", "upper-surface emissivity of the model", (0.0, 1.0), True),
+    DesignVariable("T_rad", "K", "radiant heater temperature (incomplete testing)",
+                   (1.0, 5000.0), True),
+    DesignVariable("p_ext", "Pa", "external (cavity) pressure (incomplete testing)",
+                   (-1e7, 1e7), True),
+    DesignVariable("q_ext", "W/m^2", "external heat flux (incomplete testing)", (-1e7, 1e7), True),
+    DesignVariable("delta_T", "K", "uniform temperature rise (Sec. 9.1)", (1e-6, 2000.0), True),
+    DesignVariable("time", "s", "reference time (time step or duration)"),
+    DesignVariable("T_w", "K", "reference wall temperature; T_S = T_T = T_w (Eq. 9.7)"),
+)}
+
+#: Names a study may optimize, in table order.
+OPTIMIZABLE: tuple[str, ...] = tuple(n for n, v in DESIGN_VARIABLES.items() if v.optimizable)
+#: Hard limits by name (the optimizable variables).
+HARD_LIMITS: dict[str, Bounds] = {n: v.limits for n, v in DESIGN_VARIABLES.items()
+                                  if v.limits is not None}
+
+
+def is_design_variable(name: str) -> bool:
+    """Whether ``name`` is in the table (a layer thickness ``h[k]`` included)."""
+    return name in DESIGN_VARIABLES or LAYER_PATTERN.match(name) is not None
+
+
+def variable_unit(name: str) -> str:
+    """SI unit of a design variable (``"-"`` when dimensionless or unknown)."""
+    var = DESIGN_VARIABLES.get("h[k]" if LAYER_PATTERN.match(name) else name)
+    return var.unit if var is not None else "-"
