@@ -418,7 +418,8 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
 
 
 def load_study(path: str | Path) -> Study:
-    """Read and validate a study file."""
+    """Read and validate a study file (a path, or a shipped study's name: ``"quickstart"``)."""
+    path = resolve(path, "study")
     return parse_study(read_toml(path), path)
 
 
