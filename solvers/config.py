@@ -22,8 +22,10 @@ Every error becomes :class:`~solvers.errors.InputError` naming the key path
 """
 from __future__ import annotations
 
+import difflib
 import math
 import tomllib
+import typing
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -188,14 +190,49 @@ def _loc(loc: tuple[Any, ...]) -> str:
     return out
 
 
-def pydantic_input_error(exc: ValidationError, prefix: str = "") -> InputError:
+def _model_of(annotation: Any) -> type[BaseModel] | None:
+    """The pydantic model inside an annotation (``Model | None``, ``dict[str, Model]``,
+    ``list[Model]``), or None."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for arg in typing.get_args(annotation):
+        found = _model_of(arg)
+        if found is not None:
+            return found
+    return None
+
+
+def allowed_keys(model: type[BaseModel] | None, loc: tuple[Any, ...]) -> list[str]:
+    """The keys the schema allows where ``loc`` (a pydantic error location) points: the
+    fields of the model that holds ``loc[-1]`` (empty when unknown)."""
+    for part in loc[:-1]:
+        if model is None:
+            return []
+        field = model.model_fields.get(part) if isinstance(part, str) else None
+        if field is None:
+            continue  # a dict key or a list index: the model stays the container's
+        model = _model_of(field.annotation)
+    return list(model.model_fields) if model is not None else []
+
+
+def did_you_mean(name: str, choices: list[str]) -> str:
+    """``"; did you mean 'x'?"`` for the closest of ``choices`` to ``name``, or ``""``."""
+    close = difflib.get_close_matches(str(name), choices, n=1, cutoff=0.6)
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
+def pydantic_input_error(exc: ValidationError, prefix: str = "",
+                         model: type[BaseModel] | None = None) -> InputError:
+    """The first pydantic error as an :class:`InputError` naming the key path; an unknown
+    key of ``model``'s schema gets the closest allowed key suggested."""
     err = exc.errors()[0]
     loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and (
         p.startswith("function-") or p in ("float", "list[tuple[float, float]]", "tuple"))))
     path = ".".join(p for p in (prefix, _loc(loc)) if p)
     msg = err["msg"].removeprefix("Value error, ")
     if err["type"] == "extra_forbidden":
-        msg = "unknown key (not part of the schema)"
+        msg = "unknown key (not part of the schema)" + did_you_mean(
+            err["loc"][-1], allowed_keys(model, tuple(err["loc"])))
     elif err["type"] == "missing":
         msg = "required key is missing"
     elif "input" in err and not isinstance(err["input"], dict | list):
@@ -317,7 +354,7 @@ def parse_case(data: dict[str, Any], source: str = "<memory>") -> Case:
     try:
         cfg = CaseConfig.model_validate(data)
     except ValidationError as exc:
-        raise pydantic_input_error(exc) from None
+        raise pydantic_input_error(exc, model=CaseConfig) from None
     panel = build_panel(cfg.panel, cfg.materials, name=Path(source).stem)
     flow = build_flow(cfg.flow) if cfg.flow is not None else None
     return Case(panel=panel, flow=flow, simulation=cfg.simulation, source=source)

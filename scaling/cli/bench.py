@@ -7,7 +7,13 @@ from __future__ import annotations
 import argparse
 from types import ModuleType
 
-from hypate.scaling.cli import bench_ate, bench_bo, bench_rom, bench_structure, bench_thermal
+from hypate.scaling.cli import (
+    bench_ate,
+    bench_bo,
+    bench_rom,
+    bench_structure,
+    bench_thermal,
+)
 
 #: Modules providing benchmark targets (each has ``register_bench(subparsers)``).
 BENCH_MODULES: tuple[ModuleType, ...] = (bench_bo, bench_structure, bench_thermal, bench_ate,

@@ -13,7 +13,13 @@ import json
 import math
 from pathlib import Path
 
-from hypate.scaling.workflow.laws import laws_json, laws_of_run, laws_table, load_runs, predict
+from hypate.scaling.workflow.laws import (
+    laws_json,
+    laws_of_run,
+    laws_table,
+    load_runs,
+    predict,
+)
 from hypate.solvers.errors import InputError
 
 

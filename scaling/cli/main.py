@@ -7,8 +7,11 @@ naming the field and exit code 2 -- never a traceback.
 from __future__ import annotations
 
 import argparse
+import difflib
+import re
 import sys
 from collections.abc import Sequence
+from importlib.metadata import PackageNotFoundError, version
 from types import ModuleType
 
 from hypate.scaling.cli import (
@@ -35,11 +38,41 @@ COMMAND_MODULES: tuple[ModuleType, ...] = (condition, run, laws, report, whatif,
 EXIT_USAGE = 2
 
 
+class DefaultsHelpFormatter(argparse.HelpFormatter):
+    """Every option's help ends with its default, unless it already states one."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if ("default" in text.lower() or action.default in (None, False, [], "==SUPPRESS==")
+                or not action.option_strings):
+            return text
+        return f"{text} (default: %(default)s)"
+
+
 class _Parser(argparse.ArgumentParser):
-    """argparse with a one-line error and exit code 2 (argparse's own convention)."""
+    """argparse with a one-line error, exit code 2 (argparse's own convention), a "did you
+    mean" for a mistyped command, and every option's default in ``--help``."""
+
+    def __init__(self, *args, **kwargs) -> None:  # noqa: ANN002, ANN003 - argparse API
+        kwargs.setdefault("formatter_class", DefaultsHelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> None:  # noqa: D401 - argparse API
+        choice = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+        if choice:
+            options = re.findall(r"'?([\w-]+)'?", choice.group(2))
+            close = difflib.get_close_matches(choice.group(1), options, n=1, cutoff=0.5)
+            if close:
+                message += f"; did you mean {close[0]!r}?"
         self.exit(EXIT_USAGE, f"hypate: error: {message}\n")
+
+
+def package_version() -> str:
+    """The installed distribution's version (``pyproject.toml``)."""
+    try:
+        return version("hypate")
+    except PackageNotFoundError:  # pragma: no cover - running from an uninstalled tree
+        return "unknown"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -49,6 +82,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Design aerothermoelastically scaled wind-tunnel models of hypersonic "
         "skin panels.",
     )
+    parser.add_argument("--version", action="version", version=f"hypate {package_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for module in COMMAND_MODULES:
         module.register(sub)

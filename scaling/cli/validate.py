@@ -1,23 +1,80 @@
-"""``hypate validate FILE.toml``: check a panel/case file and print a short summary."""
+"""``hypate validate FILE.toml``: check a study, case (panel) or ROM build file and summarize
+it; the schema is chosen by the file's tables (``[study]``: a study; ``[[modes]]`` or
+``[reference]``: a ROM build; otherwise a case or panel file) and named in the output."""
 from __future__ import annotations
 
 import argparse
+import json
+from pathlib import Path
+from typing import Any
 
 from hypate.scaling.workflow.shipped import resolve
-from hypate.solvers.config import load_case, summary
+from hypate.scaling.workflow.study import parse_study
+from hypate.solvers.aero.rom_config import parse_rom_config
+from hypate.solvers.config import parse_case, read_toml, summary
+from hypate.solvers.errors import InputError
+
+SCHEMAS = ("study", "case", "rom")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("validate", help="validate a panel/case TOML file and summarize it",
-                       description="Validate a panel or case file. Exit 0 and a summary, or "
-                       "exit 2 with a one-line error naming the key.")
-    p.add_argument("file", help="panel or case TOML file")
+    p = sub.add_parser("validate", help="validate a study, case or ROM build file",
+                       description="Validate a study, case/panel or ROM build file (the "
+                       "schema follows from its tables, or --schema). Exit 0 and a summary, "
+                       "or exit 2 with a one-line error naming the key.")
+    p.add_argument("file", help="TOML file, or a shipped study/case/ROM file's name")
+    p.add_argument("--schema", choices=SCHEMAS, help="schema to apply (default: from the "
+                   "file's tables)")
+    p.add_argument("--json", action="store_true", help="print one JSON object "
+                   '{"file", "schema", "valid", "summary"} or, when invalid, '
+                   '{"file", "schema", "valid": false, "field", "message"}')
     p.set_defaults(func=run)
 
 
+def schema_of(data: dict[str, Any]) -> str:
+    """Which schema a parsed TOML file follows."""
+    if "study" in data:
+        return "study"
+    if "modes" in data or "reference" in data:
+        return "rom"
+    return "case"
+
+
+def _path(arg: str) -> Path:
+    for kind in ("study", "case", "rom"):
+        path = resolve(arg, kind)
+        if path.exists():
+            return path
+    return Path(arg)
+
+
+def validate(path: Path, schema: str | None = None) -> tuple[str, list[str]]:
+    """Validate ``path`` under ``schema`` (None: detected); the schema and summary lines."""
+    data = read_toml(path)
+    schema = schema or schema_of(data)
+    if schema == "study":
+        return schema, parse_study(data, path).summary()
+    if schema == "rom":
+        cfg = parse_rom_config(data)
+        return schema, [f"ROM build: {len(cfg.modes)} modes, {cfg.training.samples} training "
+                        f"samples, reference M = {cfg.reference.mach:g}"]
+    return schema, summary(parse_case(data, source=str(path)))
+
+
 def run(args: argparse.Namespace) -> int:
-    case = load_case(resolve(args.file, "case"))
-    print(f"{args.file}: valid")
-    for line in summary(case):
-        print(f"  {line}")
+    path = _path(args.file)
+    if not args.json:
+        schema, lines = validate(path, args.schema)
+        print(f"{args.file}: valid ({schema} file)")
+        for line in lines:
+            print(f"  {line}")
+        return 0
+    try:
+        schema, lines = validate(path, args.schema)
+    except InputError as exc:
+        print(json.dumps({"file": str(args.file), "schema": args.schema, "valid": False,
+                          "field": exc.field, "message": exc.message}))
+        return 2
+    print(json.dumps({"file": str(args.file), "schema": schema, "valid": True,
+                      "summary": lines}))
     return 0

@@ -14,7 +14,12 @@ import numpy as np
 from hypate.scaling.report.html import plot_sweep, variable_unit
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.study import load_study
-from hypate.scaling.workflow.whatif import MISMATCH, evaluate_whatif, load_base, sweep_whatif
+from hypate.scaling.workflow.whatif import (
+    MISMATCH,
+    evaluate_whatif,
+    load_base,
+    sweep_whatif,
+)
 from hypate.solvers.errors import InputError
 
 

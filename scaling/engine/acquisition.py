@@ -23,7 +23,11 @@ from abc import ABC, abstractmethod
 from typing import Protocol
 
 import numpy as np
-from hypate.scaling.engine.pareto import hypervolume_improvement, nondominated_boxes, pareto_front
+from hypate.scaling.engine.pareto import (
+    hypervolume_improvement,
+    nondominated_boxes,
+    pareto_front,
+)
 from hypate.scaling.engine.sampling import as_rng
 from scipy.special import ndtr
 

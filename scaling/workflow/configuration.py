@@ -11,7 +11,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from hypate.scaling.workflow.variables import DESIGN_VARIABLES, LAYER_PATTERN, is_design_variable
+from hypate.scaling.workflow.variables import (
+    DESIGN_VARIABLES,
+    LAYER_PATTERN,
+    is_design_variable,
+)
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.materials import STEFAN_BOLTZMANN

@@ -263,6 +263,30 @@ class Study:
         return self.raw.sweep
 
     @property
+    def budget(self) -> int:
+        """Evaluations the optimizer may spend (initial samples + iterations x batch + polish),
+        per sweep point for a sweep study."""
+        opt = self.optimizer
+        return opt.initial_samples + opt.iterations * opt.batch_size + opt.polish
+
+    def summary(self) -> list[str]:
+        """A few lines describing the study (``hypate validate``)."""
+        spec, sim = self.spec, self.raw.simulation
+        lines = [f"study {self.name}: {self.description or '(no description)'}",
+                 f"kind {self.raw.study.kind}, objectives {', '.join(spec.objectives)}, "
+                 f"xi = {spec.xi:g}, time scaling {spec.time_scaling}",
+                 f"prototype case {self.raw.prototype.case}; model {self.raw.model.material}"
+                 + (f" in tunnel {self.tunnel.name}" if self.tunnel is not None else ""),
+                 f"simulation: {sim.steps} steps of {sim.time_step:g} s, aero {sim.aero}, "
+                 f"heating {sim.heating}"]
+        lines += [f"variable {v.name} in [{v.lower:g}, {v.upper:g}]" for v in spec.variables]
+        lines += [f"fixed {k} = {v:g}" for k, v in spec.fixed.items()]
+        sweep = f", {len(sweep_points(self))} sweep points" if self.sweep is not None else ""
+        lines.append(f"optimizer: {self.acquisition}, {self.budget} evaluations{sweep}, "
+                     f"seed {self.optimizer.seed}")
+        return lines
+
+    @property
     def acquisition(self) -> str:
         opt = self.optimizer
         if opt.acquisition is not None:
@@ -326,7 +350,7 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
     try:
         cfg = StudyFile.model_validate(data)
     except ValidationError as exc:
-        raise pydantic_input_error(exc) from None
+        raise pydantic_input_error(exc, model=StudyFile) from None
     base = Path(path).parent if str(path) != "<memory>" else Path.cwd()
     case_path = resolve(cfg.prototype.case, "case", base)
     try:

@@ -20,7 +20,13 @@ from functools import partial
 
 import numpy as np
 import scipy.sparse as sp
-from hypate.solvers.aero.base import Array, FluidLoads, FluidModel, SurfacePoints, SurfaceState
+from hypate.solvers.aero.base import (
+    Array,
+    FluidLoads,
+    FluidModel,
+    SurfacePoints,
+    SurfaceState,
+)
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import SUTHERLAND_S, FlowCondition, sutherland_viscosity
 from numpy.typing import ArrayLike

@@ -98,7 +98,13 @@ from hypate.solvers.aero.analytic import (
     eckert_with_derivatives,
     piston_pressure,
 )
-from hypate.solvers.aero.base import Array, FluidLoads, FluidModel, SurfacePoints, SurfaceState
+from hypate.solvers.aero.base import (
+    Array,
+    FluidLoads,
+    FluidModel,
+    SurfacePoints,
+    SurfaceState,
+)
 from hypate.solvers.aero.shock_expansion import ShockExpansionFluid
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition

@@ -38,7 +38,13 @@ import warnings
 import numpy as np
 import scipy.sparse as sp
 from hypate.solvers.aero.analytic import RECOVERY_EXPONENT, BoundaryLayerShape
-from hypate.solvers.aero.base import Array, FluidLoads, FluidModel, SurfacePoints, SurfaceState
+from hypate.solvers.aero.base import (
+    Array,
+    FluidLoads,
+    FluidModel,
+    SurfacePoints,
+    SurfaceState,
+)
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition, sutherland_viscosity
 from numpy.typing import ArrayLike
