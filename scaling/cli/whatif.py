@@ -43,7 +43,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from hypate.scaling.report.html import plot_sweep, variable_unit
+from hypate.scaling.report.figures import plot_sweep, variable_unit
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.study import HARD_LIMITS, load_study

@@ -1,4 +1,4 @@
-"""hypate.scaling.report.html and `hypate report`: a self-contained report of a real tiny run."""
+"""hypate.scaling.report and `hypate report`: a self-contained report of a real tiny run."""
 from __future__ import annotations
 
 import base64
@@ -11,7 +11,10 @@ from pathlib import Path
 import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
-from hypate.scaling.report import html as report
+from hypate.scaling.report.figures import MISMATCH_THRESHOLD
+from hypate.scaling.report.html import register_section, unregister_section, write_report
+from hypate.scaling.report.rundata import RunData, load_run
+from hypate.scaling.report.sections import Section
 
 TINY = tiny_study_text()  # 2x2 mesh, 4 steps, 1 + 4 + 2 evaluations
 
@@ -55,7 +58,7 @@ def _check_self_contained(page: str) -> list[bytes]:
 
 def test_report_of_finished_run(tiny_run: tuple[Path, Path]) -> None:
     out, study = tiny_run
-    path = report.write_report(out, study_path=study)
+    path = write_report(out, study_path=study)
     assert path == out / "report.html"
     page = path.read_text(encoding="utf-8")
     pngs = _check_self_contained(page)
@@ -73,7 +76,7 @@ def test_report_of_finished_run(tiny_run: tuple[Path, Path]) -> None:
     for rec in point["similarity"]:
         assert f"<td>{rec['name']}</td>" in page
     n_bad = sum(1 for r in point["similarity"] if r["relative_difference"] is not None
-                and abs(r["relative_difference"]) > report.MISMATCH_THRESHOLD)
+                and abs(r["relative_difference"]) > MISMATCH_THRESHOLD)
     assert page.count('<tr class="mismatch">') == n_bad
     assert "tiny" in page and "ideal" in page  # study name, tunnel
 
@@ -81,23 +84,23 @@ def test_report_of_finished_run(tiny_run: tuple[Path, Path]) -> None:
 def test_extra_and_registered_sections(tiny_run: tuple[Path, Path]) -> None:
     out, study = tiny_run
 
-    def laws(run: report.RunData) -> report.Section:
+    def laws(run: RunData) -> Section:
         assert run.study is not None and run.variables == ["M", "p0", "T0", "h"]
-        return report.Section("Scaling laws", "<p>laws here</p>")
+        return Section("Scaling laws", "<p>laws here</p>")
 
-    def broken(run: report.RunData) -> report.Section:
+    def broken(run: RunData) -> Section:
         raise ValueError("boom")
 
-    report.register_section("test_laws", laws)
-    report.register_section("test_broken", broken)
+    register_section("test_laws", laws)
+    register_section("test_broken", broken)
     try:
         with pytest.warns(RuntimeWarning, match="boom"):
-            page = report.write_report(out, study_path=study,
+            page = write_report(out, study_path=study,
                                        extra_sections=[("Notes <x>", "<p>static</p>")]
                                        ).read_text()
     finally:
-        report.unregister_section("test_laws")
-        report.unregister_section("test_broken")
+        unregister_section("test_laws")
+        unregister_section("test_broken")
     assert page.index("<h2>Scaling laws</h2>") > page.index("<h2>Run statistics</h2>")
     assert "<h2>Notes &lt;x&gt;</h2>" in page and "<p>static</p>" in page
     assert "This section failed" in page and "boom" in page
@@ -119,7 +122,7 @@ def test_report_of_interrupted_run(tiny_run: tuple[Path, Path], tmp_path: Path) 
     for title in SECTIONS:
         assert f"<h2>{title}</h2>" in page
     # with the study file: names, similarity table and the rebuilt design point
-    data = report.load_run(run, study_path=study)
+    data = load_run(run, study_path=study)
     assert data.point_rebuilt and data.variables == ["M", "p0", "T0", "h"]
     assert data.point["similarity"] and data.model is None
     full = json.loads((out / "design_point.json").read_text())
@@ -152,7 +155,7 @@ def test_report_renders_in_headless_chromium(tiny_run: tuple[Path, Path], tmp_pa
                                              ) -> None:
     """The page loads with every image decoded and no console error."""
     out, study = tiny_run
-    page = report.write_report(out, study_path=study)
+    page = write_report(out, study_path=study)
     # A probe page: an <iframe> would need JS access; instead append a tiny script to a copy
     # that marks images which failed to decode, then read the DOM after load.
     probe = tmp_path / "probe.html"
