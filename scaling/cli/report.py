@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from hypate.scaling.report.html import write_report  # matplotlib only when needed
+from hypate.scaling.report.html import write_report
 
 
 def register(sub: argparse._SubParsersAction) -> None:

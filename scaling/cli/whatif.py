@@ -11,9 +11,10 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from hypate.scaling.report.html import plot_sweep, variable_unit
+from hypate.scaling.report.figures import plot_sweep
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.variables import variable_unit
 from hypate.scaling.workflow.whatif import (
     MISMATCH,
     evaluate_whatif,

@@ -20,7 +20,11 @@ from hypate.scaling.engine.acquisition import (
     probability_hypervolume_improvement,
     probability_of_improvement,
 )
-from hypate.scaling.engine.pareto import hypervolume_improvement, nondominated_boxes, pareto_front
+from hypate.scaling.engine.pareto import (
+    hypervolume_improvement,
+    nondominated_boxes,
+    pareto_front,
+)
 from hypate.solvers.numerics.kriging import KrigingRegressor
 from scipy.stats import norm
 

@@ -8,7 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 from hypate.scaling.workflow.classical import classical_scaling, design_vector
-from hypate.scaling.workflow.configuration import Configuration, apply_design, scaled_panel
+from hypate.scaling.workflow.configuration import (
+    Configuration,
+    apply_design,
+    scaled_panel,
+)
 from hypate.scaling.workflow.similarity import analytical_scaling, similarity_parameters
 from hypate.scaling.workflow.tunnels import bound_set, tunnel
 from hypate.solvers.config import load_case

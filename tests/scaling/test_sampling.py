@@ -3,7 +3,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypate.scaling.engine.sampling import _cached_olh, latin_hypercube, raw_latin_hypercube
+from hypate.scaling.engine.sampling import (
+    _cached_olh,
+    latin_hypercube,
+    raw_latin_hypercube,
+)
 from scipy.stats import qmc
 
 

@@ -5,7 +5,11 @@ import math
 
 import pytest
 from hypate.solvers.errors import InputError
-from hypate.solvers.flow import FlowCondition, sutherland_viscosity, sutherland_viscosity_derivative
+from hypate.solvers.flow import (
+    FlowCondition,
+    sutherland_viscosity,
+    sutherland_viscosity_derivative,
+)
 
 
 # Acceptance values of issue 2 (1976 standard atmosphere, geometric altitude), tolerance 0.1 %.

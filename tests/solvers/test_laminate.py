@@ -3,7 +3,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypate.solvers.laminate import SHEAR_CORRECTION, classical_abd, laminate, level_temperatures
+from hypate.solvers.laminate import (
+    SHEAR_CORRECTION,
+    classical_abd,
+    laminate,
+    level_temperatures,
+)
 from hypate.solvers.materials import isotropic, orthotropic
 from hypate.solvers.panel import Layer, PanelSpec, thermal_levels
 

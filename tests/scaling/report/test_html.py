@@ -1,4 +1,5 @@
-"""hypate.scaling.report.html and `hypate report`: a self-contained report of a real tiny run."""
+"""hypate.scaling.report.html and `hypate report`: the self-contained page of a real tiny run
+(the ``tiny_run`` fixture of this folder's conftest.py)."""
 from __future__ import annotations
 
 import base64
@@ -9,30 +10,20 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
-from hypate.scaling.report import html as report
-
-TINY = tiny_study_text()  # 2x2 mesh, 4 steps, 1 + 4 + 2 evaluations
-
-
-def _tiny(tmp_path: Path) -> Path:
-    path = tmp_path / "tiny.toml"
-    path.write_text(TINY)
-    return path
+from hypate.scaling.report.figures import MISMATCH_THRESHOLD
+from hypate.scaling.report.html import (
+    register_section,
+    render_html,
+    unregister_section,
+    write_report,
+    write_report_safely,
+)
+from hypate.scaling.report.rundata import RunData
+from hypate.scaling.report.sections import Section
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 SECTIONS = ("Study", "Design point", "Similarity parameters", "Figures", "Run statistics")
-
-
-@pytest.fixture(scope="module")
-def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
-    """A finished tiny run (2x2 mesh, 4 steps, 7 evaluations; ~2 s) and its study file."""
-    tmp = tmp_path_factory.mktemp("report")
-    study = _tiny(tmp)
-    out = tmp / "run"
-    assert main(["run", str(study), "--out", str(out)]) == 0
-    return out, study
 
 
 def _check_self_contained(page: str) -> list[bytes]:
@@ -55,7 +46,7 @@ def _check_self_contained(page: str) -> list[bytes]:
 
 def test_report_of_finished_run(tiny_run: tuple[Path, Path]) -> None:
     out, study = tiny_run
-    path = report.write_report(out, study_path=study)
+    path = write_report(out, study_path=study)
     assert path == out / "report.html"
     page = path.read_text(encoding="utf-8")
     pngs = _check_self_contained(page)
@@ -73,7 +64,7 @@ def test_report_of_finished_run(tiny_run: tuple[Path, Path]) -> None:
     for rec in point["similarity"]:
         assert f"<td>{rec['name']}</td>" in page
     n_bad = sum(1 for r in point["similarity"] if r["relative_difference"] is not None
-                and abs(r["relative_difference"]) > report.MISMATCH_THRESHOLD)
+                and abs(r["relative_difference"]) > MISMATCH_THRESHOLD)
     assert page.count('<tr class="mismatch">') == n_bad
     assert "tiny" in page and "ideal" in page  # study name, tunnel
 
@@ -81,23 +72,23 @@ def test_report_of_finished_run(tiny_run: tuple[Path, Path]) -> None:
 def test_extra_and_registered_sections(tiny_run: tuple[Path, Path]) -> None:
     out, study = tiny_run
 
-    def laws(run: report.RunData) -> report.Section:
+    def laws(run: RunData) -> Section:
         assert run.study is not None and run.variables == ["M", "p0", "T0", "h"]
-        return report.Section("Scaling laws", "<p>laws here</p>")
+        return Section("Scaling laws", "<p>laws here</p>")
 
-    def broken(run: report.RunData) -> report.Section:
+    def broken(run: RunData) -> Section:
         raise ValueError("boom")
 
-    report.register_section("test_laws", laws)
-    report.register_section("test_broken", broken)
+    register_section("test_laws", laws)
+    register_section("test_broken", broken)
     try:
         with pytest.warns(RuntimeWarning, match="boom"):
-            page = report.write_report(out, study_path=study,
+            page = write_report(out, study_path=study,
                                        extra_sections=[("Notes <x>", "<p>static</p>")]
                                        ).read_text()
     finally:
-        report.unregister_section("test_laws")
-        report.unregister_section("test_broken")
+        unregister_section("test_laws")
+        unregister_section("test_broken")
     assert page.index("<h2>Scaling laws</h2>") > page.index("<h2>Run statistics</h2>")
     assert "<h2>Notes &lt;x&gt;</h2>" in page and "<p>static</p>" in page
     assert "This section failed" in page and "boom" in page
@@ -118,12 +109,7 @@ def test_report_of_interrupted_run(tiny_run: tuple[Path, Path], tmp_path: Path) 
     assert "interrupted run" in page and "study file unknown" in page
     for title in SECTIONS:
         assert f"<h2>{title}</h2>" in page
-    # with the study file: names, similarity table and the rebuilt design point
-    data = report.load_run(run, study_path=study)
-    assert data.point_rebuilt and data.variables == ["M", "p0", "T0", "h"]
-    assert data.point["similarity"] and data.model is None
-    full = json.loads((out / "design_point.json").read_text())
-    assert data.point["objectives"] == pytest.approx(full["objectives"])
+    # with the study file: the variable names and the rebuilt similarity table
     assert main(["report", str(run), "--study", str(study)]) == 0
     page = (run / "report.html").read_text()
     _check_self_contained(page)
@@ -152,7 +138,7 @@ def test_report_renders_in_headless_chromium(tiny_run: tuple[Path, Path], tmp_pa
                                              ) -> None:
     """The page loads with every image decoded and no console error."""
     out, study = tiny_run
-    page = report.write_report(out, study_path=study)
+    page = write_report(out, study_path=study)
     # A probe page: an <iframe> would need JS access; instead append a tiny script to a copy
     # that marks images which failed to decode, then read the DOM after load.
     probe = tmp_path / "probe.html"
@@ -177,3 +163,20 @@ def test_report_renders_in_headless_chromium(tiny_run: tuple[Path, Path], tmp_pa
     # the original page (no script) loads too
     proc = subprocess.run(cmd[:-1] + [page.as_uri()], capture_output=True, text=True, timeout=90)
     assert proc.returncode == 0 and "<h2>Design point</h2>" in proc.stdout
+
+
+def test_render_html_anchors_and_notes(tmp_path: Path) -> None:
+    """Sections of one title get distinct anchors; notes and titles are escaped."""
+    run = RunData(directory=tmp_path, notes=["a <note>"])
+    page = render_html(run, [Section("Same", "<p>1</p>"), Section("Same", "<p>2</p>"),
+                             Section("<b>", ""), Section("?!", "")])
+    assert '<section id="same">' in page and '<section id="same-2">' in page
+    assert '<section id="b">' in page
+    assert '<section id="section">' in page  # a title without letters or digits
+    assert "<li>a &lt;note&gt;</li>" in page and "<h2>&lt;b&gt;</h2>" in page
+    assert "interrupted run" in page  # no design_point.json in tmp_path
+
+
+def test_write_report_safely_warns_instead_of_raising(tmp_path: Path) -> None:
+    with pytest.warns(RuntimeWarning, match="not a run directory"):
+        assert write_report_safely(tmp_path) is None

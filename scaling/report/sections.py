@@ -1,0 +1,354 @@
+"""The report's sections: :class:`Section`, :func:`html_table` and the built-in builders.
+
+Each builder takes a :class:`~hypate.scaling.report.rundata.RunData` and returns a
+:class:`Section` (or ``None`` to leave it out). :data:`BUILTIN_SECTIONS` lists them in page
+order: *Study*, *Design point* (Table 9.8 style, with active constraints), *Similarity
+parameters* (prototype / model / relative difference; > 10 % highlighted), *Figures*,
+*Pareto set*, *Run statistics* (evaluations, failures grouped by reason, wall time) and
+*Scaling laws* (a sweep's refined laws, Fig. 9.12). :mod:`.html` renders them into the page.
+"""
+from __future__ import annotations
+
+import html
+import math
+import re
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from hypate.scaling.engine.pareto import non_dominated_mask
+from hypate.scaling.report.figures import (
+    MISMATCH_THRESHOLD,
+    close_figures,
+    figure_html,
+    history_figure,
+    pareto_figure,
+    response_figure,
+    variable_unit,
+)
+from hypate.scaling.report.rundata import RunData
+from hypate.scaling.workflow.laws import (
+    SWEEP_JSON,
+    laws_figure,
+    laws_of_run,
+    laws_table,
+    load_sweep,
+)
+
+__all__ = ["Section", "html_table", "BUILTIN_SECTIONS"]
+
+
+@dataclass(frozen=True)
+class Section:
+    """One report section: a title and its HTML body (inserted verbatim)."""
+
+    title: str
+    html: str
+
+
+# -- small HTML helpers ---------------------------------------------------------------------
+def _fmt(value: Any, digits: int = 4) -> str:
+    """Numbers to short text (``-`` for missing/NaN)."""
+    if value is None:
+        return "&ndash;"
+    if isinstance(value, (bool, np.bool_)):
+        return "yes" if value else "no"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        v = float(value)
+        if not math.isfinite(v):
+            return "&ndash;"
+        return f"{v:.{digits}g}"
+    return html.escape(str(value))
+
+
+def _pct(value: Any) -> str:
+    if value is None or not isinstance(value, (int, float, np.number)) \
+            or not math.isfinite(float(value)):
+        return "&ndash;"
+    return f"{100.0 * float(value):.3g} %"
+
+
+def html_table(header: Sequence[str], rows: Iterable[Sequence[Any]],
+               row_classes: Sequence[str] | None = None, css_class: str = "") -> str:
+    """An HTML table; header cells are escaped, numbers formatted to 4 significant digits.
+
+    Parameters
+    ----------
+    header : sequence of str
+    rows : iterable of sequences
+        Cell values: numbers are formatted; strings are escaped, except instances of
+        :class:`_Raw` (HTML kept verbatim).
+    row_classes : sequence of str, optional
+        A CSS class per row (``""`` for none), e.g. ``"mismatch"``.
+    css_class : str
+        CSS class of the table.
+    """
+    out = [f'<table class="{html.escape(css_class)}"><thead><tr>']
+    out += [f"<th>{html.escape(str(h))}</th>" for h in header]
+    out.append("</tr></thead><tbody>")
+    for i, row in enumerate(rows):
+        cls = row_classes[i] if row_classes is not None and i < len(row_classes) else ""
+        out.append(f'<tr class="{cls}">' if cls else "<tr>")
+        for cell in row:
+            text = str(cell) if isinstance(cell, _Raw) else _fmt(cell)
+            out.append(f"<td>{text}</td>")
+        out.append("</tr>")
+    out.append("</tbody></table>")
+    return "".join(out)
+
+
+class _Raw(str):
+    """A string inserted into :func:`html_table` without escaping."""
+
+
+
+def _dl(items: Sequence[tuple[str, str]]) -> str:
+    return "<dl>" + "".join(f"<dt>{html.escape(k)}</dt><dd>{v}</dd>" for k, v in items) + "</dl>"
+
+
+def _study_section(run: RunData) -> Section:
+    point = run.point or {}
+    study = run.study
+    if study is None:
+        items = [("study", _fmt(point.get("study", "unknown"))),
+                 ("xi (geometric scale)", _fmt(point.get("xi"))),
+                 ("design variables", html.escape(", ".join(run.variables)) or "&ndash;"),
+                 ("objectives", html.escape(", ".join(run.objectives)) or "&ndash;"),
+                 ("evaluations stored", _fmt(len(run.evaluations)))]
+        return Section("Study", _dl(items) + "<p class='note'>The study file is unknown: "
+                       "regenerate with <code>hypate report DIR --study STUDY.toml</code> "
+                       "for the full summary.</p>")
+    spec = study.spec
+    proto = spec.prototype
+    pp, pf = proto.panel, proto.flow
+    layers = ", ".join(f"{layer.material.name} {1e3 * layer.thickness:.3g} mm"
+                       for layer in pp.layers)
+    alt = f", H = {pf.altitude / 1e3:.4g} km" if pf.altitude is not None else ""
+    prototype = (f"{pp.length:.4g} m x {pp.width:.4g} m {pp.boundary.replace('_', ' ')} "
+                 f"panel ({html.escape(layers)}), L_le = {pp.leading_edge_length:.4g} m; "
+                 f"M = {pf.mach:.4g}{alt}, p = {pf.pressure:.4g} Pa, "
+                 f"T = {pf.temperature:.4g} K, T0 = {pf.stagnation_temperature:.4g} K")
+    mp = spec.model.panel
+    model = (f"{html.escape(mp.layers[0].material.name)} panel, {mp.length:.4g} m x "
+             f"{mp.width:.4g} m (scale xi = {spec.xi:g})")
+    tun = study.tunnel
+    if tun is None:
+        tunnel = "free flight (no tunnel envelope)"
+    else:
+        mach = (f"M = {', '.join(f'{m:g}' for m in tun.mach_values)}" if tun.mach_values
+                else f"M in [{tun.mach[0]:g}, {tun.mach[1]:g}]")
+        tunnel = (f"{html.escape(tun.name)}: {mach}, p0 in [{tun.p0[0] / 1e6:.4g}, "
+                  f"{tun.p0[1] / 1e6:.4g}] MPa, T0 in [{tun.T0[0]:.4g}, {tun.T0[1]:.4g}] K"
+                  + (f" &mdash; {html.escape(tun.description)}" if tun.description else ""))
+    sim = spec.simulation
+    opt = study.optimizer
+    budget = (f"{opt.initial_samples} initial samples + {opt.iterations} iterations x "
+              f"batch {opt.batch_size}"
+              + (f" + {opt.polish} polish evaluations" if opt.polish else "")
+              + f" ({study.acquisition.upper()}, {opt.approach} approach, seed {opt.seed}"
+              + (f", {opt.coordinates} coordinates" if opt.coordinates != "design" else "")
+              + (f", {opt.transform} transform" if opt.transform != "none" else "") + ")")
+    items = [("study", html.escape(study.name)),
+             ("description", html.escape(study.description or "")),
+             ("study file", f"<code>{html.escape(str(run.study_path))}</code>"),
+             ("prototype", prototype), ("model", model), ("tunnel", tunnel),
+             ("simulation", html.escape(
+                 f"{sim.kind}, {sim.steps} steps of {sim.time_step:g} s (prototype), "
+                 f"aero {sim.aero}, heating {sim.heating}; time scaling {spec.time_scaling}, "
+                 f"projection {spec.projection}")),
+             ("objectives", html.escape(", ".join(spec.objectives))),
+             ("budget", html.escape(budget))]
+    if spec.equalities:
+        items.append(("equality constraints", html.escape(", ".join(spec.equalities))))
+    var_rows = [(v.name, variable_unit(v.name), v.lower, v.upper) for v in spec.variables]
+    body = _dl(items) + "<h3>Design variables</h3>" + html_table(
+        ["variable", "unit", "lower bound", "upper bound"], var_rows)
+    if spec.fixed:
+        body += "<h3>Fixed values</h3>" + html_table(
+            ["name", "unit", "value"], [(k, variable_unit(k), v) for k, v in spec.fixed.items()])
+    return Section("Study", body)
+
+
+def _bounds_of(run: RunData) -> dict[str, tuple[float, float]]:
+    if run.study is None:
+        return {}
+    return {v.name: (v.lower, v.upper) for v in run.study.spec.variables}
+
+
+def _design_section(run: RunData) -> Section:
+    point = run.point
+    if not point or not point.get("design"):
+        msg = (point or {}).get("message") or "no successful evaluation"
+        return Section("Design point", f"<p class='warn'>No design point: {html.escape(msg)}."
+                       " See the run statistics for the failure reasons.</p>")
+    bounds = _bounds_of(run)
+    active = [str(a) for a in point.get("active_constraints") or []]
+    active_vars = {a.split("=")[0]: a.split("=")[1] for a in active if "=" in a}
+    classical = (run.classical or {}).get("design") or {}
+    rows, classes = [], []
+    for name, value in point["design"].items():
+        lo, hi = bounds.get(name, (None, None))
+        state = active_vars.get(name, "")
+        rows.append((name, variable_unit(name), value, lo, hi, state or "",
+                     classical.get(name)))
+        classes.append("active" if state else "")
+    intro = ""
+    if run.point_rebuilt:
+        intro = ("<p class='note'>Rebuilt from the evaluation store (the run did not finish): "
+                 "the successful evaluation with the smallest max(J).</p>")
+    objs = point.get("objectives") or {}
+    obj_rows = [(k, _Raw(_pct(v)), _Raw(_pct(((run.classical or {}).get("objectives")
+                                               or {}).get(k))))
+                for k, v in objs.items()]
+    body = intro + html_table(["variable", "unit", "value", "lower bound", "upper bound",
+                               "bound hit", "classical baseline"], rows, classes)
+    body += "<h3>Objectives</h3>" + html_table(["objective", "design point",
+                                                "classical baseline"], obj_rows)
+    body += "<h3>Active constraints</h3>" + (
+        "<ul>" + "".join(f"<li>{html.escape(a)}</li>" for a in active) + "</ul>"
+        if active else "<p>none</p>")
+    extra = []
+    if isinstance(point.get("evaluation"), int):
+        extra.append(("evaluation", _fmt(point["evaluation"])))
+    if run.model_time_step is not None:
+        extra.append(("model time step", f"{run.model_time_step:.4g} s"))
+    if run.study is not None and run.model_time_step is not None:
+        sim = run.study.spec.simulation
+        extra.append(("model test duration",
+                      f"{run.model_time_step * sim.steps:.4g} s (prototype "
+                      f"{sim.time_step * sim.steps:.4g} s)"))
+    return Section("Design point", body + (_dl(extra) if extra else ""))
+
+
+def _similarity_section(run: RunData) -> Section:
+    rows_in = (run.point or {}).get("similarity") or []
+    if not rows_in:
+        return Section("Similarity parameters", "<p class='note'>Not available (needs the "
+                       "study file to rebuild it for an interrupted run).</p>")
+    rows, classes = [], []
+    for rec in rows_in:
+        rd = rec.get("relative_difference")
+        bad = rd is not None and math.isfinite(float(rd)) and abs(float(rd)) > MISMATCH_THRESHOLD
+        rows.append((rec.get("name"), rec.get("prototype"), rec.get("model"), _Raw(_pct(rd))))
+        classes.append("mismatch" if bad else "")
+    n_bad = classes.count("mismatch")
+    return Section("Similarity parameters",
+                   f"<p>{n_bad} of {len(rows)} parameters differ by more than "
+                   f"{100 * MISMATCH_THRESHOLD:.0f} % (highlighted). Relative difference = "
+                   "|model - prototype| / |prototype|.</p>"
+                   + html_table(["parameter", "prototype", "model", "relative difference"],
+                                rows, classes, css_class="similarity"))
+
+
+def _figures_section(run: RunData) -> Section:
+    parts = []
+    for make in (pareto_figure, history_figure, response_figure):
+        try:
+            parts.append(make(run))
+        except (ValueError, RuntimeError, KeyError, IndexError, TypeError) as exc:
+            close_figures()
+            parts.append(f"<p class='warn'>Figure {make.__name__.strip('_')} failed: "
+                         f"{html.escape(str(exc))}</p>")
+    body = "".join(p for p in parts if p)
+    return Section("Figures", body or "<p class='note'>No figure: no successful evaluation "
+                   "and no response file.</p>")
+
+
+def _pareto_section(run: RunData) -> Section | None:
+    ok = run.ok
+    if ok.empty or not run.objectives:
+        return None
+    F = ok[run.objectives].to_numpy(float)
+    if len(run.objectives) == 2:
+        sel = ok[non_dominated_mask(F)].sort_values(run.objectives[0])
+        title = f"Pareto set ({len(sel)} designs)"
+    else:
+        sel = ok.nsmallest(10, run.objectives[0])
+        title = f"Best designs ({len(sel)})"
+    header = ["evaluation"] + [f"{v} ({variable_unit(v)})" for v in run.variables] + \
+        list(run.objectives)
+    rows = [[int(i)] + [r[v] for v in run.variables] + [_Raw(_pct(r[o])) for o in run.objectives]
+            for i, r in sel.iterrows()]
+    return Section(title, html_table(header, rows))
+
+
+_NUM = re.compile(r"[-+]?\d+(\.\d+)?([eE][-+]?\d+)?")
+
+
+def _statistics_section(run: RunData) -> Section:
+    df = run.evaluations
+    n = len(df)
+    stats = (run.point or {}).get("statistics") or {}
+    failed = df[df["status"] != "ok"] if n else df
+    items = [("evaluations", _fmt(n)), ("successful", _fmt(n - len(failed))),
+             ("failed", _fmt(len(failed)))]
+    if n:
+        sec = df["seconds"].to_numpy(float)
+        items.append(("median time per evaluation", f"{np.median(sec):.3g} s"))
+        items.append(("total evaluation time", f"{np.sum(sec):.4g} s"))
+    if stats.get("wall_seconds") is not None:
+        items.append(("wall time", f"{float(stats['wall_seconds']):.4g} s"))
+    elif run.interrupted:
+        items.append(("wall time", "not recorded (interrupted run)"))
+    if stats.get("pareto_size") is not None:
+        items.append(("Pareto-set size", _fmt(stats["pareto_size"])))
+    if n and "iteration" in df:
+        it = df["iteration"].to_numpy()
+        opt = run.study.optimizer if run.study is not None else None
+        if opt is not None and opt.polish:
+            polish = it > opt.iterations
+            items.append(("classical seed / initial / BO / polish evaluations",
+                          f"{int((it < 0).sum())} / {int((it == 0).sum())} / "
+                          f"{int(((it > 0) & ~polish).sum())} / {int(polish.sum())}"))
+        else:
+            items.append(("classical seed / initial / BO evaluations",
+                          f"{int((it < 0).sum())} / {int((it == 0).sum())} / "
+                          f"{int((it > 0).sum())}"))
+    body = _dl(items)
+    if len(failed):
+        groups: dict[tuple[str, str], list[int]] = {}
+        examples: dict[tuple[str, str], str] = {}
+        for i, r in failed.iterrows():
+            msg = str(r.get("message", "") or "")
+            key = (str(r["status"]), _NUM.sub("#", msg)[:160])
+            groups.setdefault(key, []).append(int(i))
+            examples.setdefault(key, msg)
+        rows = [(st, len(idx), ", ".join(map(str, idx[:12])) + (" ..." if len(idx) > 12 else ""),
+                 examples[(st, k)][:300])
+                for (st, k), idx in sorted(groups.items(), key=lambda kv: -len(kv[1]))]
+        body += "<h3>Failures by reason</h3>" + html_table(
+            ["status", "count", "evaluations", "example message"], rows)
+    return Section("Run statistics", body)
+
+
+def _laws_section(run: RunData) -> Section | None:
+    """The "Scaling laws" section: shown for a sweep directory or a sweep point's
+    sub-directory (``sweep.json`` in it or in its parent) with finished points at two or more
+    scales; left out otherwise."""
+    directory = Path(run.directory)
+    for cand in (directory, directory.parent):
+        if (cand / SWEEP_JSON).is_file():
+            sweep = load_sweep(cand)
+            break
+    else:
+        return None
+    if len({p.xi for p in sweep.points}) < 2:
+        return None
+    laws = laws_of_run(sweep)
+    img = figure_html(laws_figure(laws), run, "laws",
+                      "Design variables against xi: numerical points (hollow: at a "
+                      "bound, not fitted), fitted law, analytical law (Fig. 9.12)")
+    rows = laws_table(laws)
+    cols = list(rows[0]) if rows else []
+    table = html_table(cols, [[r[c] for c in cols] for r in rows])
+    return Section("Scaling laws", img + table)
+
+
+#: The built-in section builders, in page order (registered plug-ins follow them).
+BUILTIN_SECTIONS: tuple[Callable[[RunData], Section | None], ...] = (
+    _study_section, _design_section, _similarity_section, _figures_section, _pareto_section,
+    _statistics_section, _laws_section)
