@@ -18,12 +18,14 @@ from hypate.scaling.cli import (
     bench,
     condition,
     flutter,
+    init,
     laws,
     report,
     rom,
     run,
     simulate,
     structure,
+    studies,
     thermal,
     validate,
     whatif,
@@ -32,8 +34,9 @@ from hypate.solvers.errors import InputError
 
 #: The command registry: modules providing subcommands (each has ``register(subparsers)``),
 #: in ``--help`` order.
-COMMAND_MODULES: tuple[ModuleType, ...] = (condition, run, laws, report, whatif, validate,
-                                           structure, thermal, simulate, flutter, rom, bench)
+COMMAND_MODULES: tuple[ModuleType, ...] = (run, studies, init, validate, report, whatif, laws,
+                                           condition, structure, thermal, simulate, flutter,
+                                           rom, bench)
 
 EXIT_USAGE = 2
 

@@ -2,15 +2,25 @@
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from hypate.scaling.engine.pareto import hypervolume
+from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.report.html import write_report_safely
 from hypate.scaling.workflow.run import run_study
+from hypate.scaling.workflow.rundir import (
+    DESIGN_POINT_JSON,
+    REPORT_HTML,
+    STORE,
+    SWEEP_CSV,
+    worst_objective,
+)
 from hypate.scaling.workflow.shipped import default_study, resolve
 from hypate.scaling.workflow.study import load_study
 from hypate.scaling.workflow.sweep import run_sweep
@@ -19,6 +29,8 @@ from tqdm import tqdm
 
 #: Reference point of the progress-bar hypervolume (relative errors of 100 %).
 PROGRESS_REF = np.array([1.0, 1.0])
+#: Seconds between progress lines when stderr is not a terminal (a log file, CI, nohup).
+LOG_EVERY = 10.0
 
 
 def default_run_dir(name: str, resume: bool, root: Path = Path("runs")) -> Path:
@@ -45,6 +57,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--workers", type=int, default=1, help="local worker processes (default 1)")
     p.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT")
     p.add_argument("--seed", type=int, help="override the study's optimizer seed")
+    p.add_argument("--json", action="store_true", help="print one JSON object at the end "
+                   '{"directory", "report", "evaluations", "new_evaluations", "seconds", '
+                   '"design_point"} (progress still goes to stderr)')
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     p.add_argument("--seed-from", action="append", default=[], metavar="RUN_DIR",
                    help="seed the initial sample with the 10 best designs of an earlier run "
                    "(repeatable; e.g. Case 1 for the Case 2 strategy); variables it lacks "
@@ -55,12 +71,18 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 class _Progress:
-    """Progress bar: evaluations / budget, best max(J), hypervolume, elapsed and ETA."""
+    """Progress: evaluations / budget, best max(J), hypervolume, elapsed and ETA -- a live
+    bar in a terminal, a line every :data:`LOG_EVERY` seconds (and at the end) otherwise,
+    nothing when quiet."""
 
-    def __init__(self, enabled: bool) -> None:
-        self.bar = tqdm(total=1, unit="eval", desc="evaluations", disable=not enabled,
+    def __init__(self, quiet: bool = False, tty: bool | None = None) -> None:
+        tty = sys.stderr.isatty() if tty is None else tty
+        self.lines = not quiet and not tty
+        self.bar = tqdm(total=1, unit="eval", desc="evaluations", disable=quiet or not tty,
                         dynamic_ncols=True)
         self.F: list[np.ndarray] = []
+        self.t0 = self.last = time.monotonic()
+        self.first: int | None = None
 
     def __call__(self, done: int, budget: int, evaluation) -> None:
         self.bar.total = budget
@@ -69,40 +91,49 @@ class _Progress:
         post = {}
         if self.F:
             F = np.array(self.F)
-            post["best"] = f"{F.max(axis=1).min():.4g}"
+            post["best"] = f"{worst_objective(F).min():.4g}"
             if F.shape[1] == 2:
                 post["HV"] = f"{hypervolume(F[np.all(F < PROGRESS_REF, axis=1)], PROGRESS_REF):.4g}"
         self.bar.set_postfix(post, refresh=False)
         self.bar.update(done - self.bar.n)
+        if self.first is None:
+            self.first = done - 1 if evaluation is not None else done
+        now = time.monotonic()
+        if self.lines and (now - self.last >= LOG_EVERY or done >= budget):
+            self.last = now
+            rate = (now - self.t0) / max(done - self.first, 1)
+            eta = f", ETA {rate * (budget - done):.0f} s" if done < budget else ""
+            extra = "".join(f", {k} {v}" for k, v in post.items())
+            print(f"evaluations {done}/{budget}{extra}, {now - self.t0:.0f} s{eta}",
+                  file=sys.stderr, flush=True)
 
     def close(self) -> None:
         self.bar.close()
 
 
-def run(args: argparse.Namespace) -> int:
-    path = resolve(args.study, "study") if args.study else default_study()
-    study = load_study(path)
-    out = Path(args.out) if args.out else default_run_dir(study.name, args.resume)
-    if args.seed is not None and args.seed < 0:
-        raise InputError("--seed", "must be >= 0")
-    t0 = time.perf_counter()
-    print(f"study {study.name}: {study.description or path}", file=sys.stderr)
-    if study.sweep is not None:
-        if args.seed_from:
-            raise InputError("--seed-from", "not available for sweep studies (their points "
-                             "are seeded by recycling, [sweep] recycle)")
-        return _run_sweep(args, study, out, t0)
-    print("simulating the prototype ...", file=sys.stderr)
-    bar = _Progress(enabled=sys.stderr.isatty())
-    try:
-        outcome = run_study(study, out, resume=args.resume, workers=args.workers,
-                            scheduler=args.scheduler, seed=args.seed, progress=bar,
-                            seed_runs=args.seed_from, on_written=write_report_safely)
-    finally:
-        bar.close()
-    point = outcome.design_point
-    print(f"{out}: {point['statistics']['evaluations']} evaluations in "
-          f"{time.perf_counter() - t0:.1f} s")
+def stored_evaluations(run_dir: Path) -> int:
+    """Evaluations already in a run directory's store (0 without one)."""
+    if not (run_dir / STORE).is_file():
+        return 0
+    with EvaluationStore(run_dir / STORE) as store:
+        return len(store.load())
+
+
+def _summary(out: Path, point: dict[str, Any], before: int, seconds: float) -> dict[str, Any]:
+    n = int(point["statistics"]["evaluations"])
+    report = out / REPORT_HTML
+    return {"directory": str(out), "report": str(report) if report.is_file() else None,
+            "evaluations": n, "new_evaluations": n - before, "seconds": seconds,
+            "design_point": {k: point.get(k) for k in ("design", "objectives",
+                                                       "active_constraints")}}
+
+
+def _print_summary(summary: dict[str, Any], before: int) -> None:
+    n, new, t = summary["evaluations"], summary["new_evaluations"], summary["seconds"]
+    done = (f"resumed: {before} earlier + {new} new evaluations" if before
+            else f"{n} evaluations")
+    print(f"{summary['directory']}: {done}, {t:.1f} s in this run")
+    point = summary["design_point"]
     if point.get("design"):
         objs = ", ".join(f"{k} = {v:.4g}" for k, v in point["objectives"].items())
         print(f"design point: {objs}")
@@ -112,6 +143,52 @@ def run(args: argparse.Namespace) -> int:
             print(f"  active: {', '.join(point['active_constraints'])}")
     else:
         print("no successful evaluation: see evaluations.csv for the reasons")
+    if summary["report"]:
+        print(f"report: {summary['report']}")
+
+
+def run(args: argparse.Namespace) -> int:
+    path = resolve(args.study, "study") if args.study else default_study()
+    study = load_study(path)
+    out = Path(args.out) if args.out else default_run_dir(study.name, args.resume)
+    if args.seed is not None and args.seed < 0:
+        raise InputError("--seed", "must be >= 0")
+    t0 = time.perf_counter()
+    say = (lambda *a: None) if args.quiet else (lambda *a: print(*a, file=sys.stderr))
+    say(f"study {study.name}: {study.description or path}")
+    if args.out is None and out.name != study.name and not args.resume:
+        say(f"runs/{study.name} exists: this run writes {out} "
+            f"(hypate run --resume continues the latest)")
+    if study.sweep is not None:
+        if args.seed_from:
+            raise InputError("--seed-from", "not available for sweep studies (their points "
+                             "are seeded by recycling, [sweep] recycle)")
+        return _run_sweep(args, study, out, t0)
+    before = stored_evaluations(out) if args.resume else 0
+    if args.resume and (out / DESIGN_POINT_JSON).is_file() and before >= study.budget:
+        point = json.loads((out / DESIGN_POINT_JSON).read_text())
+        summary = _summary(out, point, before, 0.0)
+        if args.json:
+            print(json.dumps(summary, indent=2))
+        else:
+            print(f"{out}: already complete ({before} evaluations); nothing to do")
+            if summary["report"]:
+                print(f"report: {summary['report']}")
+        return 0
+    say("simulating the prototype ...")
+    bar = _Progress(quiet=args.quiet)
+    try:
+        outcome = run_study(study, out, resume=args.resume, workers=args.workers,
+                            scheduler=args.scheduler, seed=args.seed, progress=bar,
+                            seed_runs=args.seed_from, on_written=write_report_safely)
+    finally:
+        bar.close()
+    point = outcome.design_point
+    summary = _summary(out, point, before, time.perf_counter() - t0)
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        _print_summary(summary, before)
     if not math.isfinite(point["statistics"].get("wall_seconds") or 0.0):
         return 1
     return 0
@@ -124,8 +201,9 @@ def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
     def on_point(i: int, n: int, point) -> None:
         if bars:
             bars.pop().close()
-        print(f"[{i + 1}/{n}] {point.label}", file=sys.stderr)
-        bars.append(_Progress(enabled=sys.stderr.isatty()))
+        if not args.quiet:
+            print(f"[{i + 1}/{n}] {point.label}", file=sys.stderr)
+        bars.append(_Progress(quiet=args.quiet))
 
     def progress(done: int, budget: int, evaluation) -> None:
         if bars:
@@ -138,8 +216,13 @@ def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
     finally:
         for bar in bars:
             bar.close()
+    if args.json:
+        print(json.dumps({"directory": str(out), "summary": str(out / SWEEP_CSV),
+                          "seconds": time.perf_counter() - t0, "points": outcome.points},
+                         indent=2, default=str))
+        return 1 if any(rec["status"] != "done" for rec in outcome.points) else 0
     print(f"{out}: {len(outcome.points)} sweep points in {time.perf_counter() - t0:.1f} s "
-          f"(summary: {out / 'sweep.csv'})")
+          f"(summary: {out / SWEEP_CSV})")
     failed = 0
     for rec in outcome.points:
         objs = ", ".join(f"{k} = {v:.4g}" for k, v in (rec.get("objectives") or {}).items())

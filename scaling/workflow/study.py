@@ -92,6 +92,9 @@ class _Strict(BaseModel):
 class StudySection(_Strict):
     name: str = "study"
     description: str = ""
+    #: measured wall time of a whole run (free text, e.g. "4.5 min on 2 cores"), for
+    #: ``hypate studies``; empty: not measured
+    duration: str = ""
     kind: Literal["quasi_steady", "aeroelastic"] = "quasi_steady"
     objectives: Annotated[list[Literal["J_u", "J_T", "J_s"]], Field(min_length=1, max_length=2)
                           ] = ["J_u", "J_T"]

@@ -1,0 +1,64 @@
+"""``hypate init PATH.toml [--from STUDY]``: write a study file to start from -- a copy of a
+shipped study (default the quick-start) with its comments, its prototype case referred to by
+the shipped name so the file works from any folder, and a header saying where it came from.
+``hypate validate PATH.toml`` accepts the result."""
+from __future__ import annotations
+
+import argparse
+import re
+from pathlib import Path
+
+from hypate.scaling.workflow.shipped import resolve, shipped
+from hypate.scaling.workflow.study import load_study
+from hypate.solvers.config import did_you_mean
+from hypate.solvers.errors import InputError
+
+CASE_LINE = re.compile(r'^(case\s*=\s*)"([^"]+)"', re.M)
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("init", help="write a commented study file to start from",
+                       description="Write PATH (a new study file) from a shipped study, "
+                       "comments included; edit it, check it with `hypate validate PATH`, "
+                       "run it with `hypate run PATH`.")
+    p.add_argument("path", metavar="PATH", help="study file to write (must not exist)")
+    p.add_argument("--from", dest="source", default="quickstart", metavar="STUDY",
+                   help="shipped study to start from (see `hypate studies`)")
+    p.set_defaults(func=run, field_flags={"source": "--from", "path": "PATH"})
+
+
+def study_text(source: str) -> str:
+    """The text of shipped study ``source`` with its case by shipped name."""
+    studies = shipped("study")
+    if source not in studies:
+        raise InputError("source", f"no shipped study {source!r}"
+                         + did_you_mean(source, list(studies)) + "; see `hypate studies`")
+    path = studies[source]
+    cases = shipped("case")
+
+    def by_name(m: re.Match[str]) -> str:
+        target = resolve(m.group(2), "case", path.parent).resolve()
+        known = cases.get(target.stem)
+        name = target.stem if known is not None and known.resolve() == target else str(target)
+        return f'{m.group(1)}"{name}"'
+
+    header = (f"# Study file written by `hypate init --from {source}`; edit freely.\n"
+              "# Check it with `hypate validate FILE`, run it with `hypate run FILE`.\n")
+    return header + CASE_LINE.sub(by_name, path.read_text(encoding="utf-8"))
+
+
+def run(args: argparse.Namespace) -> int:
+    out = Path(args.path)
+    if out.suffix != ".toml":
+        raise InputError("path", f"must end in .toml; got {out.name}")
+    if out.exists():
+        raise InputError("path", f"{out} exists; choose a new file name")
+    if not out.parent.is_dir():
+        raise InputError("path", f"folder {out.parent} does not exist")
+    text = study_text(args.source)
+    tmp = out.with_name(out.name + ".tmp")
+    tmp.write_text(text, encoding="utf-8")
+    load_study(tmp)  # what is written validates (a shipped study always does)
+    tmp.replace(out)
+    print(f"{out}: written from {args.source}; next: hypate validate {out}")
+    return 0

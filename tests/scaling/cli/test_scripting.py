@@ -1,0 +1,115 @@
+"""The CLI for scripts: --version, studies, init, validate (every schema), --json, "did you
+mean", progress lines without a terminal, honest run summaries."""
+from __future__ import annotations
+
+import json
+from importlib.metadata import version
+from pathlib import Path
+
+import pytest
+from conftest import tiny_study_text
+from hypate.scaling.cli.main import main
+from hypate.scaling.cli.run import _Progress
+
+
+def _json(capsys: pytest.CaptureFixture) -> object:
+    return json.loads(capsys.readouterr().out)
+
+
+def test_version(capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0 and capsys.readouterr().out.strip() == f"hypate {version('hypate')}"
+
+
+def test_a_mistyped_command_gets_a_suggestion(capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["rnu"])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and "did you mean 'run'?" in err and err.count("\n") == 1
+
+
+def test_every_option_default_is_in_help(capsys: pytest.CaptureFixture) -> None:
+    for cmd in (["flutter"], ["bench", "bo"], ["rom", "plan"]):
+        with pytest.raises(SystemExit):
+            main([*cmd, "--help"])
+        text = " ".join(capsys.readouterr().out.split())
+        assert "default" in text, cmd
+
+
+def test_studies_lists_every_shipped_study(capsys: pytest.CaptureFixture) -> None:
+    assert main(["studies", "--json"]) == 0
+    rows = {r["name"]: r for r in _json(capsys)}
+    assert {"quickstart", "sec9_2_2_xi4", "sec9_1_xi2_equal_nu"} <= set(rows)
+    assert rows["quickstart"]["evaluations"] == 40 and rows["quickstart"]["duration"]
+    assert rows["sec9_2_4_envelope"]["sweep_points"] == 25  # Table 9.11's 25 conditions
+
+
+@pytest.mark.parametrize("source", ["quickstart", "sec9_1_xi2", "sec9_2_3_case2_wt5"])
+def test_init_writes_a_study_that_validates_anywhere(source: str, tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture) -> None:
+    path = tmp_path / "mine.toml"
+    assert main(["init", str(path), "--from", source]) == 0
+    assert path.read_text().startswith("# Study file written by `hypate init")
+    capsys.readouterr()
+    assert main(["validate", str(path), "--json"]) == 0
+    doc = _json(capsys)
+    assert doc["valid"] and doc["schema"] == "study"
+    assert main(["init", str(path)]) == 2  # never overwrites
+    assert "exists" in capsys.readouterr().err
+
+
+def test_init_suggests_a_shipped_name(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    assert main(["init", str(tmp_path / "x.toml"), "--from", "quikstart"]) == 2
+    assert "--from: no shipped study 'quikstart'; did you mean 'quickstart'?" in \
+        capsys.readouterr().err
+    assert not (tmp_path / "x.toml").exists()
+
+
+@pytest.mark.parametrize("name, schema", [("quickstart", "study"), ("sec9_2_prototype", "case"),
+                                          ("studies/rom/rom_2d_panel.toml", "rom")])
+def test_validate_applies_and_names_the_schema(name: str, schema: str, repo_root: Path,
+                                               capsys: pytest.CaptureFixture,
+                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(repo_root)
+    assert main(["validate", name]) == 0
+    assert f"valid ({schema} file)" in capsys.readouterr().out
+
+
+def test_validate_json_of_a_bad_study_names_the_key_and_suggests(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text(tiny_study_text().replace("initial_samples", "inital_samples"))
+    assert main(["validate", str(path), "--json"]) == 2
+    doc = _json(capsys)
+    assert doc["valid"] is False and doc["field"] == "optimizer.inital_samples"
+    assert "did you mean 'initial_samples'?" in doc["message"]
+
+
+def test_run_json_and_resume_summaries(tiny_study, tmp_path: Path,
+                                       capsys: pytest.CaptureFixture) -> None:
+    study = tiny_study()
+    out = tmp_path / "run"
+    assert main(["run", str(study), "--out", str(out), "--json", "-q"]) == 0
+    cap = capsys.readouterr()
+    doc = json.loads(cap.out)
+    assert cap.err == ""  # -q: nothing on stderr
+    assert doc["evaluations"] == doc["new_evaluations"] == 7  # 4 + 2 + the classical seed
+    assert doc["report"] == str(out / "report.html") and Path(doc["report"]).is_file()
+    assert set(doc["design_point"]) == {"design", "objectives", "active_constraints"}
+    assert main(["run", str(study), "--out", str(out), "--resume", "-q"]) == 0
+    assert "already complete (7 evaluations)" in capsys.readouterr().out
+
+
+def test_progress_without_a_terminal_prints_lines(capsys: pytest.CaptureFixture,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    clock = iter([0.0, 0.0, 1.0, 12.0, 13.0])  # start, then one reading per call
+    monkeypatch.setattr("hypate.scaling.cli.run.time.monotonic", lambda: next(clock))
+    bar = _Progress(tty=False)
+    for done in (1, 2, 3, 4):
+        bar(done, 4, None)
+    bar.close()
+    lines = capsys.readouterr().err.strip().splitlines()
+    # one line once 10 s have passed (t = 12 s: 2 evaluations since the first in 12 s,
+    # 6 s each, one left) and one at the end; none in between
+    assert lines == ["evaluations 3/4, 12 s, ETA 6 s", "evaluations 4/4, 13 s"]
