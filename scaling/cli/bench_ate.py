@@ -1,7 +1,7 @@
 """``hypate bench ate``: the reference aerothermoelastic run (issue 6 benchmark).
 
 The Sec. 9.2 prototype -- 1 m x 1 m simply supported Inconel 718 honeycomb sandwich
-(1 mm / 16 mm core / 1 mm, ``studies/cases/sec9_2_prototype.toml``), M = 6, H = 25 km,
+(1 mm / 16 mm core / 1 mm, ``scaling/data/cases/sec9_2_prototype.toml``), M = 6, H = 25 km,
 L_le = 1 m, 8 x 8 shell mesh, emissivity 0.85, effective-shape piston theory + turbulent
 Eckert heating -- run with the tightly coupled scheme, LSA every step, dt = 1 s, 160 s.
 Prints the per-step wall-time breakdown (fluid / structural / thermal / stability, Table 8.6

@@ -2,8 +2,10 @@
 from __future__ import annotations
 
 import argparse
+import json
 
 from hypate.scaling.report.html import write_report
+from hypate.scaling.workflow.rundir import FIGURES_DIR
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -18,11 +20,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--simulate", action="store_true",
                    help="interrupted run: simulate the rebuilt design point to plot its "
                    "response (one model simulation)")
-    p.set_defaults(func=run)
+    p.add_argument("--json", action="store_true", help='print {"report", "figures"} as JSON')
+    p.set_defaults(func=run, field_flags={"study": "--study"})
 
 
 def run(args: argparse.Namespace) -> int:
-
     path = write_report(args.run_dir, study_path=args.study, simulate=args.simulate)
-    print(path)
+    if args.json:
+        figures = sorted(str(p) for p in (path.parent / FIGURES_DIR).glob("*.png"))
+        print(json.dumps({"report": str(path), "figures": figures}))
+    else:
+        print(path)
     return 0

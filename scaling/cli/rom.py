@@ -40,7 +40,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     b = cmds.add_parser("build", help="build a ROM from a TOML build file",
                         description="Sample the built-in source on an OLH plan (or read the "
                         "external snapshots of the file) and fit the POD-kriging ROM.")
-    b.add_argument("config", help="ROM build file (TOML), e.g. studies/rom_2d_panel.toml")
+    b.add_argument("config", help="ROM build file (TOML), e.g. studies/rom/rom_2d_panel.toml or the shipped name rom_2d_panel")
     b.add_argument("--out", required=True, help="output ROM file (.npz)")
     b.add_argument("--samples", type=int, help="override [training] samples")
     b.add_argument("--workers", type=int, default=1,

@@ -30,7 +30,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Evaluate one wind-tunnel model design: J_u, J_T, the similarity table "
         "and the constraint activity. Values not given with --set take the midpoint of their "
         "bounds; values outside their bounds are evaluated and flagged. Example: hypate "
-        "whatif studies/quickstart.toml --set p0=6e6")
+        "whatif quickstart --set p0=6e6")
     p.add_argument("study", help="study TOML file")
     p.add_argument("--set", dest="set_values", action="append", default=None,
                    metavar="NAME=VALUE", help="design value in SI units (repeatable)")

@@ -187,7 +187,7 @@ def load_run(run_dir: str | Path, study_path: str | Path | None = None,
     study_path : path, optional
         The study file. Without it the study is looked up in ``design_point.json``
         (``study_path``), the store's metadata, ``run_dir/study.toml`` and finally the
-        shipped ``studies/<study name>.toml`` (used only when its variable and objective
+        shipped study of that name (:mod:`hypate.scaling.workflow.shipped`) (used only when its variable and objective
         counts match the store). When none is found the report shows what the store/CSV
         holds (variables ``x0..``, objectives ``f0..`` unless the CSV names them).
     simulate : bool

@@ -1,6 +1,6 @@
 """Study files (TOML): a scaling problem plus optimizer settings, validated.
 
-Public keys (documented in the README, used by the shipped ``studies/*.toml``)::
+Public keys (documented in the README, used by the shipped ``studies/optimization/*.toml``)::
 
     [study]        name, description, kind ("quasi_steady" | "aeroelastic"), objectives,
                    xi, time_scaling ("fourier" | "fourier_thickness" | "structural"),

@@ -2,7 +2,7 @@
 
 The tunnel engineer's question "what if we only get 6 MPa stagnation pressure?" is::
 
-    hypate whatif studies/quickstart.toml --set p0=6e6
+    hypate whatif quickstart --set p0=6e6
 
 Rules (documented in ``--help`` and the README):
 

@@ -1,7 +1,7 @@
 """Schema of ROM build files (``hypate rom build CONFIG.toml``), validated with pydantic.
 
 Public schema (keys are a contract; see README "Fluid ROM"), example
-``studies/rom_2d_panel.toml`` (Dissertation Sec. 7.1, Table 7.1)::
+``studies/rom/rom_2d_panel.toml`` (Dissertation Sec. 7.1, Table 7.1)::
 
     [panel]                      # the reference geometry of the ROM (L_ref = length)
     kind = "2d"                  # "2d" (one line of points at mid-span) or "3d"

@@ -6,7 +6,7 @@ xi = 2, 3, 4. The dissertation tabulates the parameters h/L, lambda_F and
 Delta T N_Tx L^2/D_xx (Eq. 9.1) of the prototype and of the models found by its Bayesian
 optimization. Here the model rows are those of the analytical laws (Eq. 9.2), which match
 the prototype exactly; with ``optimize_dirs`` (``--optimize DIR ...``) the models of
-``hypate run studies/sec9_1_xi*.toml`` run directories are tabulated as well.
+``hypate run studies/optimization/sec9_1_xi*.toml`` run directories are tabulated as well.
 
 Run ``python -m hypate.studies.scripts.ch9_table9_3 [--coarse] [--out DIR] [--optimize RUN_DIR ...]``.
 """
@@ -116,7 +116,7 @@ def main(argv: list[str] | None = None) -> None:
     """``python -m hypate.studies.scripts.ch9_table9_3 [--coarse] [--out DIR] [--optimize RUN_DIR ...]``."""
     parser = standard_parser(__doc__.splitlines()[0])
     parser.add_argument("--optimize", nargs="*", default=[], metavar="RUN_DIR",
-                        help="run directories of `hypate run studies/sec9_1_xi*.toml`")
+                        help="run directories of `hypate run studies/optimization/sec9_1_xi*.toml`")
     args = parser.parse_args(argv)
     base = Config.coarse() if args.coarse else Config()
     res = run(dataclasses.replace(base, optimize_dirs=tuple(args.optimize)))

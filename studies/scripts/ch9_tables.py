@@ -2,11 +2,11 @@
 
 Tabulates the dissertation's design points next to those of ``hypate run`` directories:
 
-* Table 9.8 (Sec. 9.2.2, ideal tunnel, Fig. 9.9 solid points): ``studies/sec9_2_2_xi{2..5}.toml``;
+* Table 9.8 (Sec. 9.2.2, ideal tunnel, Fig. 9.9 solid points): ``studies/optimization/sec9_2_2_xi{2..5}.toml``;
 * Tables 9.9 / 9.10 (Sec. 9.2.3, WT5-WT7, Case 1 parameter relaxation / Case 2 with the
-  radiant heater): ``studies/sec9_2_3_case{1,2}_wt{5,6,7}.toml``;
+  radiant heater): ``studies/optimization/sec9_2_3_case{1,2}_wt{5,6,7}.toml``;
 * Table 9.11 (Sec. 9.2.4, errors over the flight envelope in WT7):
-  ``studies/sec9_2_4_envelope.toml`` (its ``sweep.csv``; error = 100 J_s, Eq. 9.8).
+  ``studies/optimization/sec9_2_4_envelope.toml`` (its ``sweep.csv``; error = 100 J_s, Eq. 9.8).
 
 The optimizations take hours; this script only reads finished (or interrupted) run
 directories: ``design_point.json`` (``study``, ``xi``, ``design``, ``objectives``) or
