@@ -1,4 +1,4 @@
-"""Coupled aerothermoelastic model and the tightly coupled quasi-steady scheme (Ch. 5).
+"""The coupled aerothermoelastic model of one panel (Ch. 5).
 
 :class:`PanelModel` holds the three disciplines of one panel in one flow -- the DCS9
 structure, the HTSH thermal model and a fluid model of any fidelity -- joined by the
@@ -6,27 +6,22 @@ conservative transfer matrices of Eq. (5.1). It provides the discipline coupling
 schemes need: aerodynamic loads and their Jacobians on the structural DOFs, the wall heat
 flux as an implicit function of the wall temperature, the static aeroelastic equilibrium
 (Eq. 5.31b) by Newton with the aerodynamic Jacobian, and the linearized stability analysis
-(Eqs. 5.33-5.35).
-
-:func:`run_tc` integrates Eq. (5.31) on the thermal time scale (Sec. 5.4.3): each step a
-Crank-Nicolson thermal step with the aerodynamic heat flux implicit in the wall
-temperature, then the aeroelastic equilibrium with fluid and structure converged together,
-optionally repeated (fixed-point passes) until both fields stop changing; then the LSA.
-The run stops after ``unstable_steps`` consecutive unstable LSA results.
+(Eqs. 5.33-5.35). The schemes that march it in time are :func:`hypate.solvers.coupling.tc.run_tc`
+(tightly coupled, quasi-steady) and :func:`hypate.solvers.coupling.lc.run_lc` (loosely coupled
+S1/S2); :func:`hypate.solvers.coupling.run.simulate` runs a case from its configuration.
 """
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from hypate.solvers.aero.analytic import PointwiseJacobians
 from hypate.solvers.aero.base import FluidLoads, FluidModel, SurfaceState
-from hypate.solvers.aero.factory import make_fluid_model
-from hypate.solvers.coupling.response import Response, sinusoidal_modes
+from hypate.solvers.coupling.response import sinusoidal_modes
 from hypate.solvers.coupling.stability import (
     StabilityResult,
     gep,
@@ -38,9 +33,7 @@ from hypate.solvers.coupling.transfer import Transfer, fluid_points
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.numerics.sparse import gmres
-from hypate.solvers.numerics.threads import single_threaded_blas
 from hypate.solvers.panel import PanelSpec
-from hypate.solvers.structure.dynamics import AlphaStepper
 from hypate.solvers.structure.model import StructuralModel
 from hypate.solvers.thermal.model import SurfaceCondition, ThermalLoads, ThermalModel
 from numpy.typing import NDArray
@@ -511,7 +504,12 @@ class PanelModel:
     # -- aerodynamic operators on the structural DOFs -------------------------------------
     def aero_force(self, loads: FluidLoads) -> Array:
         """F_S = H_SF p + external load (Eqs. 5.1a, 5.27)."""
-        return self.transfer.H_SF @ loads.pressure + self._F_ext
+        return self.pressure_force(loads.pressure)
+
+    def pressure_force(self, pressure: Array) -> Array:
+        """F_S = H_SF p + external load (Eqs. 5.1a, 5.27) for an overpressure ``p`` on the
+        fluid points (e.g. the extrapolated pressure of scheme S1, Eq. 5.3)."""
+        return self.transfer.H_SF @ pressure + self._F_ext
 
     def aero_stiffness(self, loads: FluidLoads) -> sp.csr_matrix | spla.LinearOperator:
         """K_A = dF_S/du = H_SF (dp/dw H_FS + dp/dw_s H_FS_slope) (Eq. 5.34)."""
@@ -693,8 +691,9 @@ class PanelModel:
             f"iterations (residual {rnorm:.3g} N vs scale {ref:.3g} N)")
 
     def _gmres_precond(self, matvec, b: Array) -> Array | None:
-        """GMRES preconditioned by the kept factor (:func:`hypate.solvers.numerics.sparse.gmres`, at most
-        20 iterations); None when the factor is missing or too weak."""
+        """GMRES preconditioned by the kept factor (at most 20 iterations of
+        :func:`hypate.solvers.numerics.sparse.gmres`); None when the factor is missing or too
+        weak."""
         if self._precond is None or self._precond.shape[0] != b.size:
             return None
         # (a hand-rolled GMRES: scipy's costs 0.1 ms per iteration more in Python overhead,
@@ -793,8 +792,8 @@ class PanelModel:
 
     def _gep_pointwise(self, K: sp.csr_matrix, M: sp.csr_matrix, KA_data: Array
                        ) -> StabilityResult:
-        """:func:`hypate.solvers.coupling.stability.gep` (direct solver, default shift) on the free block
-        built by index maps; its factor becomes the Newton preconditioner."""
+        """:func:`hypate.solvers.coupling.stability.gep` (direct solver, default shift) on the
+        free block built by index maps; its factor becomes the Newton preconditioner."""
         fp = self._op("free")
         Kb, Mb = K.data[fp.sel], M.data[fp.sel]
         Mff = sp.csr_matrix((Mb, fp.indices, fp.indptr), shape=(fp.n, fp.n))
@@ -823,312 +822,6 @@ def _scaled(op: spla.LinearOperator, factor: float) -> spla.LinearOperator:
     return spla.LinearOperator(op.shape, matvec=lambda x: factor * (op @ x), dtype=float)
 
 
-def extrapolate(history: list[Array]) -> Array:
-    """Polynomial extrapolation to the next of equally spaced states, ``history`` newest
-    first: ``3 x_n - 3 x_(n-1) + x_(n-2)`` (quadratic) from three states, ``2 x_n - x_(n-1)``
-    from two, ``x_n`` from one. A smooth history ``x(t)`` is predicted to O(dt^3)."""
-    if len(history) >= 3:
-        return 3.0 * history[0] - 3.0 * history[1] + history[2]
-    if len(history) == 2:
-        return 2.0 * history[0] - history[1]
-    return np.array(history[0], copy=True)
-
-
-def run_tc(model: PanelModel, progress=None) -> Response:
-    """Tightly coupled quasi-steady scheme (Sec. 5.4.3) with LSA each step.
-
-    Parameters
-    ----------
-    model : PanelModel
-    progress : callable(step, n_steps), optional
-        Called after every step.
-
-    Returns
-    -------
-    Response
-        Histories up to the end or to the instability (``instability_time``,
-        ``instability_type``); a solver failure ends the run with ``status = "failed"``
-        and the reason in ``message`` (never an exception).
-    """
-    # one BLAS thread: every dense operation of a step is small, and on a busy machine
-    # OpenBLAS's second thread spins or waits for a core (measured: the ARPACK eigenvector
-    # extraction takes 50 ms instead of 1 ms, the whole run 30-50 % longer)
-    with single_threaded_blas():
-        return _run_tc(model, progress)
-
-
-def _run_tc(model: PanelModel, progress) -> Response:
-    s = model.settings
-    dt, n_steps = s.time_step, s.n_steps
-    resp = Response.start(model, scheme="tc")
-    u, T = model.initial_state()
-    unstable_run = 0
-    first_unstable: tuple[float, str] | None = None
-    t_start = time.perf_counter()
-    try:
-        u, _ = model.equilibrium(u, T)
-        lsa = model.stability(u, T)
-        resp.record(0.0, u, T, model, lsa)
-        # converged states of the previous steps, newest first: the Newton predictors
-        T_hist: list[Array] = []
-        u_hist: list[Array] = []
-        for n in range(1, n_steps + 1):
-            t = n * dt
-            T_new, u_new = T, u
-            for k in range(s.passes):
-                T_prev, u_prev = T_new, u_new
-                if not model.thermal_frozen:
-                    # the thermal Newton starts from the extrapolation of the last steps (same
-                    # solution, about one Newton iteration fewer per step)
-                    guess = T_new if (k > 0 or not T_hist) else extrapolate([T, *T_hist])
-                    T_new = model.thermal_step(T, u_new, dt, T_guess=guess)
-                # likewise the aeroelastic Newton (the same equilibrium to its tolerance: 1.3
-                # instead of 2.4 iterations per step on the Sec. 9.2 benchmark)
-                u_guess = extrapolate([u, *u_hist]) if (k == 0 and u_hist) else None
-                u_new, _ = model.equilibrium(u_new, T_new, guess=u_guess)
-                dT = np.max(np.abs(T_new - T_prev)) / max(np.max(np.abs(T_new - T)), 1e-12)
-                du = np.max(np.abs(u_new - u_prev)) / max(np.max(np.abs(u_new)), 1e-12)
-                if dT <= s.pass_tol and du <= s.pass_tol:
-                    break
-            T_hist, u_hist = [T, *T_hist[:1]], [u, *u_hist[:1]]
-            T, u = T_new, u_new
-            lsa = model.stability(u, T) if n % s.lsa_every == 0 else None
-            resp.record(t, u, T, model, lsa)
-            if progress is not None:
-                progress(n, n_steps)
-            if lsa is not None and lsa.unstable:
-                unstable_run += 1
-                if first_unstable is None:
-                    first_unstable = (t, lsa.status)
-                if unstable_run >= s.unstable_steps:
-                    resp.finish("unstable", f"{lsa.status} detected by the LSA at "
-                                f"t = {first_unstable[0]:g} s", first_unstable)
-                    break
-            elif lsa is not None:
-                unstable_run, first_unstable = 0, None
-        else:
-            resp.finish("completed", "", None)
-    except EquilibriumError as exc:
-        if not resp.times:
-            resp.finish("failed", f"no equilibrium at t = 0: {exc}", None)
-        else:
-            # the quasi-steady equilibrium ceased to exist during the step: a limit point of
-            # the static aeroelastic problem, i.e. a snap-through (divergence-type instability)
-            t_fail = resp.times[-1] + dt
-            resp.finish("unstable", f"static aeroelastic equilibrium lost at t = {t_fail:g} s "
-                        f"(limit point, snap-through): {exc}",
-                        first_unstable or (t_fail, "divergence"))
-    resp.wall_seconds = time.perf_counter() - t_start
-    resp.timing = model.timer.as_dict()
-    return resp
-
-
-def _explicit_thermal_loads(model: PanelModel, q_fluid: Array) -> ThermalLoads:
-    """Thermal loads with a given (estimated) fluid heat flux plus the external heat flux
-    (Eq. 6.1d) and radiation (S1/S2)."""
-    top = SurfaceCondition(flux=model.upper_heat_input(q_fluid),
-                           emissivity=model.panel.emissivity, T_rad=model.T_rad, nodal_load=True)
-    return ThermalLoads(top=top)
-
-
-def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float = 1.0, record_every: int = 1,
-           progress=None, stop_on_snap: bool = True,
-           record_energy: bool = False, ramp_time: float = 0.0) -> Response:
-    """Loosely coupled transient schemes S1 and S2 (Sec. 5.3.1), time step ``settings.time_step``.
-
-    Both: thermal step with the extrapolated heat flux ``1.5 q^n - 0.5 q^(n-1)`` (Eq. 5.2).
-    S1: structure with the extrapolated pressure ``2 p^n - p^(n-1)`` (Eq. 5.3), then the fluid
-    at the new displacement (Eq. 5.4). S2: fluid at the extrapolated displacement
-    ``u^n + dt (1.5 v^n - 0.5 v^(n-1))`` (Eq. 5.5), then the structure with that pressure
-    (Eq. 5.6). Start: Eq. (5.7). Generalized-alpha structure, Crank-Nicolson thermal.
-    The fluid is handed displacements only (Eq. 5.8) and forms the wall velocity of the
-    piston-theory term from them by the three-point backward difference of Eq. (2.28).
-
-    ``ramp_time > 0`` gives a smooth start: the fluid pressure and heat flux are multiplied
-    by the C^3 smoothstep ``s(t / ramp_time)`` (``s = 35x^4 - 84x^5 + 70x^6 - 20x^7``, 0 at
-    t = 0, 1 from ``ramp_time`` on) -- a flow switched on over ``ramp_time`` instead of
-    impulsively. The default 0 is the impulsive start of the benchmarks; the smooth start is
-    for convergence studies, where the impulsive start's high-frequency transient (modes no
-    practical step resolves) masks the schemes' order. The stored pressure and heat flux are
-    the ramped ones.
-
-    The run ends at ``settings.duration``; with ``stop_on_snap`` it ends once a snap-through
-    is over (the centre deflection has reversed sign and passed its pre-snap magnitude).
-
-    With ``record_energy`` the artificial energy of the fluid-structure interface of every
-    step (Sec. 5.3.3) is stored in ``Response.artificial_energy`` (J, entry ``n-1`` for the
-    step ``t^(n-1) -> t^n``; NaN for the start step, Eq. 5.7):
-    ``dE = dE_S + dE_F`` (Eq. 5.21), with the work on the structure
-    ``dE_S = 1/2 (F^(n+1,E) + F^(n,E))^T (u^(n+1) - u^n)`` (Eq. 5.19) and the work on the fluid
-    ``dE_F = -1/2 (F^(n+1) + F^n)^T (u^(n+1,E) - u^(n,E))`` (Eq. 5.20), ``F = H_SF p``;
-    superscript E marks the estimated values each scheme hands over (S1: ``p^E`` by Eq. 5.3,
-    ``u^E = u``; S2: ``p^E = p``, ``u^E`` by Eq. 5.5). Per step it is O(dt^3) for S1 (Eq. 5.23)
-    and O(dt^4) for S2 (Eq. 5.24).
-    """
-
-    if scheme not in ("s1", "s2"):
-        raise InputError("simulation.scheme", "loosely coupled schemes are 's1' and 's2'")
-    s = model.settings
-    dt, n_steps = s.time_step, s.n_steps
-    st, tr = model.structure, model.transfer
-    resp = Response.start(model, scheme=scheme)
-    u0, T = model.initial_state()
-    u0 = model.relax_inplane(u0, T)
-    T_s = model.structural_temperature(T)
-    T_w = model.wall_temperature(T)
-    if not (ramp_time >= 0.0 and math.isfinite(ramp_time)):
-        raise InputError("ramp_time", "must be >= 0 (s)")
-
-    def fluid(t: float, u: Array, T_w: Array, u_dot: Array | None = None) -> FluidLoads:
-        """The fluid solution at t (ramped on over ``ramp_time``)."""
-        loads = model.fluid_loads(u, T_w, u_dot=u_dot)
-        k = _smoothstep(t / ramp_time) if ramp_time > 0.0 else 1.0
-        return loads if k == 1.0 else FluidLoads(k * loads.pressure, k * loads.heat_flux)
-
-    def record(t: float, u: Array, T: Array, u_dot: Array | None = None) -> None:
-        resp.record(t, u, T, model, None, u_dot=u_dot)
-        k = _smoothstep(t / ramp_time) if ramp_time > 0.0 else 1.0
-        if k != 1.0 and resp.keep_fields:
-            resp.pressure[-1] *= k
-            resp.heat_flux[-1] *= k
-
-    loads0 = fluid(0.0, u0, T_w)
-    F0 = model.aero_force(loads0)
-    stepper = AlphaStepper(st, dt, rho_bar=rho_bar, u0=u0, T0=T_s, F0=F0)
-    record(0.0, stepper.u, T)
-    center = 5 * st.mesh.center + 2
-    t_start = time.perf_counter()
-    # start procedure, Eq. (5.7): u^1, v^1 from the initial acceleration -- on the free
-    # transverse DOFs; the in-plane, rotational and penalty-constrained DOFs are far
-    # stiffer than any explicit step resolves, so they are relaxed to equilibrium at t^1
-    w_free = np.intersect1d(st.free_dofs, np.arange(2, st.n_dof, 5))
-    u1, v1 = stepper.u.copy(), stepper.v.copy()
-    u1[w_free] += dt * stepper.v[w_free] + 0.5 * dt * dt * stepper.a[w_free]
-    v1[w_free] += dt * stepper.a[w_free]
-    p_hist = [loads0.pressure, None]
-    q_hist = [loads0.heat_flux, loads0.heat_flux]
-    v_prev = stepper.v.copy()
-    # displacements handed to the fluid at the last two step ends, u^(n,E) and u^(n-1,E)
-    # (Eq. 5.8): the fluid forms its wall velocity from them by Eq. (2.28)
-    uE_hist = [u0, u0]
-    peak = 0.0
-    # interface histories of the energy balance (Sec. 5.3.3): estimated and actual pressure
-    # and the estimated displacement at the previous step end
-    pE_prev = p_act_prev = uE_prev = None
-    try:
-        for n in range(1, n_steps + 1):
-            t = n * dt
-            # -- thermal step with the extrapolated heat flux (Eq. 5.2)
-            if not model.thermal_frozen:
-                q_est = 1.5 * q_hist[0] - 0.5 * q_hist[1]
-                t0 = time.perf_counter()
-                res = model.thermal.step(T, dt, _explicit_thermal_loads(model, q_est),
-                                         alpha=s.thermal_alpha)
-                model.timer.thermal += time.perf_counter() - t0
-                if not res.converged:
-                    raise EquilibriumError("thermal Newton did not converge")
-                T = res.T
-                T_s = model.structural_temperature(T)
-                T_w = model.wall_temperature(T)
-            if n == 1:
-                # Eq. (5.7): the first step is taken by the start procedure
-                u1 = model.relax_inplane(u1, T)
-                loads = fluid(t, u1, T_w, u_dot=v1)
-                stepper.u, stepper.v = u1, v1
-                stepper.FI = st.internal_force(u1, T_s)
-                stepper.F = model.aero_force(loads)
-                stepper.a = st.solver.factor(stepper.M).solve(
-                    stepper.F - stepper.FI - (stepper.C @ v1 if stepper.has_damping else 0.0))
-                p_hist = [loads.pressure, p_hist[0]]
-                pE_prev = p_act_prev = loads.pressure
-                uE_prev = u1
-                uE_hist = [u1, uE_hist[0]]
-                if record_energy:
-                    resp.artificial_energy.append(float("nan"))
-            elif scheme == "s1":
-                p_est = 2.0 * p_hist[0] - p_hist[1]  # Eq. (5.3)
-                u_old = stepper.u
-                t0 = time.perf_counter()
-                u, v, _ = stepper.step(tr.H_SF @ p_est + model._F_ext, T_s)
-                model.timer.structural += time.perf_counter() - t0
-                # Eq. (5.4): u^(n+1,E) = u^(n+1); wall velocity by Eq. (2.28)
-                loads = fluid(t, u, T_w, u_dot=_bdf2_velocity(u, uE_hist, dt))
-                uE_hist = [u, uE_hist[0]]
-                p_hist = [loads.pressure, p_hist[0]]
-                if record_energy:  # Eqs. (5.19)-(5.21) with u^E = u
-                    du = tr.H_SF.T @ (u - u_old)
-                    resp.artificial_energy.append(float(
-                        0.5 * (p_est + pE_prev) @ du - 0.5 * (loads.pressure + p_act_prev) @ du))
-                pE_prev, p_act_prev = p_est, loads.pressure
-            else:
-                u_est = stepper.u + dt * (1.5 * stepper.v - 0.5 * v_prev)  # Eq. (5.5)
-                # the fluid's wall velocity at t^(n+1) from the estimated displacements,
-                # Eq. (2.28) (not 1.5 v^n - 0.5 v^(n-1): that is v at t^(n+1/2), an O(dt)
-                # error in the piston-theory velocity term)
-                loads = fluid(t, u_est, T_w, u_dot=_bdf2_velocity(u_est, uE_hist, dt))
-                uE_hist = [u_est, uE_hist[0]]
-                v_prev = stepper.v.copy()
-                u_old = stepper.u
-                t0 = time.perf_counter()
-                stepper.step(model.aero_force(loads), T_s)  # Eq. (5.6)
-                model.timer.structural += time.perf_counter() - t0
-                p_hist = [loads.pressure, p_hist[0]]
-                if record_energy:  # Eqs. (5.19)-(5.21) with p^E = p
-                    p_mid = 0.5 * (loads.pressure + p_act_prev)
-                    resp.artificial_energy.append(float(
-                        p_mid @ (tr.H_SF.T @ ((stepper.u - u_old) - (u_est - uE_prev)))))
-                pE_prev, p_act_prev, uE_prev = loads.pressure, loads.pressure, u_est
-            if n == 1:
-                v_prev = stepper.v.copy() if scheme == "s1" else v_prev
-            q_hist = [loads.heat_flux, q_hist[0]]
-            if not np.all(np.isfinite(stepper.u)):
-                raise EquilibriumError("the transient response diverged (non-finite state)")
-            if n % record_every == 0 or n == n_steps:
-                record(t, stepper.u, T, u_dot=stepper.v)
-            if progress is not None:
-                progress(n, n_steps)
-            w = float(stepper.u[center])
-            if stop_on_snap:
-                if abs(w) > abs(peak) and (peak == 0.0 or np.sign(w) == np.sign(peak)):
-                    peak = w
-                elif (abs(peak) > 0.25 * model.panel.thickness and np.sign(w) != np.sign(peak)
-                      and abs(w) > abs(peak)):
-                    onset = snap_onset(np.asarray(resp.times), np.asarray(resp.center_deflection))
-                    resp.finish("unstable", "snap-through", (onset, "divergence"))
-                    break
-        else:
-            resp.finish("completed", "", None)
-    except EquilibriumError as exc:
-        resp.finish("failed", str(exc), None)
-    resp.wall_seconds = time.perf_counter() - t_start
-    resp.timing = model.timer.as_dict()
-    return resp
-
-
-def _smoothstep(x: float) -> float:
-    """C^3 smoothstep ``35x^4 - 84x^5 + 70x^6 - 20x^7`` on [0, 1], 0 below and 1 above."""
-    x = min(max(float(x), 0.0), 1.0)
-    return x ** 4 * (35.0 - 84.0 * x + 70.0 * x * x - 20.0 * x ** 3)
-
-
-def _bdf2_velocity(u_new: Array, u_hist: list[Array], dt: float) -> Array:
-    """Wall velocity the fluid forms from the displacements it is handed, Eq. (2.28):
-    ``(3 u^(n+1,E) - 4 u^(n,E) + u^(n-1,E)) / (2 dt)``, second order at t^(n+1)."""
-    return (3.0 * u_new - 4.0 * u_hist[0] + u_hist[1]) / (2.0 * dt)
-
-
-def snap_onset(times: Array, w: Array) -> float:
-    """Onset of a snap-through in a deflection history: the last time the deflection still
-    moved away from zero on the pre-snap side (the turning point before the reversal)."""
-    sign0 = np.sign(w[np.argmax(np.abs(w[: max(2, np.argmax(np.sign(w) != np.sign(w[-1])))]))])
-    pre = np.flatnonzero(np.sign(w) == sign0)
-    if pre.size == 0:
-        return float(times[0])
-    last = pre[-1]
-    k = int(np.argmax(np.abs(w[: last + 1])))
-    return float(times[k])
-
-
 def settings_from_config(sim) -> CouplingSettings:
     """:class:`CouplingSettings` from a validated ``[simulation]`` table."""
     return CouplingSettings(time_step=sim.time_step, duration=sim.duration,
@@ -1137,19 +830,3 @@ def settings_from_config(sim) -> CouplingSettings:
                             external_heat_flux=sim.external_heat_flux, lsa_modes=sim.lsa_modes,
                             unstable_steps=sim.unstable_steps, passes=sim.passes,
                             fluid_density=sim.fluid_density)
-
-
-def simulate(panel: PanelSpec, flow: FlowCondition, sim, progress=None,
-             keep_fields: bool = True) -> Response:
-    """Run a case: ``sim`` is a validated ``[simulation]`` table (scheme, aero, heating...).
-
-    The entry point of ``hypate simulate`` and of the scaling problem's evaluations.
-    """
-
-    fluid = make_fluid_model(sim.aero, sim.heating, sim.boundary_layer)
-    settings = replace(settings_from_config(sim), keep_fields=keep_fields)
-    model = PanelModel(panel, flow, fluid, settings)
-    if sim.scheme == "tc":
-        return run_tc(model, progress=progress)
-    every = max(1, int(round(0.01 / sim.time_step)))  # record about every 10 ms
-    return run_lc(model, sim.scheme, rho_bar=sim.rho_bar, record_every=every, progress=progress)

@@ -11,14 +11,10 @@ import scipy.sparse as sp
 from hypate.scaling.cli.main import main
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.config import parse_case
-from hypate.solvers.coupling.model import (
-    CouplingSettings,
-    PanelModel,
-    run_lc,
-    run_tc,
-    settings_from_config,
-)
+from hypate.solvers.coupling.lc import run_lc
+from hypate.solvers.coupling.model import CouplingSettings, PanelModel, settings_from_config
 from hypate.solvers.coupling.response import Response
+from hypate.solvers.coupling.tc import extrapolate, run_tc
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.materials import isotropic, library_material
 from hypate.solvers.panel import Layer, PanelSpec
@@ -163,8 +159,6 @@ duration = 2.0
 
 # -- the TC hot path: predictors, pre-ordered factor, warm-started LSA (issue 6) -------------
 def test_extrapolate_is_exact_for_polynomials_of_its_order() -> None:
-    from hypate.solvers.coupling.model import extrapolate
-
     t = np.arange(4.0)
     a, b, c = np.array([1.0, -2.0]), np.array([0.5, 3.0]), np.array([-0.25, 0.125])
     x = [a + b * ti + c * ti**2 for ti in t]
