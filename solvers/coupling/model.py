@@ -32,7 +32,12 @@ from hypate.solvers.coupling.stability import (
 from hypate.solvers.coupling.transfer import Transfer, fluid_points
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
-from hypate.solvers.numerics.sparse import gmres
+from hypate.solvers.numerics.sparse import (
+    DeferredMatrix,
+    FreePattern,
+    gmres,
+    triple_product_operator,
+)
 from hypate.solvers.panel import PanelSpec
 from hypate.solvers.structure.model import StructuralModel
 from hypate.solvers.thermal.model import SurfaceCondition, ThermalLoads, ThermalModel
@@ -143,197 +148,6 @@ class EquilibriumError(RuntimeError):
     """The static aeroelastic equilibrium did not converge (e.g. past a snap-through)."""
 
 
-def _pattern_keys(indptr: NDArray[np.integer], indices: NDArray[np.integer],
-                  n_cols: int) -> NDArray[np.int64]:
-    rows = np.repeat(np.arange(indptr.size - 1, dtype=np.int64), np.diff(indptr))
-    return rows * n_cols + indices.astype(np.int64)
-
-
-def triple_product_operator(L: sp.spmatrix, R: sp.spmatrix,
-                            pattern: tuple[NDArray, NDArray] | None = None
-                            ) -> tuple[sp.csr_matrix, NDArray, NDArray]:
-    """The linear map ``d -> data of L diag(d) R`` on a fixed CSR pattern.
-
-    ``L`` is (m, n_f), ``R`` (n_f, k). Returns ``(T, indptr, indices)`` with ``T`` sparse of
-    shape (nnz, n_f), so ``csr_matrix((T @ d, indices, indptr), (m, k))`` equals
-    ``L @ diag(d) @ R`` (up to round-off: the products are summed in another order). The
-    pattern is ``pattern = (indptr, indices)`` when given (it must contain every entry of
-    the product), else the product's own. The data of a pointwise aerodynamic Jacobian
-    transferred to the structure is linear in the pointwise derivatives, so it costs one
-    sparse mat-vec instead of two sparse matrix products per evaluation.
-    """
-    Lc = sp.coo_matrix(L)
-    Rr = sp.csr_matrix(R)
-    Rr.sort_indices()
-    m, k = Lc.shape[0], Rr.shape[1]
-    counts = np.diff(Rr.indptr)[Lc.col]
-    rep = np.repeat(np.arange(Lc.nnz), counts)
-    start = np.repeat(Rr.indptr[Lc.col], counts)
-    offs = np.arange(rep.size) - np.repeat(np.cumsum(counts) - counts, counts)
-    ridx = start + offs
-    keys = Lc.row[rep].astype(np.int64) * k + Rr.indices[ridx].astype(np.int64)
-    vals = Lc.data[rep] * Rr.data[ridx]
-    f = Lc.col[rep]
-    if pattern is None:
-        uniq = np.unique(keys)
-        rows = uniq // k
-        indices = (uniq % k).astype(np.int32)
-        indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=m))]).astype(
-            np.int32)
-        pkeys = uniq
-    else:
-        indptr, indices = pattern
-        pkeys = _pattern_keys(indptr, indices, k)
-    pos = np.minimum(np.searchsorted(pkeys, keys), pkeys.size - 1)
-    if not np.all(pkeys[pos] == keys):
-        raise ValueError("the product has entries outside the given pattern")
-    T = sp.csr_matrix((vals, (pos, f)), shape=(pkeys.size, Lc.shape[1]))
-    T.sum_duplicates()
-    return T, indptr, indices
-
-
-class _FreePattern:
-    """The free-DOF block of matrices on the structural CSR pattern, by index maps.
-
-    ``sel`` picks the free-free entries (in CSR order of the block), ``tpos`` reorders the
-    block's CSR data into CSC data (the pattern is structurally symmetric), so
-    ``A[free][:, free]`` in CSR or CSC costs one gather; ``diag`` picks the block's
-    diagonal from its CSR data.
-    """
-
-    def __init__(self, indptr: NDArray, indices: NDArray, n: int, free: NDArray) -> None:
-        newpos = np.full(n, -1, dtype=np.int64)
-        newpos[free] = np.arange(free.size)
-        rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr))
-        r, c = newpos[rows], newpos[indices]
-        keep = (r >= 0) & (c >= 0)
-        self.sel = np.flatnonzero(keep)
-        r, c = r[keep], c[keep]
-        self.n = int(free.size)
-        self.indices = c.astype(np.int32)
-        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=self.n))]
-                                     ).astype(np.int32)
-        keys = r * self.n + c
-        tkeys = c * self.n + r
-        self.tpos = np.searchsorted(keys, tkeys)
-        self.diag = np.flatnonzero(r == c)  # the diagonal entries, in row order
-        if not np.array_equal(keys[self.tpos], tkeys):
-            raise ValueError("the structural pattern is not structurally symmetric")
-        self._perm: tuple[NDArray, NDArray, NDArray, NDArray] | None = None
-
-    def csc_from_block(self, block: Array) -> sp.csc_matrix:
-        """CSC of the block with CSR data ``block``: column j holds the entries (i, j), and
-        with the symmetric pattern its row indices are the CSR column indices of row j."""
-        return sp.csc_matrix((block[self.tpos], self.indices, self.indptr),
-                             shape=(self.n, self.n))
-
-    def _ordering(self) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-        """The minimum-degree ordering of ``A^T + A`` (SuperLU's ``MMD_AT_PLUS_A``) and the
-        CSC pattern of the permuted block ``A[p][:, p]`` with the gather map from the
-        block's CSR data, computed once (the ordering depends on the pattern only)."""
-        if self._perm is None:
-            n, nnz = self.n, self.indices.size
-            # a diagonally dominant matrix on the pattern: no pivoting, so perm_c is MMD's
-            ones = self.csc_from_block(np.ones(nnz)) + n * sp.identity(n, format="csc")
-            perm_c = spla.splu(ones.tocsc(), permc_spec="MMD_AT_PLUS_A",
-                               diag_pivot_thresh=1e-3, options={"SymmetricMode": True}).perm_c
-            p = np.argsort(perm_c)  # perm_c[old] = new, p[new] = old
-            # entry positions (1-based: no entry may vanish) carried through the permutation
-            pos = sp.csr_matrix((np.arange(1.0, nnz + 1.0), self.indices, self.indptr),
-                                shape=(n, n))
-            P = pos[p][:, p].tocsc()
-            P.sort_indices()
-            self._perm = (p, P.data.astype(np.int64) - 1, P.indices, P.indptr)
-        return self._perm
-
-    def factor(self, block: Array) -> PermutedLU | spla.SuperLU:
-        """:func:`splu_free` of the block with CSR data ``block``, on the pre-permuted block.
-
-        SuperLU then skips its ordering (``NATURAL``): the same factor as the
-        ``MMD_AT_PLUS_A`` path, 20 % faster on the 8 x 8 shell (measured). Same check and
-        fallback as :func:`splu_free`. Returns an object with ``solve`` and ``shape``.
-        """
-        p, gather, indices, indptr = self._ordering()
-        B = sp.csc_matrix((block[gather], indices, indptr), shape=(self.n, self.n))
-        try:
-            lu = PermutedLU(spla.splu(B, permc_spec="NATURAL", diag_pivot_thresh=1e-3,
-                                      options={"SymmetricMode": True}), p)
-        except RuntimeError:
-            return spla.splu(self.csc_from_block(block))
-        A = sp.csr_matrix((block, self.indices, self.indptr), shape=(self.n, self.n))
-        if _factor_ok(lu, A):
-            return lu
-        return spla.splu(self.csc_from_block(block))
-
-
-class PermutedLU:
-    """A sparse LU ``lu`` of ``A[p][:, p]`` used as a solver of ``A``: ``A x = b`` is
-    ``(A[p][:, p]) x[p] = b[p]``."""
-
-    def __init__(self, lu: spla.SuperLU, p: NDArray) -> None:
-        self.lu, self.p = lu, p
-        self.shape = lu.shape
-
-    def solve(self, b: Array) -> Array:
-        x = np.empty_like(b, dtype=float)
-        x[self.p] = self.lu.solve(np.asarray(b, dtype=float)[self.p])
-        return x
-
-
-def _factor_ok(lu: PermutedLU | spla.SuperLU, A: sp.spmatrix) -> bool:
-    """One check solve (relative residual <= 1e-10): catches a pivot the symmetric mode's
-    threshold let through."""
-    b = np.cos(np.arange(A.shape[0], dtype=float))  # a fixed, nowhere-special vector
-    x = lu.solve(b)
-    return bool(np.all(np.isfinite(x))
-                and np.linalg.norm(A @ x - b) <= 1e-10 * np.linalg.norm(b))
-
-
-def splu_free(A: sp.csc_matrix):
-    """Sparse LU of a free-DOF block ``K - K_A (- sigma M)``.
-
-    SuperLU's symmetric mode with the minimum-degree ordering of ``A^T + A`` (diagonal
-    pivots preferred, threshold 1e-3) -- the pattern is structurally symmetric and the
-    matrix close to symmetric: 3 ms and 2.5x fewer nonzeros than the default COLAMD with
-    partial pivoting (8 ms) on the 8 x 8 shell (measured). The factor is checked on one
-    solve (relative residual <= 1e-10); when the symmetric mode reports a singular factor
-    or fails the check (a pivot the threshold let through), the default LU is used.
-    """
-    try:
-        lu = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=1e-3,
-                       options={"SymmetricMode": True})
-    except RuntimeError:
-        return spla.splu(A)
-    if _factor_ok(lu, A):
-        return lu
-    return spla.splu(A)
-
-
-class DeferredMatrix:
-    """A sparse matrix formed on first use: calling it returns the matrix (the thermal
-    Newton resolves a flux derivative only when it needs the Jacobian); ``@``,
-    ``toarray()`` and ``tocsr()`` act on the matrix."""
-
-    def __init__(self, build, shape: tuple[int, int]) -> None:
-        self._build = build
-        self._matrix: sp.csr_matrix | None = None
-        self.shape = shape
-
-    def __call__(self) -> sp.csr_matrix:
-        if self._matrix is None:
-            self._matrix = self._build()
-        return self._matrix
-
-    def __matmul__(self, x):
-        return self() @ x
-
-    def toarray(self) -> Array:
-        return self().toarray()
-
-    def tocsr(self) -> sp.csr_matrix:
-        return self()
-
-
 class PanelModel:
     """A panel in a flow: structure, thermal model, fluid model and transfer (Eq. 5.1).
 
@@ -394,10 +208,11 @@ class PanelModel:
         if name in ops:
             return ops[name]
         st, tr = self.structure, self.transfer
+        pat = st.pattern
         H = {"slope": tr.H_FS_slope, "w": tr.H_FS}
         if name in ("KA_slope", "KA_w"):
             ops[name] = triple_product_operator(tr.H_SF, H[name[3:]],
-                                                (st._indptr, st._indices))[0]
+                                                (pat.indptr, pat.indices))[0]
         elif name in ("KA_slope_own", "KA_w_own"):
             ops[name] = triple_product_operator(tr.H_SF, H[name[3:-4]])
         elif name in ("QT_a", "QT_b", "QT_pattern"):
@@ -414,7 +229,7 @@ class PanelModel:
             ops["QT_a"] = triple_product_operator(L, Ra, qpat)[0]
             ops["QT_b"] = triple_product_operator(L, Rb, qpat)[0]
         elif name == "free":
-            ops[name] = _FreePattern(st._indptr, st._indices, st.n_dof, st.free_dofs)
+            ops[name] = FreePattern(pat.indptr, pat.indices, st.n_dof, st.free_dofs)
         else:
             raise KeyError(name)
         return ops[name]
@@ -707,7 +522,8 @@ class PanelModel:
 
     def _solve_free(self, data: Array, b: Array) -> Array:
         """:meth:`_solve` for ``K - K_A`` given as data on the structural pattern (pointwise
-        fluid): the free block by index maps, the factor by :meth:`_FreePattern.factor`."""
+        fluid): the free block by index maps, the factor by
+        :meth:`hypate.solvers.numerics.sparse.FreePattern.factor`."""
         fp = self._op("free")
         block = data[fp.sel]
         A = sp.csr_matrix((block, fp.indices, fp.indptr), shape=(fp.n, fp.n))
