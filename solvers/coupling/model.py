@@ -19,7 +19,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from hypate.solvers.aero.analytic import PointwiseJacobians
 from hypate.solvers.aero.base import FluidLoads, FluidModel, SurfaceState
 from hypate.solvers.coupling.response import sinusoidal_modes
 from hypate.solvers.coupling.stability import (
@@ -235,11 +234,13 @@ class PanelModel:
         return ops[name]
 
     def _aero_stiffness_data(self, loads: FluidLoads) -> Array | None:
-        """K_A as data on the structural CSR pattern for a pointwise fluid model, else None."""
-        J = loads.jacobians
-        if not isinstance(J, PointwiseJacobians):
+        """K_A as data on the structural CSR pattern when the pressure Jacobian has the
+        pointwise form (:meth:`~hypate.solvers.aero.base.FluidJacobians.pressure_coefficients`),
+        else None."""
+        coeffs = loads.jacobians.pressure_coefficients()
+        if coeffs is None:
             return None
-        return self._op("KA_slope") @ J.dp_ds  # dp/dw = 0 (pointwise laws)
+        return self._op("KA_slope") @ coeffs[0]  # dp/dw = 0 (pointwise form)
 
     def _keep_precond(self, lu) -> None:
         self._precond = lu
@@ -290,8 +291,7 @@ class PanelModel:
         """True when nothing heats or cools the panel (no aerodynamic heating, no
         radiation, no external heat flux): the temperature field stays at its initial value
         and the thermal steps are skipped."""
-        heating = getattr(self.fluid, "heating", "eckert")
-        return (heating == "none" and self.panel.emissivity == 0.0
+        return (self.fluid.heating == "none" and self.panel.emissivity == 0.0
                 and self.settings.external_heat_flux == 0.0)
 
     # -- fields on the fluid grid -------------------------------------------------------
@@ -329,10 +329,11 @@ class PanelModel:
     def aero_stiffness(self, loads: FluidLoads) -> sp.csr_matrix | spla.LinearOperator:
         """K_A = dF_S/du = H_SF (dp/dw H_FS + dp/dw_s H_FS_slope) (Eq. 5.34)."""
         tr, J = self.transfer, loads.jacobians
-        if isinstance(J, PointwiseJacobians):
+        coeffs = J.pressure_coefficients()
+        if coeffs is not None:  # pointwise: on the product's own pattern, data only
             T, indptr, indices = self._op("KA_slope_own")
             n = self.structure.n_dof
-            return sp.csr_matrix((T @ J.dp_ds, indices, indptr), shape=(n, n))
+            return sp.csr_matrix((T @ coeffs[0], indices, indptr), shape=(n, n))
         if all(sp.issparse(J[k]) for k in ("dp_dw", "dp_dws")):
             return (tr.H_SF @ (J["dp_dw"] @ tr.H_FS + J["dp_dws"] @ tr.H_FS_slope)).tocsr()
         n = self.structure.n_dof
@@ -344,10 +345,11 @@ class PanelModel:
     def aero_damping(self, loads: FluidLoads) -> sp.csr_matrix:
         """C_A = dF_S/du_dot = H_SF dp/dw_dot H_FS (Eq. 5.34)."""
         tr = self.transfer
-        if isinstance(loads.jacobians, PointwiseJacobians):
+        coeffs = loads.jacobians.pressure_coefficients()
+        if coeffs is not None:  # pointwise: on the product's own pattern, data only
             T, indptr, indices = self._op("KA_w_own")
             n = self.structure.n_dof
-            return sp.csr_matrix((T @ loads.jacobians.dp_dv, indices, indptr), shape=(n, n))
+            return sp.csr_matrix((T @ coeffs[1], indices, indptr), shape=(n, n))
         return sp.csr_matrix(tr.H_SF @ (loads.jacobians["dp_dwdot"] @ tr.H_FS))
 
     # -- thermal coupling -------------------------------------------------------------------
@@ -371,20 +373,21 @@ class PanelModel:
                 return cache[1], cache[2]
             loads = self.fluid_loads(u, H_FT @ T_top, jacobians=True)
             J = loads.jacobians
-            if isinstance(J, PointwiseJacobians):
-                n_top = T_top.size
+            n_top = T_top.size
 
-                def build():  # formed only when the thermal Newton needs its Jacobian
-                    a, b = J.tw_coefficients()
-                    data = self._op("QT_a") @ a
-                    if b is not None:
-                        data = data + self._op("QT_b") @ b
-                    ip, ix = self._op("QT_pattern")
-                    return sp.csr_matrix((data, ix, ip), shape=(n_top, n_top))
+            def build() -> sp.csr_matrix:  # formed only when the thermal Newton needs it
+                coeffs = J.tw_coefficients()
+                if coeffs is None:  # from the block: H_TF dq/dT_w H_FT
+                    return (H_TF @ sp.csr_matrix(J["dq_dTw"]) @ H_FT).tocsr()
+                # pointwise form diag(a) + diag(b) S: data on the fixed pattern
+                a, b = coeffs
+                data = self._op("QT_a") @ a
+                if b is not None:
+                    data = data + self._op("QT_b") @ b
+                ip, ix = self._op("QT_pattern")
+                return sp.csr_matrix((data, ix, ip), shape=(n_top, n_top))
 
-                dQ = DeferredMatrix(build, (n_top, n_top))
-            else:
-                dQ = (H_TF @ sp.csr_matrix(J["dq_dTw"]) @ H_FT).tocsr()
+            dQ = DeferredMatrix(build, (n_top, n_top))
             out = (self.upper_heat_input(loads.heat_flux), dQ)
             cache[:] = [np.array(T_top, copy=True), *out]
             return out
