@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -28,14 +29,13 @@ from hypate.solvers.coupling.stability import (
     shift_invert_gep,
     start_vector,
 )
-from hypate.solvers.coupling.transfer import Transfer, fluid_points
+from hypate.solvers.coupling.transfer import PointwiseTransfer, Transfer, fluid_points
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.numerics.sparse import (
     DeferredMatrix,
     FreePattern,
     gmres,
-    triple_product_operator,
 )
 from hypate.solvers.panel import PanelSpec
 from hypate.solvers.structure.model import StructuralModel
@@ -172,13 +172,11 @@ class PanelModel:
         self.points = fluid_points(panel, self.settings.fluid_density)
         self.transfer = Transfer.build(panel, self.points, self.thermal.n_levels)
         tr = self.transfer
-        n_in = self.thermal.n_inplane
         top = self.thermal.mesh.top_nodes
         # wall temperature from the top-level nodes only; the fluid heat input goes back as
         # nodal loads on them (Eq. 5.1b)
         self._H_FT_top = tr.H_FT[:, top].tocsr()
         self._H_TF_top = tr.H_TF[top, :].tocsr()
-        self._n_in = n_in
         self.timer = StepTimer()
         s = self.settings
         self.T_rad = float(flow.temperature if s.radiation_temperature is None
@@ -187,51 +185,17 @@ class PanelModel:
                        if s.external_pressure != 0.0 else np.zeros(self.structure.n_dof))
         self.modes = sinusoidal_modes(panel, self.points)
         self._precond = None  # LU of a recent (K - K_A)_ff, preconditions the Newton solves
-        self._ops: dict[str, object] | None = None  # pointwise-Jacobian operators (lazy)
+        # the transferred Jacobians of a pointwise fluid model (their maps built on first use)
+        self.pointwise = PointwiseTransfer(tr, self.structure.pattern, self._H_TF_top,
+                                           self._H_FT_top)
         self._last_state: tuple | None = None  # (u, T, K, loads, ...) of the last residual
         self._lsa_start: Array | None = None  # Arnoldi start of the next LSA (last modes)
 
-    def _op(self, name: str):
-        """Operators of the pointwise (diagonal) aerodynamic Jacobians, each built once on
-        first use.
-
-        ``KA_slope``/``KA_w``: d -> data of ``H_SF diag(d) H_FS_slope`` / ``H_SF diag(d) H_FS``
-        on the structural pattern (K_A and C_A, Eq. 5.34, for the solvers); ``KA_slope_own``/
-        ``KA_w_own``: the same on the products' own (compact) patterns, with their
-        ``(T, indptr, indices)``; ``QT_a``/``QT_b``: a, b -> data of ``H_TF diag(a) H_FT`` and
-        ``H_TF diag(b) S H_FT`` on the top thermal nodes (the implicit wall-flux derivative)
-        on ``QT_pattern``; ``free``: the free-DOF block maps of the structural pattern.
-        """
-        ops = self._ops if self._ops is not None else {}
-        self._ops = ops
-        if name in ops:
-            return ops[name]
-        st, tr = self.structure, self.transfer
-        pat = st.pattern
-        H = {"slope": tr.H_FS_slope, "w": tr.H_FS}
-        if name in ("KA_slope", "KA_w"):
-            ops[name] = triple_product_operator(tr.H_SF, H[name[3:]],
-                                                (pat.indptr, pat.indices))[0]
-        elif name in ("KA_slope_own", "KA_w_own"):
-            ops[name] = triple_product_operator(tr.H_SF, H[name[3:-4]])
-        elif name in ("QT_a", "QT_b", "QT_pattern"):
-            S = self.points.streamwise_derivative
-            L, Ra, Rb = self._H_TF_top, self._H_FT_top, S @ self._H_FT_top
-            _, ip_a, ix_a = triple_product_operator(L, Ra)
-            _, ip_b, ix_b = triple_product_operator(L, Rb)
-            n_in = L.shape[0]
-            union = sp.csr_matrix((np.ones(ix_a.size), ix_a, ip_a), shape=(n_in, n_in)) + \
-                sp.csr_matrix((np.ones(ix_b.size), ix_b, ip_b), shape=(n_in, n_in))
-            union.sort_indices()
-            qpat = (union.indptr.astype(np.int32), union.indices.astype(np.int32))
-            ops["QT_pattern"] = qpat
-            ops["QT_a"] = triple_product_operator(L, Ra, qpat)[0]
-            ops["QT_b"] = triple_product_operator(L, Rb, qpat)[0]
-        elif name == "free":
-            ops[name] = FreePattern(pat.indptr, pat.indices, st.n_dof, st.free_dofs)
-        else:
-            raise KeyError(name)
-        return ops[name]
+    @cached_property
+    def free_pattern(self) -> FreePattern:
+        """The free-DOF block maps of the structural pattern (the solvers' ``(K - K_A)_ff``)."""
+        st = self.structure
+        return FreePattern(st.pattern.indptr, st.pattern.indices, st.n_dof, st.free_dofs)
 
     def _aero_stiffness_data(self, loads: FluidLoads) -> Array | None:
         """K_A as data on the structural CSR pattern when the pressure Jacobian has the
@@ -240,7 +204,7 @@ class PanelModel:
         coeffs = loads.jacobians.pressure_coefficients()
         if coeffs is None:
             return None
-        return self._op("KA_slope") @ coeffs[0]  # dp/dw = 0 (pointwise form)
+        return self.pointwise.stiffness_data @ coeffs[0]  # dp/dw = 0 (pointwise form)
 
     def _keep_precond(self, lu) -> None:
         self._precond = lu
@@ -331,9 +295,7 @@ class PanelModel:
         tr, J = self.transfer, loads.jacobians
         coeffs = J.pressure_coefficients()
         if coeffs is not None:  # pointwise: on the product's own pattern, data only
-            T, indptr, indices = self._op("KA_slope_own")
-            n = self.structure.n_dof
-            return sp.csr_matrix((T @ coeffs[0], indices, indptr), shape=(n, n))
+            return self.pointwise.stiffness(coeffs[0])
         if all(sp.issparse(J[k]) for k in ("dp_dw", "dp_dws")):
             return (tr.H_SF @ (J["dp_dw"] @ tr.H_FS + J["dp_dws"] @ tr.H_FS_slope)).tocsr()
         n = self.structure.n_dof
@@ -347,9 +309,7 @@ class PanelModel:
         tr = self.transfer
         coeffs = loads.jacobians.pressure_coefficients()
         if coeffs is not None:  # pointwise: on the product's own pattern, data only
-            T, indptr, indices = self._op("KA_w_own")
-            n = self.structure.n_dof
-            return sp.csr_matrix((T @ coeffs[1], indices, indptr), shape=(n, n))
+            return self.pointwise.damping(coeffs[1])
         return sp.csr_matrix(tr.H_SF @ (loads.jacobians["dp_dwdot"] @ tr.H_FS))
 
     # -- thermal coupling -------------------------------------------------------------------
@@ -366,7 +326,7 @@ class PanelModel:
         H_FT, H_TF = self._H_FT_top, self._H_TF_top
         cache: list = []
 
-        def flux(T_top: Array) -> tuple[Array, sp.csr_matrix]:
+        def flux(T_top: Array) -> tuple[Array, DeferredMatrix]:
             # nodal heat input Q = H_TF q (Eq. 5.1b) and its derivative, on the thermal pattern;
             # the Newton asks twice at the same T (residual, then Jacobian): cached
             if cache and np.array_equal(cache[0], T_top):
@@ -379,13 +339,7 @@ class PanelModel:
                 coeffs = J.tw_coefficients()
                 if coeffs is None:  # from the block: H_TF dq/dT_w H_FT
                     return (H_TF @ sp.csr_matrix(J["dq_dTw"]) @ H_FT).tocsr()
-                # pointwise form diag(a) + diag(b) S: data on the fixed pattern
-                a, b = coeffs
-                data = self._op("QT_a") @ a
-                if b is not None:
-                    data = data + self._op("QT_b") @ b
-                ip, ix = self._op("QT_pattern")
-                return sp.csr_matrix((data, ix, ip), shape=(n_top, n_top))
+                return self.pointwise.wall_flux_derivative(*coeffs)  # diag(a) + diag(b) S
 
             dQ = DeferredMatrix(build, (n_top, n_top))
             out = (self.upper_heat_input(loads.heat_flux), dQ)
@@ -527,7 +481,7 @@ class PanelModel:
         """:meth:`_solve` for ``K - K_A`` given as data on the structural pattern (pointwise
         fluid): the free block by index maps, the factor by
         :meth:`hypate.solvers.numerics.sparse.FreePattern.factor`."""
-        fp = self._op("free")
+        fp = self.free_pattern
         block = data[fp.sel]
         A = sp.csr_matrix((block, fp.indices, fp.indptr), shape=(fp.n, fp.n))
         x = self._gmres_precond(A.__matmul__, b)
@@ -613,7 +567,7 @@ class PanelModel:
                        ) -> StabilityResult:
         """:func:`hypate.solvers.coupling.stability.gep` (direct solver, default shift) on the
         free block built by index maps; its factor becomes the Newton preconditioner."""
-        fp = self._op("free")
+        fp = self.free_pattern
         Kb, Mb = K.data[fp.sel], M.data[fp.sel]
         Mff = sp.csr_matrix((Mb, fp.indices, fp.indptr), shape=(fp.n, fp.n))
         scale = float(np.mean(np.abs(Kb[fp.diag]) / np.maximum(np.abs(Mb[fp.diag]), 1e-300)))

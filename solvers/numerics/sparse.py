@@ -344,8 +344,8 @@ def _factor_ok(lu: PermutedLU | spla.SuperLU, A: sp.spmatrix) -> bool:
 
 # -- lazy matrices and Krylov ---------------------------------------------------------
 class DeferredMatrix:
-    """A sparse matrix formed on first use: calling it returns the matrix (the thermal
-    Newton resolves a flux derivative only when it needs the Jacobian); ``@``,
+    """A sparse matrix formed on first use: calling it returns the matrix, built once (the
+    thermal Newton resolves a flux derivative only when it needs the Jacobian); ``@``,
     ``toarray()`` and ``tocsr()`` act on the matrix."""
 
     def __init__(self, build: Callable[[], sp.csr_matrix], shape: tuple[int, int]) -> None:

@@ -208,7 +208,7 @@ def test_pre_ordered_free_factor_equals_the_minimum_degree_factor() -> None:
     T = m.thermal.initial_state() + 150.0
     loads = m.fluid_loads(u, m.wall_temperature(T), jacobians=True)
     K = st.tangent(u, m.structural_temperature(T))
-    fp = m._op("free")
+    fp = m.free_pattern
     block = (K.data - m._aero_stiffness_data(loads))[fp.sel]
     lu = fp.factor(block)
     ref = splu_symmetric(fp.csc_from_block(block), "MMD_AT_PLUS_A")
