@@ -66,7 +66,9 @@ def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float = 1.0, record_e
     ``u^E = u``; S2: ``p^E = p``, ``u^E`` by Eq. 5.5). Per step it is O(dt^3) for S1 (Eq. 5.23)
     and O(dt^4) for S2 (Eq. 5.24).
     """
-
+    # One long function (about 120 lines of code), knowingly: the S1/S2 step updates a dozen
+    # interface histories together (p, q, u^E, v^(n-1), the energy terms); split, each piece
+    # would pass them all around. A stepper object holding them is the next step.
     if scheme not in ("s1", "s2"):
         raise InputError("simulation.scheme", "loosely coupled schemes are 's1' and 's2'")
     s = model.settings
