@@ -8,7 +8,7 @@ from pathlib import Path
 
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.config import load_case
-from hypate.solvers.coupling.model import simulate
+from hypate.solvers.coupling.run import simulate
 from hypate.solvers.errors import InputError
 from tqdm import tqdm
 

@@ -51,8 +51,10 @@ from hypate.scaling.workflow.similarity import (
     time_scale,
 )
 from hypate.solvers.aero.factory import make_fluid_model
-from hypate.solvers.coupling.model import CouplingSettings, PanelModel, run_lc, run_tc
+from hypate.solvers.coupling.lc import run_lc
+from hypate.solvers.coupling.model import CouplingSettings, PanelModel
 from hypate.solvers.coupling.response import Response
+from hypate.solvers.coupling.tc import run_tc
 from hypate.solvers.errors import InputError
 from pymoo.core.problem import Problem
 

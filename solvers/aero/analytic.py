@@ -14,7 +14,7 @@ precision, not a finite difference); the rest is differentiated analytically.
 """
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import partial
 
@@ -22,6 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 from hypate.solvers.aero.base import (
     Array,
+    FluidJacobians,
     FluidLoads,
     FluidModel,
     SurfacePoints,
@@ -199,14 +200,14 @@ def adiabatic_wall_temperature(flow: FlowCondition, p_e: ArrayLike, regime: str 
 
 
 # -- the fluid model -------------------------------------------------------------------
-class PointwiseJacobians(Mapping):
+class PointwiseJacobians(FluidJacobians):
     """The Jacobians of a pointwise model, kept as their diagonals.
 
-    A read-only mapping with the keys of :data:`hypate.solvers.aero.base.JACOBIAN_KEYS`; the sparse
-    ``(n, n)`` matrices are built on first access (the same matrices as before). The
-    coupling reads the diagonals directly (a pointwise Jacobian is diagonal, except the
-    effective-shape wall-temperature term ``diag(a) + diag(b) S``), so the hot path never
-    builds sparse matrices.
+    The :class:`~hypate.solvers.aero.base.FluidJacobians` of the analytic laws: the sparse
+    ``(n, n)`` blocks are built on first access; the coupling reads the diagonals through
+    :meth:`pressure_coefficients` and :meth:`tw_coefficients` (a pointwise Jacobian is
+    diagonal, except the effective-shape wall-temperature term ``diag(a) + diag(b) S``), so
+    the hot path never builds sparse matrices.
 
     Attributes
     ----------
@@ -248,6 +249,10 @@ class PointwiseJacobians(Mapping):
     @property
     def effective_shape(self) -> bool:
         return self.d_s_dT is not None
+
+    def pressure_coefficients(self) -> tuple[Array, Array]:
+        """``dp/dw = 0``, ``dp/dw_s = diag(dp_ds)``, ``dp/dw_dot = diag(dp_dv)``: (dp_ds, dp_dv)."""
+        return self.dp_ds, self.dp_dv
 
     def tw_coefficients(self) -> tuple[Array, Array | None]:
         """``dq/dT_w = diag(a) + diag(b) S``: (a, b); b None without the effective shape."""
@@ -351,7 +356,7 @@ class AnalyticFluid(FluidModel):
         loads = FluidLoads(pressure=p, heat_flux=q)
         if jacobians:
             eff = self.effective_shape and self.pressure_model != "ls"
-            loads.jacobians = PointwiseJacobians(  # type: ignore[assignment]
+            loads.jacobians = PointwiseJacobians(
                 n, np.asarray(dp_ds, float), np.asarray(dp_dv, float), dq_dpe, dq_dT,
                 d_s_dT if eff else None, d_s_dTs if eff else None, S if eff else None,
                 heat_derivatives=heat_derivatives)

@@ -4,10 +4,13 @@ A fluid model receives the state of the wall on a set of surface points -- norma
 displacement ``w``, its streamwise slope ``w_s`` (along the flow direction), normal velocity
 ``w_dot`` and wall temperature ``T_w`` -- plus a :class:`~solvers.flow.FlowCondition`, and
 returns the aerodynamic overpressure ``p - p_inf`` and the heat flux into the wall ``q`` on
-those points. On request it also returns the Jacobians with respect to each input as
-``(n, n)`` matrices (scipy.sparse for the pointwise analytic models; dense or low-rank for a
-ROM). The coupled solvers compose them with the transfer matrices (the slope operator gives
-dp/du_F = dp/dw + dp/dw_s @ S); they never know which fidelity they hold.
+those points. On request it also returns the Jacobians with respect to each input, a
+:class:`FluidJacobians`: the ``(n, n)`` blocks (scipy.sparse for the pointwise analytic
+models and the shock-expansion strips; dense or low-rank for a ROM) and, where a fidelity
+can give it, the cheap pointwise coefficient form (:meth:`FluidJacobians.pressure_coefficients`,
+:meth:`FluidJacobians.tw_coefficients`). The coupled solvers compose them with the transfer
+matrices (the slope operator gives dp/du_F = dp/dw + dp/dw_s @ S) through that interface
+only; they never know which fidelity they hold.
 
 Sign convention: ``w`` is positive along +z (out of the panel, into the flow side), the
 slope ``w_s`` is d w / d s along the flow, and a positive overpressure pushes the wall
@@ -17,6 +20,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -133,6 +137,53 @@ JACOBIAN_KEYS = ("dp_dw", "dp_dws", "dp_dwdot", "dp_dTw", "dq_dw", "dq_dws", "dq
                  "dq_dTw")
 
 
+class FluidJacobians(Mapping):
+    """The Jacobians of a fluid model's output on its surface points (Eq. 5.34 needs them).
+
+    A read-only mapping from each key of :data:`JACOBIAN_KEYS` (``"dp_dws"`` = dp/dw_s, ...)
+    to an ``(n, n)`` block: scipy.sparse, ndarray or any object supporting ``@`` and
+    ``toarray()``. A fidelity whose Jacobians have the pointwise form (each output at a point
+    depends on the inputs at that point only, up to the streamwise derivative ``S`` of the
+    points, :attr:`SurfacePoints.streamwise_derivative`) also gives their coefficients, so the
+    coupled solvers can form the transferred matrices on fixed patterns without building the
+    blocks; the default is None ("not of that form"), and the blocks are then used.
+    """
+
+    def pressure_coefficients(self) -> tuple[Array, Array] | None:
+        """The pointwise form of the pressure Jacobian, ``(s, v)`` of shape (n,) each, with
+        ``dp/dw = 0``, ``dp/dw_s = diag(s)`` and ``dp/dw_dot = diag(v)``; None when the
+        pressure Jacobian is not of that form."""
+        return None
+
+    def tw_coefficients(self) -> tuple[Array, Array | None] | None:
+        """The pointwise form of the wall-temperature heat-flux Jacobian, ``(a, b)`` with
+        ``dq/dT_w = diag(a) + diag(b) S`` (``b`` None: ``diag(a)`` alone); None when it is not
+        of that form. May be costly (called only when the thermal Newton needs it)."""
+        return None
+
+
+class BlockJacobians(FluidJacobians):
+    """:class:`FluidJacobians` given as their blocks only (no pointwise form).
+
+    Parameters
+    ----------
+    blocks : mapping
+        Each key of :data:`JACOBIAN_KEYS` (or none, for no Jacobians) to its ``(n, n)`` block.
+    """
+
+    def __init__(self, blocks: Mapping[str, object]) -> None:
+        self._blocks = dict(blocks)
+
+    def __getitem__(self, key: str) -> object:
+        return self._blocks[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._blocks)
+
+    def __len__(self) -> int:
+        return len(self._blocks)
+
+
 @dataclass
 class FluidLoads:
     """Fluid model output on the surface points.
@@ -143,14 +194,20 @@ class FluidLoads:
         Overpressure p - p_inf (Pa); positive pushes the wall towards -z.
     heat_flux : ndarray of shape (n,)
         Heat flux into the wall (W/m^2).
-    jacobians : dict
-        When requested: each key of :data:`JACOBIAN_KEYS` maps to an ``(n, n)`` matrix
-        (scipy.sparse, ndarray or any object supporting ``@`` and ``toarray()``).
+    jacobians : FluidJacobians
+        When requested: the Jacobians (empty otherwise). A fidelity may also assign a plain
+        mapping of blocks (each key of :data:`JACOBIAN_KEYS` to an ``(n, n)`` matrix): it is
+        held as :class:`BlockJacobians`, so every consumer sees the one interface.
     """
 
     pressure: Array
     heat_flux: Array
-    jacobians: dict[str, object] = field(default_factory=dict)
+    jacobians: FluidJacobians = field(default_factory=lambda: BlockJacobians({}))
+
+    def __setattr__(self, name: str, value: object) -> None:
+        if name == "jacobians" and not isinstance(value, FluidJacobians):
+            value = BlockJacobians(value)  # type: ignore[arg-type]
+        super().__setattr__(name, value)
 
 
 class FluidModel(ABC):
@@ -158,6 +215,9 @@ class FluidModel(ABC):
 
     #: Short name used in configs ("pt", "pt-bl", "rom:PATH", ...).
     name: str = "fluid"
+    #: Wall heating of the model: "none" when its heat flux is identically zero (a coupled
+    #: run with no other heat source then skips the thermal steps), else the law's name.
+    heating: str = "eckert"
 
     @abstractmethod
     def evaluate(self, points: SurfacePoints, state: SurfaceState, flow: FlowCondition,

@@ -1,4 +1,4 @@
-"""Coupled aerothermoelastic model and the tightly coupled quasi-steady scheme (Ch. 5).
+"""The coupled aerothermoelastic model of one panel (Ch. 5).
 
 :class:`PanelModel` holds the three disciplines of one panel in one flow -- the DCS9
 structure, the HTSH thermal model and a fluid model of any fidelity -- joined by the
@@ -6,27 +6,22 @@ conservative transfer matrices of Eq. (5.1). It provides the discipline coupling
 schemes need: aerodynamic loads and their Jacobians on the structural DOFs, the wall heat
 flux as an implicit function of the wall temperature, the static aeroelastic equilibrium
 (Eq. 5.31b) by Newton with the aerodynamic Jacobian, and the linearized stability analysis
-(Eqs. 5.33-5.35).
-
-:func:`run_tc` integrates Eq. (5.31) on the thermal time scale (Sec. 5.4.3): each step a
-Crank-Nicolson thermal step with the aerodynamic heat flux implicit in the wall
-temperature, then the aeroelastic equilibrium with fluid and structure converged together,
-optionally repeated (fixed-point passes) until both fields stop changing; then the LSA.
-The run stops after ``unstable_steps`` consecutive unstable LSA results.
+(Eqs. 5.33-5.35). The schemes that march it in time are :func:`hypate.solvers.coupling.tc.run_tc`
+(tightly coupled, quasi-steady) and :func:`hypate.solvers.coupling.lc.run_lc` (loosely coupled
+S1/S2); :func:`hypate.solvers.coupling.run.simulate` runs a case from its configuration.
 """
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from hypate.solvers.aero.analytic import PointwiseJacobians
 from hypate.solvers.aero.base import FluidLoads, FluidModel, SurfaceState
-from hypate.solvers.aero.factory import make_fluid_model
-from hypate.solvers.coupling.response import Response, sinusoidal_modes
+from hypate.solvers.coupling.response import sinusoidal_modes
 from hypate.solvers.coupling.stability import (
     StabilityResult,
     gep,
@@ -34,13 +29,15 @@ from hypate.solvers.coupling.stability import (
     shift_invert_gep,
     start_vector,
 )
-from hypate.solvers.coupling.transfer import Transfer, fluid_points
+from hypate.solvers.coupling.transfer import PointwiseTransfer, Transfer, fluid_points
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
-from hypate.solvers.numerics.sparse import gmres
-from hypate.solvers.numerics.threads import single_threaded_blas
+from hypate.solvers.numerics.sparse import (
+    DeferredMatrix,
+    FreePattern,
+    gmres,
+)
 from hypate.solvers.panel import PanelSpec
-from hypate.solvers.structure.dynamics import AlphaStepper
 from hypate.solvers.structure.model import StructuralModel
 from hypate.solvers.thermal.model import SurfaceCondition, ThermalLoads, ThermalModel
 from numpy.typing import NDArray
@@ -150,197 +147,6 @@ class EquilibriumError(RuntimeError):
     """The static aeroelastic equilibrium did not converge (e.g. past a snap-through)."""
 
 
-def _pattern_keys(indptr: NDArray[np.integer], indices: NDArray[np.integer],
-                  n_cols: int) -> NDArray[np.int64]:
-    rows = np.repeat(np.arange(indptr.size - 1, dtype=np.int64), np.diff(indptr))
-    return rows * n_cols + indices.astype(np.int64)
-
-
-def triple_product_operator(L: sp.spmatrix, R: sp.spmatrix,
-                            pattern: tuple[NDArray, NDArray] | None = None
-                            ) -> tuple[sp.csr_matrix, NDArray, NDArray]:
-    """The linear map ``d -> data of L diag(d) R`` on a fixed CSR pattern.
-
-    ``L`` is (m, n_f), ``R`` (n_f, k). Returns ``(T, indptr, indices)`` with ``T`` sparse of
-    shape (nnz, n_f), so ``csr_matrix((T @ d, indices, indptr), (m, k))`` equals
-    ``L @ diag(d) @ R`` (up to round-off: the products are summed in another order). The
-    pattern is ``pattern = (indptr, indices)`` when given (it must contain every entry of
-    the product), else the product's own. The data of a pointwise aerodynamic Jacobian
-    transferred to the structure is linear in the pointwise derivatives, so it costs one
-    sparse mat-vec instead of two sparse matrix products per evaluation.
-    """
-    Lc = sp.coo_matrix(L)
-    Rr = sp.csr_matrix(R)
-    Rr.sort_indices()
-    m, k = Lc.shape[0], Rr.shape[1]
-    counts = np.diff(Rr.indptr)[Lc.col]
-    rep = np.repeat(np.arange(Lc.nnz), counts)
-    start = np.repeat(Rr.indptr[Lc.col], counts)
-    offs = np.arange(rep.size) - np.repeat(np.cumsum(counts) - counts, counts)
-    ridx = start + offs
-    keys = Lc.row[rep].astype(np.int64) * k + Rr.indices[ridx].astype(np.int64)
-    vals = Lc.data[rep] * Rr.data[ridx]
-    f = Lc.col[rep]
-    if pattern is None:
-        uniq = np.unique(keys)
-        rows = uniq // k
-        indices = (uniq % k).astype(np.int32)
-        indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=m))]).astype(
-            np.int32)
-        pkeys = uniq
-    else:
-        indptr, indices = pattern
-        pkeys = _pattern_keys(indptr, indices, k)
-    pos = np.minimum(np.searchsorted(pkeys, keys), pkeys.size - 1)
-    if not np.all(pkeys[pos] == keys):
-        raise ValueError("the product has entries outside the given pattern")
-    T = sp.csr_matrix((vals, (pos, f)), shape=(pkeys.size, Lc.shape[1]))
-    T.sum_duplicates()
-    return T, indptr, indices
-
-
-class _FreePattern:
-    """The free-DOF block of matrices on the structural CSR pattern, by index maps.
-
-    ``sel`` picks the free-free entries (in CSR order of the block), ``tpos`` reorders the
-    block's CSR data into CSC data (the pattern is structurally symmetric), so
-    ``A[free][:, free]`` in CSR or CSC costs one gather; ``diag`` picks the block's
-    diagonal from its CSR data.
-    """
-
-    def __init__(self, indptr: NDArray, indices: NDArray, n: int, free: NDArray) -> None:
-        newpos = np.full(n, -1, dtype=np.int64)
-        newpos[free] = np.arange(free.size)
-        rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr))
-        r, c = newpos[rows], newpos[indices]
-        keep = (r >= 0) & (c >= 0)
-        self.sel = np.flatnonzero(keep)
-        r, c = r[keep], c[keep]
-        self.n = int(free.size)
-        self.indices = c.astype(np.int32)
-        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=self.n))]
-                                     ).astype(np.int32)
-        keys = r * self.n + c
-        tkeys = c * self.n + r
-        self.tpos = np.searchsorted(keys, tkeys)
-        self.diag = np.flatnonzero(r == c)  # the diagonal entries, in row order
-        if not np.array_equal(keys[self.tpos], tkeys):
-            raise ValueError("the structural pattern is not structurally symmetric")
-        self._perm: tuple[NDArray, NDArray, NDArray, NDArray] | None = None
-
-    def csc_from_block(self, block: Array) -> sp.csc_matrix:
-        """CSC of the block with CSR data ``block``: column j holds the entries (i, j), and
-        with the symmetric pattern its row indices are the CSR column indices of row j."""
-        return sp.csc_matrix((block[self.tpos], self.indices, self.indptr),
-                             shape=(self.n, self.n))
-
-    def _ordering(self) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-        """The minimum-degree ordering of ``A^T + A`` (SuperLU's ``MMD_AT_PLUS_A``) and the
-        CSC pattern of the permuted block ``A[p][:, p]`` with the gather map from the
-        block's CSR data, computed once (the ordering depends on the pattern only)."""
-        if self._perm is None:
-            n, nnz = self.n, self.indices.size
-            # a diagonally dominant matrix on the pattern: no pivoting, so perm_c is MMD's
-            ones = self.csc_from_block(np.ones(nnz)) + n * sp.identity(n, format="csc")
-            perm_c = spla.splu(ones.tocsc(), permc_spec="MMD_AT_PLUS_A",
-                               diag_pivot_thresh=1e-3, options={"SymmetricMode": True}).perm_c
-            p = np.argsort(perm_c)  # perm_c[old] = new, p[new] = old
-            # entry positions (1-based: no entry may vanish) carried through the permutation
-            pos = sp.csr_matrix((np.arange(1.0, nnz + 1.0), self.indices, self.indptr),
-                                shape=(n, n))
-            P = pos[p][:, p].tocsc()
-            P.sort_indices()
-            self._perm = (p, P.data.astype(np.int64) - 1, P.indices, P.indptr)
-        return self._perm
-
-    def factor(self, block: Array) -> PermutedLU | spla.SuperLU:
-        """:func:`splu_free` of the block with CSR data ``block``, on the pre-permuted block.
-
-        SuperLU then skips its ordering (``NATURAL``): the same factor as the
-        ``MMD_AT_PLUS_A`` path, 20 % faster on the 8 x 8 shell (measured). Same check and
-        fallback as :func:`splu_free`. Returns an object with ``solve`` and ``shape``.
-        """
-        p, gather, indices, indptr = self._ordering()
-        B = sp.csc_matrix((block[gather], indices, indptr), shape=(self.n, self.n))
-        try:
-            lu = PermutedLU(spla.splu(B, permc_spec="NATURAL", diag_pivot_thresh=1e-3,
-                                      options={"SymmetricMode": True}), p)
-        except RuntimeError:
-            return spla.splu(self.csc_from_block(block))
-        A = sp.csr_matrix((block, self.indices, self.indptr), shape=(self.n, self.n))
-        if _factor_ok(lu, A):
-            return lu
-        return spla.splu(self.csc_from_block(block))
-
-
-class PermutedLU:
-    """A sparse LU ``lu`` of ``A[p][:, p]`` used as a solver of ``A``: ``A x = b`` is
-    ``(A[p][:, p]) x[p] = b[p]``."""
-
-    def __init__(self, lu: spla.SuperLU, p: NDArray) -> None:
-        self.lu, self.p = lu, p
-        self.shape = lu.shape
-
-    def solve(self, b: Array) -> Array:
-        x = np.empty_like(b, dtype=float)
-        x[self.p] = self.lu.solve(np.asarray(b, dtype=float)[self.p])
-        return x
-
-
-def _factor_ok(lu: PermutedLU | spla.SuperLU, A: sp.spmatrix) -> bool:
-    """One check solve (relative residual <= 1e-10): catches a pivot the symmetric mode's
-    threshold let through."""
-    b = np.cos(np.arange(A.shape[0], dtype=float))  # a fixed, nowhere-special vector
-    x = lu.solve(b)
-    return bool(np.all(np.isfinite(x))
-                and np.linalg.norm(A @ x - b) <= 1e-10 * np.linalg.norm(b))
-
-
-def splu_free(A: sp.csc_matrix):
-    """Sparse LU of a free-DOF block ``K - K_A (- sigma M)``.
-
-    SuperLU's symmetric mode with the minimum-degree ordering of ``A^T + A`` (diagonal
-    pivots preferred, threshold 1e-3) -- the pattern is structurally symmetric and the
-    matrix close to symmetric: 3 ms and 2.5x fewer nonzeros than the default COLAMD with
-    partial pivoting (8 ms) on the 8 x 8 shell (measured). The factor is checked on one
-    solve (relative residual <= 1e-10); when the symmetric mode reports a singular factor
-    or fails the check (a pivot the threshold let through), the default LU is used.
-    """
-    try:
-        lu = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=1e-3,
-                       options={"SymmetricMode": True})
-    except RuntimeError:
-        return spla.splu(A)
-    if _factor_ok(lu, A):
-        return lu
-    return spla.splu(A)
-
-
-class DeferredMatrix:
-    """A sparse matrix formed on first use: calling it returns the matrix (the thermal
-    Newton resolves a flux derivative only when it needs the Jacobian); ``@``,
-    ``toarray()`` and ``tocsr()`` act on the matrix."""
-
-    def __init__(self, build, shape: tuple[int, int]) -> None:
-        self._build = build
-        self._matrix: sp.csr_matrix | None = None
-        self.shape = shape
-
-    def __call__(self) -> sp.csr_matrix:
-        if self._matrix is None:
-            self._matrix = self._build()
-        return self._matrix
-
-    def __matmul__(self, x):
-        return self() @ x
-
-    def toarray(self) -> Array:
-        return self().toarray()
-
-    def tocsr(self) -> sp.csr_matrix:
-        return self()
-
-
 class PanelModel:
     """A panel in a flow: structure, thermal model, fluid model and transfer (Eq. 5.1).
 
@@ -366,13 +172,11 @@ class PanelModel:
         self.points = fluid_points(panel, self.settings.fluid_density)
         self.transfer = Transfer.build(panel, self.points, self.thermal.n_levels)
         tr = self.transfer
-        n_in = self.thermal.n_inplane
         top = self.thermal.mesh.top_nodes
         # wall temperature from the top-level nodes only; the fluid heat input goes back as
         # nodal loads on them (Eq. 5.1b)
         self._H_FT_top = tr.H_FT[:, top].tocsr()
         self._H_TF_top = tr.H_TF[top, :].tocsr()
-        self._n_in = n_in
         self.timer = StepTimer()
         s = self.settings
         self.T_rad = float(flow.temperature if s.radiation_temperature is None
@@ -381,57 +185,26 @@ class PanelModel:
                        if s.external_pressure != 0.0 else np.zeros(self.structure.n_dof))
         self.modes = sinusoidal_modes(panel, self.points)
         self._precond = None  # LU of a recent (K - K_A)_ff, preconditions the Newton solves
-        self._ops: dict[str, object] | None = None  # pointwise-Jacobian operators (lazy)
+        # the transferred Jacobians of a pointwise fluid model (their maps built on first use)
+        self.pointwise = PointwiseTransfer(tr, self.structure.pattern, self._H_TF_top,
+                                           self._H_FT_top)
         self._last_state: tuple | None = None  # (u, T, K, loads, ...) of the last residual
         self._lsa_start: Array | None = None  # Arnoldi start of the next LSA (last modes)
 
-    def _op(self, name: str):
-        """Operators of the pointwise (diagonal) aerodynamic Jacobians, each built once on
-        first use.
-
-        ``KA_slope``/``KA_w``: d -> data of ``H_SF diag(d) H_FS_slope`` / ``H_SF diag(d) H_FS``
-        on the structural pattern (K_A and C_A, Eq. 5.34, for the solvers); ``KA_slope_own``/
-        ``KA_w_own``: the same on the products' own (compact) patterns, with their
-        ``(T, indptr, indices)``; ``QT_a``/``QT_b``: a, b -> data of ``H_TF diag(a) H_FT`` and
-        ``H_TF diag(b) S H_FT`` on the top thermal nodes (the implicit wall-flux derivative)
-        on ``QT_pattern``; ``free``: the free-DOF block maps of the structural pattern.
-        """
-        ops = self._ops if self._ops is not None else {}
-        self._ops = ops
-        if name in ops:
-            return ops[name]
-        st, tr = self.structure, self.transfer
-        H = {"slope": tr.H_FS_slope, "w": tr.H_FS}
-        if name in ("KA_slope", "KA_w"):
-            ops[name] = triple_product_operator(tr.H_SF, H[name[3:]],
-                                                (st._indptr, st._indices))[0]
-        elif name in ("KA_slope_own", "KA_w_own"):
-            ops[name] = triple_product_operator(tr.H_SF, H[name[3:-4]])
-        elif name in ("QT_a", "QT_b", "QT_pattern"):
-            S = self.points.streamwise_derivative
-            L, Ra, Rb = self._H_TF_top, self._H_FT_top, S @ self._H_FT_top
-            _, ip_a, ix_a = triple_product_operator(L, Ra)
-            _, ip_b, ix_b = triple_product_operator(L, Rb)
-            n_in = L.shape[0]
-            union = sp.csr_matrix((np.ones(ix_a.size), ix_a, ip_a), shape=(n_in, n_in)) + \
-                sp.csr_matrix((np.ones(ix_b.size), ix_b, ip_b), shape=(n_in, n_in))
-            union.sort_indices()
-            qpat = (union.indptr.astype(np.int32), union.indices.astype(np.int32))
-            ops["QT_pattern"] = qpat
-            ops["QT_a"] = triple_product_operator(L, Ra, qpat)[0]
-            ops["QT_b"] = triple_product_operator(L, Rb, qpat)[0]
-        elif name == "free":
-            ops[name] = _FreePattern(st._indptr, st._indices, st.n_dof, st.free_dofs)
-        else:
-            raise KeyError(name)
-        return ops[name]
+    @cached_property
+    def free_pattern(self) -> FreePattern:
+        """The free-DOF block maps of the structural pattern (the solvers' ``(K - K_A)_ff``)."""
+        st = self.structure
+        return FreePattern(st.pattern.indptr, st.pattern.indices, st.n_dof, st.free_dofs)
 
     def _aero_stiffness_data(self, loads: FluidLoads) -> Array | None:
-        """K_A as data on the structural CSR pattern for a pointwise fluid model, else None."""
-        J = loads.jacobians
-        if not isinstance(J, PointwiseJacobians):
+        """K_A as data on the structural CSR pattern when the pressure Jacobian has the
+        pointwise form (:meth:`~hypate.solvers.aero.base.FluidJacobians.pressure_coefficients`),
+        else None."""
+        coeffs = loads.jacobians.pressure_coefficients()
+        if coeffs is None:
             return None
-        return self._op("KA_slope") @ J.dp_ds  # dp/dw = 0 (pointwise laws)
+        return self.pointwise.stiffness_data @ coeffs[0]  # dp/dw = 0 (pointwise form)
 
     def _keep_precond(self, lu) -> None:
         self._precond = lu
@@ -482,8 +255,7 @@ class PanelModel:
         """True when nothing heats or cools the panel (no aerodynamic heating, no
         radiation, no external heat flux): the temperature field stays at its initial value
         and the thermal steps are skipped."""
-        heating = getattr(self.fluid, "heating", "eckert")
-        return (heating == "none" and self.panel.emissivity == 0.0
+        return (self.fluid.heating == "none" and self.panel.emissivity == 0.0
                 and self.settings.external_heat_flux == 0.0)
 
     # -- fields on the fluid grid -------------------------------------------------------
@@ -511,15 +283,19 @@ class PanelModel:
     # -- aerodynamic operators on the structural DOFs -------------------------------------
     def aero_force(self, loads: FluidLoads) -> Array:
         """F_S = H_SF p + external load (Eqs. 5.1a, 5.27)."""
-        return self.transfer.H_SF @ loads.pressure + self._F_ext
+        return self.pressure_force(loads.pressure)
+
+    def pressure_force(self, pressure: Array) -> Array:
+        """F_S = H_SF p + external load (Eqs. 5.1a, 5.27) for an overpressure ``p`` on the
+        fluid points (e.g. the extrapolated pressure of scheme S1, Eq. 5.3)."""
+        return self.transfer.H_SF @ pressure + self._F_ext
 
     def aero_stiffness(self, loads: FluidLoads) -> sp.csr_matrix | spla.LinearOperator:
         """K_A = dF_S/du = H_SF (dp/dw H_FS + dp/dw_s H_FS_slope) (Eq. 5.34)."""
         tr, J = self.transfer, loads.jacobians
-        if isinstance(J, PointwiseJacobians):
-            T, indptr, indices = self._op("KA_slope_own")
-            n = self.structure.n_dof
-            return sp.csr_matrix((T @ J.dp_ds, indices, indptr), shape=(n, n))
+        coeffs = J.pressure_coefficients()
+        if coeffs is not None:  # pointwise: on the product's own pattern, data only
+            return self.pointwise.stiffness(coeffs[0])
         if all(sp.issparse(J[k]) for k in ("dp_dw", "dp_dws")):
             return (tr.H_SF @ (J["dp_dw"] @ tr.H_FS + J["dp_dws"] @ tr.H_FS_slope)).tocsr()
         n = self.structure.n_dof
@@ -531,10 +307,9 @@ class PanelModel:
     def aero_damping(self, loads: FluidLoads) -> sp.csr_matrix:
         """C_A = dF_S/du_dot = H_SF dp/dw_dot H_FS (Eq. 5.34)."""
         tr = self.transfer
-        if isinstance(loads.jacobians, PointwiseJacobians):
-            T, indptr, indices = self._op("KA_w_own")
-            n = self.structure.n_dof
-            return sp.csr_matrix((T @ loads.jacobians.dp_dv, indices, indptr), shape=(n, n))
+        coeffs = loads.jacobians.pressure_coefficients()
+        if coeffs is not None:  # pointwise: on the product's own pattern, data only
+            return self.pointwise.damping(coeffs[1])
         return sp.csr_matrix(tr.H_SF @ (loads.jacobians["dp_dwdot"] @ tr.H_FS))
 
     # -- thermal coupling -------------------------------------------------------------------
@@ -551,27 +326,22 @@ class PanelModel:
         H_FT, H_TF = self._H_FT_top, self._H_TF_top
         cache: list = []
 
-        def flux(T_top: Array) -> tuple[Array, sp.csr_matrix]:
+        def flux(T_top: Array) -> tuple[Array, DeferredMatrix]:
             # nodal heat input Q = H_TF q (Eq. 5.1b) and its derivative, on the thermal pattern;
             # the Newton asks twice at the same T (residual, then Jacobian): cached
             if cache and np.array_equal(cache[0], T_top):
                 return cache[1], cache[2]
             loads = self.fluid_loads(u, H_FT @ T_top, jacobians=True)
             J = loads.jacobians
-            if isinstance(J, PointwiseJacobians):
-                n_top = T_top.size
+            n_top = T_top.size
 
-                def build():  # formed only when the thermal Newton needs its Jacobian
-                    a, b = J.tw_coefficients()
-                    data = self._op("QT_a") @ a
-                    if b is not None:
-                        data = data + self._op("QT_b") @ b
-                    ip, ix = self._op("QT_pattern")
-                    return sp.csr_matrix((data, ix, ip), shape=(n_top, n_top))
+            def build() -> sp.csr_matrix:  # formed only when the thermal Newton needs it
+                coeffs = J.tw_coefficients()
+                if coeffs is None:  # from the block: H_TF dq/dT_w H_FT
+                    return (H_TF @ sp.csr_matrix(J["dq_dTw"]) @ H_FT).tocsr()
+                return self.pointwise.wall_flux_derivative(*coeffs)  # diag(a) + diag(b) S
 
-                dQ = DeferredMatrix(build, (n_top, n_top))
-            else:
-                dQ = (H_TF @ sp.csr_matrix(J["dq_dTw"]) @ H_FT).tocsr()
+            dQ = DeferredMatrix(build, (n_top, n_top))
             out = (self.upper_heat_input(loads.heat_flux), dQ)
             cache[:] = [np.array(T_top, copy=True), *out]
             return out
@@ -693,8 +463,9 @@ class PanelModel:
             f"iterations (residual {rnorm:.3g} N vs scale {ref:.3g} N)")
 
     def _gmres_precond(self, matvec, b: Array) -> Array | None:
-        """GMRES preconditioned by the kept factor (:func:`hypate.solvers.numerics.sparse.gmres`, at most
-        20 iterations); None when the factor is missing or too weak."""
+        """GMRES preconditioned by the kept factor (at most 20 iterations of
+        :func:`hypate.solvers.numerics.sparse.gmres`); None when the factor is missing or too
+        weak."""
         if self._precond is None or self._precond.shape[0] != b.size:
             return None
         # (a hand-rolled GMRES: scipy's costs 0.1 ms per iteration more in Python overhead,
@@ -708,8 +479,9 @@ class PanelModel:
 
     def _solve_free(self, data: Array, b: Array) -> Array:
         """:meth:`_solve` for ``K - K_A`` given as data on the structural pattern (pointwise
-        fluid): the free block by index maps, the factor by :meth:`_FreePattern.factor`."""
-        fp = self._op("free")
+        fluid): the free block by index maps, the factor by
+        :meth:`hypate.solvers.numerics.sparse.FreePattern.factor`."""
+        fp = self.free_pattern
         block = data[fp.sel]
         A = sp.csr_matrix((block, fp.indices, fp.indptr), shape=(fp.n, fp.n))
         x = self._gmres_precond(A.__matmul__, b)
@@ -793,9 +565,9 @@ class PanelModel:
 
     def _gep_pointwise(self, K: sp.csr_matrix, M: sp.csr_matrix, KA_data: Array
                        ) -> StabilityResult:
-        """:func:`hypate.solvers.coupling.stability.gep` (direct solver, default shift) on the free block
-        built by index maps; its factor becomes the Newton preconditioner."""
-        fp = self._op("free")
+        """:func:`hypate.solvers.coupling.stability.gep` (direct solver, default shift) on the
+        free block built by index maps; its factor becomes the Newton preconditioner."""
+        fp = self.free_pattern
         Kb, Mb = K.data[fp.sel], M.data[fp.sel]
         Mff = sp.csr_matrix((Mb, fp.indices, fp.indptr), shape=(fp.n, fp.n))
         scale = float(np.mean(np.abs(Kb[fp.diag]) / np.maximum(np.abs(Mb[fp.diag]), 1e-300)))
@@ -823,312 +595,6 @@ def _scaled(op: spla.LinearOperator, factor: float) -> spla.LinearOperator:
     return spla.LinearOperator(op.shape, matvec=lambda x: factor * (op @ x), dtype=float)
 
 
-def extrapolate(history: list[Array]) -> Array:
-    """Polynomial extrapolation to the next of equally spaced states, ``history`` newest
-    first: ``3 x_n - 3 x_(n-1) + x_(n-2)`` (quadratic) from three states, ``2 x_n - x_(n-1)``
-    from two, ``x_n`` from one. A smooth history ``x(t)`` is predicted to O(dt^3)."""
-    if len(history) >= 3:
-        return 3.0 * history[0] - 3.0 * history[1] + history[2]
-    if len(history) == 2:
-        return 2.0 * history[0] - history[1]
-    return np.array(history[0], copy=True)
-
-
-def run_tc(model: PanelModel, progress=None) -> Response:
-    """Tightly coupled quasi-steady scheme (Sec. 5.4.3) with LSA each step.
-
-    Parameters
-    ----------
-    model : PanelModel
-    progress : callable(step, n_steps), optional
-        Called after every step.
-
-    Returns
-    -------
-    Response
-        Histories up to the end or to the instability (``instability_time``,
-        ``instability_type``); a solver failure ends the run with ``status = "failed"``
-        and the reason in ``message`` (never an exception).
-    """
-    # one BLAS thread: every dense operation of a step is small, and on a busy machine
-    # OpenBLAS's second thread spins or waits for a core (measured: the ARPACK eigenvector
-    # extraction takes 50 ms instead of 1 ms, the whole run 30-50 % longer)
-    with single_threaded_blas():
-        return _run_tc(model, progress)
-
-
-def _run_tc(model: PanelModel, progress) -> Response:
-    s = model.settings
-    dt, n_steps = s.time_step, s.n_steps
-    resp = Response.start(model, scheme="tc")
-    u, T = model.initial_state()
-    unstable_run = 0
-    first_unstable: tuple[float, str] | None = None
-    t_start = time.perf_counter()
-    try:
-        u, _ = model.equilibrium(u, T)
-        lsa = model.stability(u, T)
-        resp.record(0.0, u, T, model, lsa)
-        # converged states of the previous steps, newest first: the Newton predictors
-        T_hist: list[Array] = []
-        u_hist: list[Array] = []
-        for n in range(1, n_steps + 1):
-            t = n * dt
-            T_new, u_new = T, u
-            for k in range(s.passes):
-                T_prev, u_prev = T_new, u_new
-                if not model.thermal_frozen:
-                    # the thermal Newton starts from the extrapolation of the last steps (same
-                    # solution, about one Newton iteration fewer per step)
-                    guess = T_new if (k > 0 or not T_hist) else extrapolate([T, *T_hist])
-                    T_new = model.thermal_step(T, u_new, dt, T_guess=guess)
-                # likewise the aeroelastic Newton (the same equilibrium to its tolerance: 1.3
-                # instead of 2.4 iterations per step on the Sec. 9.2 benchmark)
-                u_guess = extrapolate([u, *u_hist]) if (k == 0 and u_hist) else None
-                u_new, _ = model.equilibrium(u_new, T_new, guess=u_guess)
-                dT = np.max(np.abs(T_new - T_prev)) / max(np.max(np.abs(T_new - T)), 1e-12)
-                du = np.max(np.abs(u_new - u_prev)) / max(np.max(np.abs(u_new)), 1e-12)
-                if dT <= s.pass_tol and du <= s.pass_tol:
-                    break
-            T_hist, u_hist = [T, *T_hist[:1]], [u, *u_hist[:1]]
-            T, u = T_new, u_new
-            lsa = model.stability(u, T) if n % s.lsa_every == 0 else None
-            resp.record(t, u, T, model, lsa)
-            if progress is not None:
-                progress(n, n_steps)
-            if lsa is not None and lsa.unstable:
-                unstable_run += 1
-                if first_unstable is None:
-                    first_unstable = (t, lsa.status)
-                if unstable_run >= s.unstable_steps:
-                    resp.finish("unstable", f"{lsa.status} detected by the LSA at "
-                                f"t = {first_unstable[0]:g} s", first_unstable)
-                    break
-            elif lsa is not None:
-                unstable_run, first_unstable = 0, None
-        else:
-            resp.finish("completed", "", None)
-    except EquilibriumError as exc:
-        if not resp.times:
-            resp.finish("failed", f"no equilibrium at t = 0: {exc}", None)
-        else:
-            # the quasi-steady equilibrium ceased to exist during the step: a limit point of
-            # the static aeroelastic problem, i.e. a snap-through (divergence-type instability)
-            t_fail = resp.times[-1] + dt
-            resp.finish("unstable", f"static aeroelastic equilibrium lost at t = {t_fail:g} s "
-                        f"(limit point, snap-through): {exc}",
-                        first_unstable or (t_fail, "divergence"))
-    resp.wall_seconds = time.perf_counter() - t_start
-    resp.timing = model.timer.as_dict()
-    return resp
-
-
-def _explicit_thermal_loads(model: PanelModel, q_fluid: Array) -> ThermalLoads:
-    """Thermal loads with a given (estimated) fluid heat flux plus the external heat flux
-    (Eq. 6.1d) and radiation (S1/S2)."""
-    top = SurfaceCondition(flux=model.upper_heat_input(q_fluid),
-                           emissivity=model.panel.emissivity, T_rad=model.T_rad, nodal_load=True)
-    return ThermalLoads(top=top)
-
-
-def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float = 1.0, record_every: int = 1,
-           progress=None, stop_on_snap: bool = True,
-           record_energy: bool = False, ramp_time: float = 0.0) -> Response:
-    """Loosely coupled transient schemes S1 and S2 (Sec. 5.3.1), time step ``settings.time_step``.
-
-    Both: thermal step with the extrapolated heat flux ``1.5 q^n - 0.5 q^(n-1)`` (Eq. 5.2).
-    S1: structure with the extrapolated pressure ``2 p^n - p^(n-1)`` (Eq. 5.3), then the fluid
-    at the new displacement (Eq. 5.4). S2: fluid at the extrapolated displacement
-    ``u^n + dt (1.5 v^n - 0.5 v^(n-1))`` (Eq. 5.5), then the structure with that pressure
-    (Eq. 5.6). Start: Eq. (5.7). Generalized-alpha structure, Crank-Nicolson thermal.
-    The fluid is handed displacements only (Eq. 5.8) and forms the wall velocity of the
-    piston-theory term from them by the three-point backward difference of Eq. (2.28).
-
-    ``ramp_time > 0`` gives a smooth start: the fluid pressure and heat flux are multiplied
-    by the C^3 smoothstep ``s(t / ramp_time)`` (``s = 35x^4 - 84x^5 + 70x^6 - 20x^7``, 0 at
-    t = 0, 1 from ``ramp_time`` on) -- a flow switched on over ``ramp_time`` instead of
-    impulsively. The default 0 is the impulsive start of the benchmarks; the smooth start is
-    for convergence studies, where the impulsive start's high-frequency transient (modes no
-    practical step resolves) masks the schemes' order. The stored pressure and heat flux are
-    the ramped ones.
-
-    The run ends at ``settings.duration``; with ``stop_on_snap`` it ends once a snap-through
-    is over (the centre deflection has reversed sign and passed its pre-snap magnitude).
-
-    With ``record_energy`` the artificial energy of the fluid-structure interface of every
-    step (Sec. 5.3.3) is stored in ``Response.artificial_energy`` (J, entry ``n-1`` for the
-    step ``t^(n-1) -> t^n``; NaN for the start step, Eq. 5.7):
-    ``dE = dE_S + dE_F`` (Eq. 5.21), with the work on the structure
-    ``dE_S = 1/2 (F^(n+1,E) + F^(n,E))^T (u^(n+1) - u^n)`` (Eq. 5.19) and the work on the fluid
-    ``dE_F = -1/2 (F^(n+1) + F^n)^T (u^(n+1,E) - u^(n,E))`` (Eq. 5.20), ``F = H_SF p``;
-    superscript E marks the estimated values each scheme hands over (S1: ``p^E`` by Eq. 5.3,
-    ``u^E = u``; S2: ``p^E = p``, ``u^E`` by Eq. 5.5). Per step it is O(dt^3) for S1 (Eq. 5.23)
-    and O(dt^4) for S2 (Eq. 5.24).
-    """
-
-    if scheme not in ("s1", "s2"):
-        raise InputError("simulation.scheme", "loosely coupled schemes are 's1' and 's2'")
-    s = model.settings
-    dt, n_steps = s.time_step, s.n_steps
-    st, tr = model.structure, model.transfer
-    resp = Response.start(model, scheme=scheme)
-    u0, T = model.initial_state()
-    u0 = model.relax_inplane(u0, T)
-    T_s = model.structural_temperature(T)
-    T_w = model.wall_temperature(T)
-    if not (ramp_time >= 0.0 and math.isfinite(ramp_time)):
-        raise InputError("ramp_time", "must be >= 0 (s)")
-
-    def fluid(t: float, u: Array, T_w: Array, u_dot: Array | None = None) -> FluidLoads:
-        """The fluid solution at t (ramped on over ``ramp_time``)."""
-        loads = model.fluid_loads(u, T_w, u_dot=u_dot)
-        k = _smoothstep(t / ramp_time) if ramp_time > 0.0 else 1.0
-        return loads if k == 1.0 else FluidLoads(k * loads.pressure, k * loads.heat_flux)
-
-    def record(t: float, u: Array, T: Array, u_dot: Array | None = None) -> None:
-        resp.record(t, u, T, model, None, u_dot=u_dot)
-        k = _smoothstep(t / ramp_time) if ramp_time > 0.0 else 1.0
-        if k != 1.0 and resp.keep_fields:
-            resp.pressure[-1] *= k
-            resp.heat_flux[-1] *= k
-
-    loads0 = fluid(0.0, u0, T_w)
-    F0 = model.aero_force(loads0)
-    stepper = AlphaStepper(st, dt, rho_bar=rho_bar, u0=u0, T0=T_s, F0=F0)
-    record(0.0, stepper.u, T)
-    center = 5 * st.mesh.center + 2
-    t_start = time.perf_counter()
-    # start procedure, Eq. (5.7): u^1, v^1 from the initial acceleration -- on the free
-    # transverse DOFs; the in-plane, rotational and penalty-constrained DOFs are far
-    # stiffer than any explicit step resolves, so they are relaxed to equilibrium at t^1
-    w_free = np.intersect1d(st.free_dofs, np.arange(2, st.n_dof, 5))
-    u1, v1 = stepper.u.copy(), stepper.v.copy()
-    u1[w_free] += dt * stepper.v[w_free] + 0.5 * dt * dt * stepper.a[w_free]
-    v1[w_free] += dt * stepper.a[w_free]
-    p_hist = [loads0.pressure, None]
-    q_hist = [loads0.heat_flux, loads0.heat_flux]
-    v_prev = stepper.v.copy()
-    # displacements handed to the fluid at the last two step ends, u^(n,E) and u^(n-1,E)
-    # (Eq. 5.8): the fluid forms its wall velocity from them by Eq. (2.28)
-    uE_hist = [u0, u0]
-    peak = 0.0
-    # interface histories of the energy balance (Sec. 5.3.3): estimated and actual pressure
-    # and the estimated displacement at the previous step end
-    pE_prev = p_act_prev = uE_prev = None
-    try:
-        for n in range(1, n_steps + 1):
-            t = n * dt
-            # -- thermal step with the extrapolated heat flux (Eq. 5.2)
-            if not model.thermal_frozen:
-                q_est = 1.5 * q_hist[0] - 0.5 * q_hist[1]
-                t0 = time.perf_counter()
-                res = model.thermal.step(T, dt, _explicit_thermal_loads(model, q_est),
-                                         alpha=s.thermal_alpha)
-                model.timer.thermal += time.perf_counter() - t0
-                if not res.converged:
-                    raise EquilibriumError("thermal Newton did not converge")
-                T = res.T
-                T_s = model.structural_temperature(T)
-                T_w = model.wall_temperature(T)
-            if n == 1:
-                # Eq. (5.7): the first step is taken by the start procedure
-                u1 = model.relax_inplane(u1, T)
-                loads = fluid(t, u1, T_w, u_dot=v1)
-                stepper.u, stepper.v = u1, v1
-                stepper.FI = st.internal_force(u1, T_s)
-                stepper.F = model.aero_force(loads)
-                stepper.a = st.solver.factor(stepper.M).solve(
-                    stepper.F - stepper.FI - (stepper.C @ v1 if stepper.has_damping else 0.0))
-                p_hist = [loads.pressure, p_hist[0]]
-                pE_prev = p_act_prev = loads.pressure
-                uE_prev = u1
-                uE_hist = [u1, uE_hist[0]]
-                if record_energy:
-                    resp.artificial_energy.append(float("nan"))
-            elif scheme == "s1":
-                p_est = 2.0 * p_hist[0] - p_hist[1]  # Eq. (5.3)
-                u_old = stepper.u
-                t0 = time.perf_counter()
-                u, v, _ = stepper.step(tr.H_SF @ p_est + model._F_ext, T_s)
-                model.timer.structural += time.perf_counter() - t0
-                # Eq. (5.4): u^(n+1,E) = u^(n+1); wall velocity by Eq. (2.28)
-                loads = fluid(t, u, T_w, u_dot=_bdf2_velocity(u, uE_hist, dt))
-                uE_hist = [u, uE_hist[0]]
-                p_hist = [loads.pressure, p_hist[0]]
-                if record_energy:  # Eqs. (5.19)-(5.21) with u^E = u
-                    du = tr.H_SF.T @ (u - u_old)
-                    resp.artificial_energy.append(float(
-                        0.5 * (p_est + pE_prev) @ du - 0.5 * (loads.pressure + p_act_prev) @ du))
-                pE_prev, p_act_prev = p_est, loads.pressure
-            else:
-                u_est = stepper.u + dt * (1.5 * stepper.v - 0.5 * v_prev)  # Eq. (5.5)
-                # the fluid's wall velocity at t^(n+1) from the estimated displacements,
-                # Eq. (2.28) (not 1.5 v^n - 0.5 v^(n-1): that is v at t^(n+1/2), an O(dt)
-                # error in the piston-theory velocity term)
-                loads = fluid(t, u_est, T_w, u_dot=_bdf2_velocity(u_est, uE_hist, dt))
-                uE_hist = [u_est, uE_hist[0]]
-                v_prev = stepper.v.copy()
-                u_old = stepper.u
-                t0 = time.perf_counter()
-                stepper.step(model.aero_force(loads), T_s)  # Eq. (5.6)
-                model.timer.structural += time.perf_counter() - t0
-                p_hist = [loads.pressure, p_hist[0]]
-                if record_energy:  # Eqs. (5.19)-(5.21) with p^E = p
-                    p_mid = 0.5 * (loads.pressure + p_act_prev)
-                    resp.artificial_energy.append(float(
-                        p_mid @ (tr.H_SF.T @ ((stepper.u - u_old) - (u_est - uE_prev)))))
-                pE_prev, p_act_prev, uE_prev = loads.pressure, loads.pressure, u_est
-            if n == 1:
-                v_prev = stepper.v.copy() if scheme == "s1" else v_prev
-            q_hist = [loads.heat_flux, q_hist[0]]
-            if not np.all(np.isfinite(stepper.u)):
-                raise EquilibriumError("the transient response diverged (non-finite state)")
-            if n % record_every == 0 or n == n_steps:
-                record(t, stepper.u, T, u_dot=stepper.v)
-            if progress is not None:
-                progress(n, n_steps)
-            w = float(stepper.u[center])
-            if stop_on_snap:
-                if abs(w) > abs(peak) and (peak == 0.0 or np.sign(w) == np.sign(peak)):
-                    peak = w
-                elif (abs(peak) > 0.25 * model.panel.thickness and np.sign(w) != np.sign(peak)
-                      and abs(w) > abs(peak)):
-                    onset = snap_onset(np.asarray(resp.times), np.asarray(resp.center_deflection))
-                    resp.finish("unstable", "snap-through", (onset, "divergence"))
-                    break
-        else:
-            resp.finish("completed", "", None)
-    except EquilibriumError as exc:
-        resp.finish("failed", str(exc), None)
-    resp.wall_seconds = time.perf_counter() - t_start
-    resp.timing = model.timer.as_dict()
-    return resp
-
-
-def _smoothstep(x: float) -> float:
-    """C^3 smoothstep ``35x^4 - 84x^5 + 70x^6 - 20x^7`` on [0, 1], 0 below and 1 above."""
-    x = min(max(float(x), 0.0), 1.0)
-    return x ** 4 * (35.0 - 84.0 * x + 70.0 * x * x - 20.0 * x ** 3)
-
-
-def _bdf2_velocity(u_new: Array, u_hist: list[Array], dt: float) -> Array:
-    """Wall velocity the fluid forms from the displacements it is handed, Eq. (2.28):
-    ``(3 u^(n+1,E) - 4 u^(n,E) + u^(n-1,E)) / (2 dt)``, second order at t^(n+1)."""
-    return (3.0 * u_new - 4.0 * u_hist[0] + u_hist[1]) / (2.0 * dt)
-
-
-def snap_onset(times: Array, w: Array) -> float:
-    """Onset of a snap-through in a deflection history: the last time the deflection still
-    moved away from zero on the pre-snap side (the turning point before the reversal)."""
-    sign0 = np.sign(w[np.argmax(np.abs(w[: max(2, np.argmax(np.sign(w) != np.sign(w[-1])))]))])
-    pre = np.flatnonzero(np.sign(w) == sign0)
-    if pre.size == 0:
-        return float(times[0])
-    last = pre[-1]
-    k = int(np.argmax(np.abs(w[: last + 1])))
-    return float(times[k])
-
-
 def settings_from_config(sim) -> CouplingSettings:
     """:class:`CouplingSettings` from a validated ``[simulation]`` table."""
     return CouplingSettings(time_step=sim.time_step, duration=sim.duration,
@@ -1137,19 +603,3 @@ def settings_from_config(sim) -> CouplingSettings:
                             external_heat_flux=sim.external_heat_flux, lsa_modes=sim.lsa_modes,
                             unstable_steps=sim.unstable_steps, passes=sim.passes,
                             fluid_density=sim.fluid_density)
-
-
-def simulate(panel: PanelSpec, flow: FlowCondition, sim, progress=None,
-             keep_fields: bool = True) -> Response:
-    """Run a case: ``sim`` is a validated ``[simulation]`` table (scheme, aero, heating...).
-
-    The entry point of ``hypate simulate`` and of the scaling problem's evaluations.
-    """
-
-    fluid = make_fluid_model(sim.aero, sim.heating, sim.boundary_layer)
-    settings = replace(settings_from_config(sim), keep_fields=keep_fields)
-    model = PanelModel(panel, flow, fluid, settings)
-    if sim.scheme == "tc":
-        return run_tc(model, progress=progress)
-    every = max(1, int(round(0.01 / sim.time_step)))  # record about every 10 ms
-    return run_lc(model, sim.scheme, rho_bar=sim.rho_bar, record_every=every, progress=progress)

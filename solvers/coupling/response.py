@@ -137,9 +137,6 @@ class Response:
             self.instability_time, self.instability_type = float(instability[0]), instability[1]
 
     # -- nondimensional views (Sec. 9.2.1.1) -----------------------------------------------
-    def nondimensional_time(self, reference_time: float) -> Array:
-        return np.asarray(self.times) / reference_time
-
     @property
     def deflection_over_thickness(self) -> Array:
         return np.asarray(self.center_deflection) / self.thickness

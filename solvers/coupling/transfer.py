@@ -10,16 +10,20 @@ quadrature weights (quadrature projection), ``H_SF = -H_FS^T W`` and ``H_TF = H_
 Because the shape functions are a partition of unity, total force and total heat input are
 the same on both sides, and ``F_S . u = -p^T W u_F`` so the work is conserved exactly.
 
-All matrices are scipy.sparse CSR, built once.
+All matrices are scipy.sparse CSR, built once. :class:`PointwiseTransfer` composes them with
+the Jacobians of a pointwise fluid model (``diag(s)``, ``diag(a) + diag(b) S``): the products
+are linear in the coefficient vectors, so each is one sparse mat-vec on a fixed pattern.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
 from hypate.solvers.aero.base import SurfacePoints
+from hypate.solvers.numerics.sparse import triple_product_operator
 from hypate.solvers.panel import PanelSpec
 from hypate.solvers.structure.element import NDOF, shape_functions
 from numpy.typing import NDArray
@@ -123,6 +127,83 @@ class Transfer:
                                            (top + inplane).ravel())), shape=(n_f, n_T))
         H_TF = (H_FT.T @ W).tocsr()
         return cls(points=points, H_FS=H_FS, H_FS_slope=H_slope, H_SF=H_SF, H_FT=H_FT, H_TF=H_TF)
+
+
+class PointwiseTransfer:
+    """The transferred Jacobians of a pointwise fluid model, each map built on first use.
+
+    For the pointwise form of :class:`~hypate.solvers.aero.base.FluidJacobians`
+    (``dp/dw_s = diag(s)``, ``dp/dw_dot = diag(v)``, ``dq/dT_w = diag(a) + diag(b) S``) the
+    matrices of Eq. (5.34) and the wall-flux derivative of Eq. (5.31a) are formed as data on
+    fixed patterns by :func:`~hypate.solvers.numerics.sparse.triple_product_operator`.
+
+    Parameters
+    ----------
+    transfer : Transfer
+    structural_pattern : scipy.sparse.csr_matrix of shape (n_dof, n_dof)
+        The structural matrices' pattern (only indptr/indices are used).
+    H_TF_top, H_FT_top : scipy.sparse.csr_matrix
+        ``H_TF`` and ``H_FT`` restricted to the top thermal nodes (Eqs. 5.1b, 5.1d).
+    """
+
+    def __init__(self, transfer: Transfer, structural_pattern: sp.csr_matrix,
+                 H_TF_top: sp.csr_matrix, H_FT_top: sp.csr_matrix) -> None:
+        self.transfer = transfer
+        self.pattern = structural_pattern
+        self.H_TF_top, self.H_FT_top = H_TF_top, H_FT_top
+
+    @cached_property
+    def stiffness_data(self) -> sp.csr_matrix:
+        """The map ``s -> data of K_A = H_SF diag(s) H_FS_slope`` on the structural pattern
+        (Eq. 5.34 with ``dp/dw = 0``): K_A added to K's data, for the solvers."""
+        tr, pat = self.transfer, self.pattern
+        return triple_product_operator(tr.H_SF, tr.H_FS_slope, (pat.indptr, pat.indices))[0]
+
+    @cached_property
+    def _stiffness_own(self) -> tuple[sp.csr_matrix, Array, Array]:
+        return triple_product_operator(self.transfer.H_SF, self.transfer.H_FS_slope)
+
+    @cached_property
+    def _damping_own(self) -> tuple[sp.csr_matrix, Array, Array]:
+        return triple_product_operator(self.transfer.H_SF, self.transfer.H_FS)
+
+    @cached_property
+    def _wall_flux(self) -> tuple[sp.csr_matrix, sp.csr_matrix, Array, Array]:
+        """The maps a -> data of ``H_TF diag(a) H_FT`` and b -> data of ``H_TF diag(b) S
+        H_FT`` (top nodes) on the union of their patterns, and that pattern."""
+        S = self.transfer.points.streamwise_derivative
+        L, Ra, Rb = self.H_TF_top, self.H_FT_top, S @ self.H_FT_top
+        _, ip_a, ix_a = triple_product_operator(L, Ra)
+        _, ip_b, ix_b = triple_product_operator(L, Rb)
+        n_in = L.shape[0]
+        union = sp.csr_matrix((np.ones(ix_a.size), ix_a, ip_a), shape=(n_in, n_in)) + \
+            sp.csr_matrix((np.ones(ix_b.size), ix_b, ip_b), shape=(n_in, n_in))
+        union.sort_indices()
+        qpat = (union.indptr.astype(np.int32), union.indices.astype(np.int32))
+        return (triple_product_operator(L, Ra, qpat)[0], triple_product_operator(L, Rb, qpat)[0],
+                *qpat)
+
+    def stiffness(self, s: Array) -> sp.csr_matrix:
+        """``K_A = H_SF diag(s) H_FS_slope`` (Eq. 5.34) on its own compact pattern."""
+        T, indptr, indices = self._stiffness_own
+        n = self.pattern.shape[0]
+        return sp.csr_matrix((T @ s, indices, indptr), shape=(n, n))
+
+    def damping(self, v: Array) -> sp.csr_matrix:
+        """``C_A = H_SF diag(v) H_FS`` (Eq. 5.34) on its own compact pattern."""
+        T, indptr, indices = self._damping_own
+        n = self.pattern.shape[0]
+        return sp.csr_matrix((T @ v, indices, indptr), shape=(n, n))
+
+    def wall_flux_derivative(self, a: Array, b: Array | None) -> sp.csr_matrix:
+        """``H_TF (diag(a) + diag(b) S) H_FT`` on the top thermal nodes (W/K): the derivative
+        of the nodal heat input with respect to their temperatures (Eqs. 5.1b, 5.31a)."""
+        Ta, Tb, indptr, indices = self._wall_flux
+        data = Ta @ a
+        if b is not None:
+            data = data + Tb @ b
+        n_top = self.H_TF_top.shape[0]
+        return sp.csr_matrix((data, indices, indptr), shape=(n_top, n_top))
 
 
 def _span_averaged(xi: Array) -> tuple[Array, Array]:

@@ -20,7 +20,9 @@ import pandas as pd
 from hypate.scaling.workflow.shipped import shipped
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.config import parse_case, read_toml
-from hypate.solvers.coupling.model import PanelModel, run_lc, run_tc, settings_from_config
+from hypate.solvers.coupling.lc import run_lc
+from hypate.solvers.coupling.model import PanelModel, settings_from_config
+from hypate.solvers.coupling.tc import run_tc
 from hypate.studies.scripts._table import side_by_side, simple_main
 
 CASE = shipped("case")["sec7_3_benchmark"]

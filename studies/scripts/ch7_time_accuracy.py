@@ -45,7 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from hypate.solvers.coupling.model import run_lc
+from hypate.solvers.coupling.lc import run_lc
 from hypate.studies.scripts._table import publish, side_by_side, standard_parser
 from hypate.studies.scripts.ch7_benchmark import benchmark_model
 

@@ -28,7 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 from hypate.solvers.aero.factory import make_fluid_model
-from hypate.solvers.coupling.model import CouplingSettings, PanelModel, run_tc
+from hypate.solvers.coupling.model import CouplingSettings, PanelModel
+from hypate.solvers.coupling.tc import run_tc
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.materials import homogenized_stiffener, library_material
 from hypate.solvers.panel import Layer, PanelSpec

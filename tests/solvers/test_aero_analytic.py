@@ -10,7 +10,15 @@ from hypate.solvers.aero.analytic import (
     eckert_heat_flux,
     piston_pressure,
 )
-from hypate.solvers.aero.base import SurfacePoints, SurfaceState, dense
+from hypate.solvers.aero.base import (
+    JACOBIAN_KEYS,
+    BlockJacobians,
+    FluidJacobians,
+    FluidLoads,
+    SurfacePoints,
+    SurfaceState,
+    dense,
+)
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
@@ -160,3 +168,37 @@ def test_model_name_errors() -> None:
         make_fluid_model("newtonian")
     with pytest.raises(InputError, match="simulation.heating"):
         AnalyticFluid("pt", heating="fay-riddell")
+
+
+@pytest.mark.parametrize("aero", ["pt", "ls", "pt-bl"])
+def test_pointwise_coefficients_are_the_jacobian_blocks(aero: str) -> None:
+    # the coefficient forms the coupling reads equal the blocks the FD test checks
+    pts = SurfacePoints.grid(1.0, 0.6, 0.8, 7, 4, flow_angle=0.4)
+    loads = make_fluid_model(aero).evaluate(pts, _state(pts, np.random.default_rng(4)),
+                                            M6_25KM, jacobians=True)
+    J = loads.jacobians
+    assert isinstance(J, FluidJacobians)
+    s, v = J.pressure_coefficients()
+    assert not np.any(dense(J["dp_dw"]))
+    np.testing.assert_array_equal(dense(J["dp_dws"]), np.diag(s))
+    np.testing.assert_array_equal(dense(J["dp_dwdot"]), np.diag(v))
+    a, b = J.tw_coefficients()
+    form = np.diag(a) + (0.0 if b is None else np.diag(b) @ dense(pts.streamwise_derivative))
+    assert (b is None) == (aero != "pt-bl")
+    # the block is summed in another order: round-off (1e-12 of the largest entry)
+    ref = dense(J["dq_dTw"])
+    np.testing.assert_allclose(form, ref, rtol=0.0, atol=1e-12 * np.max(np.abs(ref)))
+
+
+def test_block_jacobians_have_no_pointwise_form() -> None:
+    # a fidelity that returns its blocks as a plain mapping (the ROM) is held as
+    # BlockJacobians: the same blocks, and "not pointwise" through the interface
+    blocks = {k: np.eye(3) for k in JACOBIAN_KEYS}
+    loads = FluidLoads(np.zeros(3), np.zeros(3))
+    assert isinstance(loads.jacobians, BlockJacobians) and len(loads.jacobians) == 0
+    loads.jacobians = blocks
+    assert isinstance(loads.jacobians, BlockJacobians)
+    assert set(loads.jacobians) == set(JACOBIAN_KEYS)
+    assert loads.jacobians["dq_dTw"] is blocks["dq_dTw"]
+    assert loads.jacobians.pressure_coefficients() is None
+    assert loads.jacobians.tw_coefficients() is None

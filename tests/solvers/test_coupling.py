@@ -11,16 +11,17 @@ import scipy.sparse as sp
 from hypate.scaling.cli.main import main
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.config import parse_case
+from hypate.solvers.coupling.lc import run_lc
 from hypate.solvers.coupling.model import (
     CouplingSettings,
     PanelModel,
-    run_lc,
-    run_tc,
     settings_from_config,
 )
 from hypate.solvers.coupling.response import Response
+from hypate.solvers.coupling.tc import extrapolate, run_tc
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.materials import isotropic, library_material
+from hypate.solvers.numerics.sparse import splu_symmetric
 from hypate.solvers.panel import Layer, PanelSpec
 
 FLOW = FlowCondition.from_altitude(6.0, 25000.0)
@@ -163,8 +164,6 @@ duration = 2.0
 
 # -- the TC hot path: predictors, pre-ordered factor, warm-started LSA (issue 6) -------------
 def test_extrapolate_is_exact_for_polynomials_of_its_order() -> None:
-    from hypate.solvers.coupling.model import extrapolate
-
     t = np.arange(4.0)
     a, b, c = np.array([1.0, -2.0]), np.array([0.5, 3.0]), np.array([-0.25, 0.125])
     x = [a + b * ti + c * ti**2 for ti in t]
@@ -206,8 +205,6 @@ def test_equilibrium_from_a_prediction_is_the_same_equilibrium() -> None:
 
 
 def test_pre_ordered_free_factor_equals_the_minimum_degree_factor() -> None:
-    from hypate.solvers.coupling.model import splu_free
-
     m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), CouplingSettings())
     st = m.structure
     u = np.zeros(st.n_dof)
@@ -215,10 +212,10 @@ def test_pre_ordered_free_factor_equals_the_minimum_degree_factor() -> None:
     T = m.thermal.initial_state() + 150.0
     loads = m.fluid_loads(u, m.wall_temperature(T), jacobians=True)
     K = st.tangent(u, m.structural_temperature(T))
-    fp = m._op("free")
+    fp = m.free_pattern
     block = (K.data - m._aero_stiffness_data(loads))[fp.sel]
     lu = fp.factor(block)
-    ref = splu_free(fp.csc_from_block(block))
+    ref = splu_symmetric(fp.csc_from_block(block), "MMD_AT_PLUS_A")
     # the ordering is MMD(A^T + A), applied beforehand: the same fill ...
     assert lu.lu.L.nnz == ref.L.nnz and lu.lu.U.nnz == ref.U.nnz
     # ... and the same solution to round-off (1e-12 relative)

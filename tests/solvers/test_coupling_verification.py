@@ -21,13 +21,13 @@ import pytest
 import scipy.sparse.linalg as spla
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.config import parse_case, read_toml
+from hypate.solvers.coupling.lc import run_lc
 from hypate.solvers.coupling.model import (
     CouplingSettings,
     PanelModel,
-    run_lc,
-    run_tc,
     settings_from_config,
 )
+from hypate.solvers.coupling.tc import run_tc
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.materials import library_material
 from hypate.solvers.panel import Layer, PanelSpec

@@ -1,10 +1,11 @@
-"""Linear solvers of the structural hot path: the preconditioned GMRES (Eq. 5.45)."""
+"""Sparse linear algebra of the hot path: the preconditioned GMRES (Eq. 5.45), the
+fixed-pattern triple product and the free-block factor."""
 from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from hypate.solvers.numerics.sparse import gmres
+from hypate.solvers.numerics.sparse import FreePattern, gmres, triple_product_operator
 
 
 def _system(n: int = 300, seed: int = 0) -> tuple[sp.csc_matrix, np.ndarray]:
@@ -59,3 +60,33 @@ def test_gmres_zero_right_hand_side() -> None:
     A, _ = _system()
     x, est, its = gmres(A.__matmul__, lambda v: v, np.zeros(A.shape[0]), 1e-10, 5)
     assert its == 0 and est == 0.0 and not np.any(x)
+
+
+def test_triple_product_operator_gives_the_data_of_L_diag_d_R() -> None:
+    rng = np.random.default_rng(2)
+    L = sp.random(40, 25, density=0.1, random_state=3, format="csr")
+    R = sp.random(25, 30, density=0.1, random_state=4, format="csr")
+    d = rng.standard_normal(25)
+    T, indptr, indices = triple_product_operator(L, R)
+    ref = (L @ sp.diags(d) @ R).toarray()
+    got = sp.csr_matrix((T @ d, indices, indptr), shape=ref.shape).toarray()
+    # the same sums in another order: round-off of the entries (1e-14 of their scale)
+    np.testing.assert_allclose(got, ref, rtol=0.0, atol=1e-14 * np.max(np.abs(ref)))
+    # on a larger given pattern (the full one): the same matrix, zeros elsewhere
+    full = sp.csr_matrix(np.ones(ref.shape))
+    T2, ip2, ix2 = triple_product_operator(L, R, (full.indptr, full.indices))
+    got2 = sp.csr_matrix((T2 @ d, ix2, ip2), shape=ref.shape).toarray()
+    np.testing.assert_allclose(got2, ref, rtol=0.0, atol=1e-14 * np.max(np.abs(ref)))
+
+
+def test_free_pattern_factor_solves_the_free_block() -> None:
+    A, b = _system(120, seed=5)
+    A = sp.csr_matrix(A + A.T.multiply(1e-3))  # structurally symmetric, nearly symmetric
+    A.sort_indices()
+    free = np.setdiff1d(np.arange(120), [0, 7, 50])
+    fp = FreePattern(A.indptr, A.indices, 120, free)
+    block = A.data[fp.sel]
+    Aff = A[free][:, free]
+    np.testing.assert_array_equal(fp.csc_from_block(block).toarray(), Aff.toarray())
+    x = fp.factor(block).solve(b[free])
+    assert np.linalg.norm(Aff @ x - b[free]) <= 1e-10 * np.linalg.norm(b[free])

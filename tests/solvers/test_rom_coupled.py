@@ -10,7 +10,7 @@ import pytest
 from hypate.solvers.aero.rom import build_rom_from_config, save_rom
 from hypate.solvers.aero.rom_config import load_rom_config
 from hypate.solvers.config import parse_case
-from hypate.solvers.coupling.model import simulate
+from hypate.solvers.coupling.run import simulate
 
 REPO = Path(__file__).resolve().parents[2]
 CASE = """

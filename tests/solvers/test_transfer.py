@@ -6,7 +6,13 @@ import math
 
 import numpy as np
 import pytest
-from hypate.solvers.coupling.transfer import W_DOF, Transfer, fluid_points
+import scipy.sparse as sp
+from hypate.solvers.coupling.transfer import (
+    W_DOF,
+    PointwiseTransfer,
+    Transfer,
+    fluid_points,
+)
 from hypate.solvers.materials import library_material
 from hypate.solvers.panel import Layer, PanelSpec, thermal_levels
 from hypate.solvers.structure.mesh import panel_mesh
@@ -106,3 +112,29 @@ def test_2d_strip_mesh_is_normalized_once_and_all_grids_agree(mesh: tuple[int, .
     assert tr.H_FS.shape[1] == tr.H_SF.shape[0] == 5 * shell.n_nodes
     assert tr.H_FT.shape[1] == tr.H_TF.shape[0] == levels * x.size * y.size
     assert shell.n_nodes == x.size * y.size
+
+
+def test_pointwise_transfer_equals_the_matrix_products() -> None:
+    # the fixed-pattern maps give the products of the transfer and pointwise Jacobians
+    panel = _panel(angle=math.radians(25.0))
+    pts = fluid_points(panel)
+    n_levels = len(thermal_levels(panel))
+    tr = Transfer.build(panel, pts, n_levels)
+    n_dof = tr.H_FS.shape[1]
+    top = np.arange((n_levels - 1) * (tr.H_FT.shape[1] // n_levels), tr.H_FT.shape[1])
+    H_FT, H_TF = tr.H_FT[:, top].tocsr(), tr.H_TF[top, :].tocsr()
+    full = sp.csr_matrix(np.ones((n_dof, n_dof)))
+    pw = PointwiseTransfer(tr, full, H_TF, H_FT)
+    rng = np.random.default_rng(0)
+    s, v, a, b = (rng.standard_normal(pts.n) for _ in range(4))
+    S = pts.streamwise_derivative
+    K_A = (tr.H_SF @ sp.diags(s) @ tr.H_FS_slope).toarray()
+    C_A = (tr.H_SF @ sp.diags(v) @ tr.H_FS).toarray()
+    Q = (H_TF @ (sp.diags(a) + sp.diags(b) @ S) @ H_FT).toarray()
+    # summed in another order: round-off (1e-13 of the largest entry)
+    for got, ref in [(pw.stiffness(s).toarray(), K_A), (pw.damping(v).toarray(), C_A),
+                     ((pw.stiffness_data @ s).reshape(n_dof, n_dof), K_A),
+                     (pw.wall_flux_derivative(a, b).toarray(), Q),
+                     (pw.wall_flux_derivative(a, None).toarray(),
+                      (H_TF @ sp.diags(a) @ H_FT).toarray())]:
+        np.testing.assert_allclose(got, ref, rtol=0.0, atol=1e-13 * np.max(np.abs(ref)))
