@@ -5,14 +5,10 @@ import numpy as np
 import pytest
 from hypate.solvers.materials import isotropic, library_material, orthotropic
 from hypate.solvers.panel import Layer, PanelSpec, thermal_levels
-from hypate.solvers.structure.model import (
-    GeneralizedAlpha,
-    StructuralModel,
-    buckling_delta_T,
-    modes,
-    static,
-    transient,
-)
+from hypate.solvers.structure.dynamics import GeneralizedAlpha, transient
+from hypate.solvers.structure.modal import buckling_delta_T, modes
+from hypate.solvers.structure.model import StructuralModel
+from hypate.solvers.structure.static import static
 
 INCH, LBFT3, PSI = 0.0254, 16.018463373960142, 6894.757293168361
 
