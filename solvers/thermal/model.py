@@ -10,20 +10,27 @@ equations are Eq. (4.25)/(4.27),
 with the capacity matrix C_T (Eq. 4.23b), the conductivity matrix K_T (Eq. 4.23a, the
 orthotropic temperature-dependent tensor of Eq. 4.2 rotated by the layer angle) and the
 boundary load Q_T (Eq. 4.23c/4.24: prescribed flux, convection, radiation), integrated with
-2 x 2 x 2 (volume) and 2 x 2 (surface) Gauss points. Prescribed temperatures use the penalty
+2 x 2 x 2 (volume) and 2 x 2 (surface) Gauss points (reference kernels in
+:mod:`hypate.solvers.thermal.element`). Prescribed temperatures use the penalty
 method (Eqs. 4.26-4.27). Each step solves the Crank-Nicolson residual (Eq. 4.28) by Newton-
-Raphson with line search using the exact Jacobian (Eqs. 4.29-4.32).
+Raphson with line search using the exact Jacobian (Eqs. 4.29-4.32);
+:mod:`hypate.solvers.thermal.march` marches the steps.
 
 Sign convention: a surface heat flux ``q`` is positive *into* the panel (heating); radiation
 ``eps sigma (T^4 - T_rad^4)`` and convection ``h (T - T_ambient)`` leave the surface.
 
 Linear algebra: the global matrices share one CSR pattern (assembled with precomputed
 scatter maps, no Python loop over elements). Linear systems are solved with LAPACK banded
-factorizations in a structured ordering (through-thickness fastest): Cholesky when the
+factorizations (:mod:`hypate.solvers.numerics.banded`) in a structured ordering
+(:func:`banded_position`, through-thickness fastest): Cholesky when the
 Jacobian is symmetric (constant conductivity), LU otherwise. A factorization is reused as
 long as the Jacobian is bit-for-bit unchanged (constant properties without radiation: one
 factorization for the whole run), or, with ``jacobian="modified"``, as long as the modified
 Newton iteration contracts.
+
+Size: over 600 lines because :class:`ThermalModel` is one object -- the fixed pattern, its
+scatter maps and the factor cache are shared by the volume terms, the boundary terms and
+the Newton iteration -- and splitting it would pass that state between modules.
 """
 from __future__ import annotations
 
@@ -41,6 +48,7 @@ from hypate.solvers.numerics.banded import BandedStorage, Factorization, SparseL
 from hypate.solvers.numerics.threads import blas_threads
 from hypate.solvers.panel import PanelSpec
 from hypate.solvers.thermal.element import hex_reference, quad_reference, rotate_conductivity
+from hypate.solvers.thermal.march import StepResult, ThermalHistory, simulate
 from hypate.solvers.thermal.mesh import HexMesh, build_hex_mesh
 from numpy.typing import ArrayLike, NDArray
 
@@ -125,50 +133,6 @@ class ThermalLoads:
     prescribed_nodes: IntArray | None = None
     prescribed_values: float | Array | None = None
     penalty: float = 1e10
-
-
-@dataclass(frozen=True, eq=False)
-class StepResult:
-    """Outcome of a Newton solve (one time step or a steady state).
-
-    Attributes
-    ----------
-    T : ndarray of shape (n_nodes,)
-        Nodal temperatures (K) at the end of the step.
-    iterations : int
-        Newton iterations (linear solves).
-    factorizations : int
-        Sparse factorizations performed in this solve.
-    residual_norm : float
-        Max-norm of the final residual on the unconstrained rows (W).
-    converged : bool
-    heat_input : float
-        Net boundary heat input over the step, ``dt * sum(Q_T(T^alpha))`` (J), flux +
-        convection + radiation (penalty reactions excluded); for a steady solve, the
-        net boundary heat rate (W).
-    """
-
-    T: Array
-    iterations: int
-    factorizations: int
-    residual_norm: float
-    converged: bool
-    heat_input: float
-
-
-@dataclass(frozen=True, eq=False)
-class ThermalHistory:
-    """Time history from :meth:`ThermalModel.simulate` (K, s)."""
-
-    times: Array
-    top_temperature: Array
-    bottom_temperature: Array
-    mean_temperature: Array
-    T: Array
-    nodal: Array | None
-    heat_input: Array
-    factorizations: int
-    iterations: int
 
 
 @dataclass(eq=False)
@@ -475,26 +439,26 @@ class ThermalModel:
     # ------------------------------------------------------------------------------------
     def capacity(self, T: ArrayLike) -> sp.csr_matrix:
         """Heat capacity matrix C_T(T), Eq. (4.23b), J/K, shape (n_nodes, n_nodes)."""
-        T = self._check_T(T)
+        T = self.check_temperature(T)
         if self._const is not None:
             return self._matrix(self._const[0].copy())
         return self._matrix(self._element_data(T, None, False)[0])
 
     def conductivity(self, T: ArrayLike) -> sp.csr_matrix:
         """Unconstrained conductivity matrix K_T^u(T), Eq. (4.23a), W/K."""
-        T = self._check_T(T)
+        T = self.check_temperature(T)
         if self._const is not None:
             return self._matrix(self._const[1].copy())
         return self._matrix(self._element_data(T, None, False)[1])
 
     def capacity_jacobian(self, T: ArrayLike, dT: ArrayLike) -> sp.csr_matrix:
         """``(dC_T/dT) dT`` of Eq. (4.31a): column j is ``(dC_T / dT_j) dT``; W s/K^2 * K."""
-        T, dT = self._check_T(T), self._check_T(dT)
+        T, dT = self.check_temperature(T), self.check_temperature(dT)
         return self._matrix(self._element_data(T, dT, True)[2])
 
     def conductivity_jacobian(self, T: ArrayLike) -> sp.csr_matrix:
         """``(dK_T/dT) T`` of Eq. (4.31b): column j is ``(dK_T / dT_j) T`` (W/K)."""
-        T = self._check_T(T)
+        T = self.check_temperature(T)
         return self._matrix(self._element_data(T, None, True)[3])
 
     def flux_load(self, q: float | ArrayLike, surface: str = "top") -> Array:
@@ -541,7 +505,7 @@ class ThermalModel:
         dQ : csr_matrix of shape (n_nodes, n_nodes)
             dQ/dT (W/K).
         """
-        T = self._check_T(T)
+        T = self.check_temperature(T)
         Q = np.zeros(self.n_nodes)
         D = np.zeros(self.nnz)
         self._add_radiation(T, float(emissivity), float(T_rad), surface, Q, D, 1.0)
@@ -573,7 +537,7 @@ class ThermalModel:
 
         Penalty terms (Eq. 4.27) are not included; see :meth:`residual`.
         """
-        T = self._check_T(T)
+        T = self.check_temperature(T)
         Q, D, extra, _ = self._boundary(T, loads, 1.0)
         J = self._matrix(D)
         return Q, (J + extra if extra is not None else J)
@@ -674,7 +638,8 @@ class ThermalModel:
     # ------------------------------------------------------------------------------------
     # Residual, Jacobian, Newton
     # ------------------------------------------------------------------------------------
-    def _check_T(self, T: ArrayLike) -> Array:
+    def check_temperature(self, T: ArrayLike) -> Array:
+        """``T`` as a float array of shape (n_nodes,); ``InputError`` for another shape."""
         T = np.asarray(T, dtype=float)
         if T.shape != (self.n_nodes,):
             raise InputError("temperature", f"expected shape ({self.n_nodes},), got {T.shape}")
@@ -810,15 +775,15 @@ class ThermalModel:
         -------
         ndarray of shape (n_nodes,)
         """
-        T1 = self._check_T(T_new)
-        T0 = None if dt is None else self._check_T(T_old)
+        T1 = self.check_temperature(T_new)
+        T0 = None if dt is None else self.check_temperature(T_old)
         return self._evaluate(T1, T0, dt, float(alpha), loads, False).R
 
     def jacobian(self, T_new: ArrayLike, T_old: ArrayLike | None, dt: float | None,
                  loads: ThermalLoads, alpha: float = 0.5) -> sp.csr_matrix:
         """Exact Jacobian dR/dT^{n+1} of :meth:`residual`, Eqs. (4.29)-(4.32), W/K."""
-        T1 = self._check_T(T_new)
-        T0 = None if dt is None else self._check_T(T_old)
+        T1 = self.check_temperature(T_new)
+        T0 = None if dt is None else self.check_temperature(T_old)
         ev = self._evaluate(T1, T0, dt, float(alpha), loads, True)
         assert ev.J is not None
         M = self._matrix(ev.J)
@@ -972,12 +937,12 @@ class ThermalModel:
         """
         if jacobian not in (None, "full", "modified"):
             raise InputError("jacobian", "must be 'full' or 'modified'")
-        T0 = self._check_T(T_old)
+        T0 = self.check_temperature(T_old)
         if not (dt > 0.0 and math.isfinite(dt)):
             raise InputError("time_step", "must be > 0 (s)")
         if not (0.0 < alpha <= 1.0):
             raise InputError("alpha", "alpha-bar must be in (0, 1]")
-        start = T0 if T_guess is None else self._check_T(T_guess)
+        start = T0 if T_guess is None else self.check_temperature(T_guess)
         return self._newton(start, T0, float(dt), float(alpha), loads, jacobian, contraction)
 
     def steady(self, loads: ThermalLoads, T_guess: ArrayLike | None = None) -> StepResult:
@@ -987,7 +952,7 @@ class ThermalModel:
         ``T_guess`` (default: the initial temperature) starts the Newton iteration.
         """
         start = (np.full(self.n_nodes, float(self.panel.initial_temperature))
-                 if T_guess is None else self._check_T(T_guess))
+                 if T_guess is None else self.check_temperature(T_guess))
         return self._newton(start, None, None, 1.0, loads)
 
     def simulate(self, T0: ArrayLike | None, dt: float, n_steps: int,
@@ -996,58 +961,15 @@ class ThermalModel:
                  damped_start: int = 0) -> ThermalHistory:
         """March ``n_steps`` Crank-Nicolson steps from ``T0`` (default: uniform initial).
 
-        ``loads`` is a :class:`ThermalLoads` or a function of time returning one (evaluated
-        at ``t_n + alpha dt``). ``damped_start`` replaces each of the first steps by two
-        backward-Euler half steps (Rannacher start-up): a sudden load excites stiff
-        through-thickness modes that Crank-Nicolson only flips in sign (amplification
-        -> -1), so the surface temperatures would ring at large ``dt``; the damped start
-        removes that and keeps second-order accuracy.
+        :func:`hypate.solvers.thermal.march.simulate` on this model (the parameters and
+        the Rannacher start-up ``damped_start`` are described there).
 
         Returns
         -------
         ThermalHistory
-            ``times``, ``top_temperature``, ``bottom_temperature``, ``mean_temperature``
-            of shape (n_steps + 1,), the final ``T`` (n_nodes,), optionally all nodal
-            temperatures (n_steps + 1, n_nodes), and per-step ``heat_input`` (J).
         """
-        T = (np.full(self.n_nodes, float(self.panel.initial_temperature)) if T0 is None
-             else self._check_T(T0).copy())
-        n_steps = int(n_steps)
-        times = dt * np.arange(n_steps + 1)
-        top = np.empty(n_steps + 1)
-        bot = np.empty(n_steps + 1)
-        mean = np.empty(n_steps + 1)
-        heat = np.zeros(n_steps)
-        nodal = np.empty((n_steps + 1, self.n_nodes)) if keep_nodal else None
-        f0, iters = self.factorizations, 0
-
-        def record(m: int, T: Array) -> None:
-            top[m] = self.surface_mean(T, "top")
-            bot[m] = self.surface_mean(T, "bottom")
-            mean[m] = self.mean_temperature(T)
-            if nodal is not None:
-                nodal[m] = T
-
-        record(0, T)
-        for m in range(n_steps):
-            if m < damped_start:
-                for half in (0.5, 1.0):
-                    t_half = times[m] + half * dt
-                    ld = loads(t_half) if callable(loads) else loads
-                    res = self.step(T, 0.5 * dt, ld, alpha=1.0)
-                    T = res.T
-                    heat[m] += res.heat_input
-                    iters += res.iterations
-            else:
-                ld = loads(times[m] + alpha * dt) if callable(loads) else loads
-                res = self.step(T, dt, ld, alpha=alpha)
-                T = res.T
-                heat[m] = res.heat_input
-                iters += res.iterations
-            record(m + 1, T)
-        return ThermalHistory(times=times, top_temperature=top, bottom_temperature=bot,
-                              mean_temperature=mean, T=T, nodal=nodal, heat_input=heat,
-                              factorizations=self.factorizations - f0, iterations=iters)
+        return simulate(self, T0, dt, n_steps, loads, alpha=alpha, keep_nodal=keep_nodal,
+                        damped_start=damped_start)
 
     # ------------------------------------------------------------------------------------
     # Outputs
@@ -1102,7 +1024,7 @@ class ThermalModel:
         -------
         float in [0, 1]
         """
-        Tw = self.wall_temperature(self._check_T(T))
+        Tw = self.wall_temperature(self.check_temperature(T))
         u = (np.arange(samples) + 0.5) / samples
         U, V = np.meshgrid(u, u)
         U, V = U.ravel(), V.ravel()
@@ -1118,7 +1040,7 @@ class ThermalModel:
         Exact for constant rho c_p (``1^T C (T - T_ref)``); for temperature-dependent
         rho c_p the inner integral uses 4-point Gauss-Legendre at each volume Gauss point.
         """
-        T = self._check_T(T)
+        T = self.check_temperature(T)
         Tr = float(self.panel.initial_temperature if T_ref is None else T_ref)
         if self._const is not None:
             return float(np.sum(self._matrix(self._const[0]) @ (T - Tr)))
