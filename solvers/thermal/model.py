@@ -233,9 +233,29 @@ class ThermalModel:
         self.n_nodes = mesh.n_nodes
         self.n_inplane = mesh.n_inplane
         self.n_levels = mesh.n_levels
-        n = mesh.n_nodes
+        self._setup_layers()
+        self._setup_reference()
+        frows, fcols = self._setup_pattern()
+        self._setup_surface(frows, fcols)
 
-        # -- layers: contiguous element slices (elements are level-interval major) ----------
+        # -- caches ---------------------------------------------------------------------
+        self._const: tuple[Array, Array] | None = None
+        if self.constant_properties:
+            T0 = np.full(self.n_nodes, float(panel.initial_temperature))
+            C, K, _, _ = self._element_data(T0, None, jacobian=False)
+            self._const = (C, K)
+        self._factor: Factorization | None = None
+        self._factor_data: Array | None = None
+        self._factor_key: tuple | None = None
+        self._factor_stale = False
+        self._penalty_scale: dict[tuple, float] = {}
+        self.factorizations = 0
+        self._scatter_cache: tuple | None = None
+
+    def _setup_layers(self) -> None:
+        """Contiguous element slices per layer (elements are level-interval major) and
+        the material groups."""
+        panel, mesh = self.panel, self.mesh
         bounds = np.searchsorted(mesh.element_layer, np.arange(len(panel.layers) + 1))
         self._layer_slices = [slice(int(bounds[m]), int(bounds[m + 1]))
                               for m in range(len(panel.layers))]
@@ -261,7 +281,9 @@ class ThermalModel:
             getattr(layer.material, p).is_constant for layer in panel.layers
             for p in ("k1", "k2", "k3"))
 
-        # -- reference element and geometry (boxes: diagonal Jacobian) -----------------------
+    def _setup_reference(self) -> None:
+        """Reference element (Eq. 4.18) and geometry (boxes: diagonal Jacobian)."""
+        mesh = self.mesh
         N, dN = hex_reference()
         self._N = N
         self._dNt = dN.transpose(1, 0, 2).reshape(8, 24)  # [j, (q, b)] for grad T
@@ -277,7 +299,12 @@ class ThermalModel:
         self._NN2 = np.einsum("qi,qj->qij", N2, N2).reshape(4, 16)
         self._detJ2 = np.prod(mesh.face_size, axis=1) / 4.0
 
-        # -- CSR pattern and scatter maps ------------------------------------------------
+    def _setup_pattern(self) -> tuple[IntArray, IntArray]:
+        """CSR pattern, volume/diagonal/surface scatter maps and the banded storage.
+
+        Returns the rows and columns of the surface-cell matrices (for the surface mass).
+        """
+        mesh, n = self.mesh, self.n_nodes
         e = mesh.elements
         rows = np.repeat(e, 8, axis=1).ravel()
         cols = np.tile(e, (1, 8)).ravel()
@@ -302,8 +329,12 @@ class ThermalModel:
         }
         self._surf_offset = {"bottom": 0, "top": off_top}
         self._banded = BandedStorage(banded_position(mesh), prow, self._indices)
+        return frows, fcols
 
-        # -- surface mass matrix and integration weights ----------------------------------
+    def _setup_surface(self, frows: IntArray, fcols: IntArray) -> None:
+        """Surface mass matrix and area/volume integration weights."""
+        mesh, n = self.mesh, self.n_nodes
+        e, f, N, N2 = mesh.elements, mesh.faces, self._N, self._N2
         M_face = self._detJ2[:, None] * self._NN2.sum(axis=0)[None, :]  # (n_cells, 16)
         self._M_face = M_face.reshape(-1, 4, 4)
         self.surface_mass = sp.csr_matrix(
@@ -316,20 +347,6 @@ class ThermalModel:
             minlength=n)
         self.area = float(self.area_weights.sum())
         self.volume = float(self.volume_weights.sum())
-
-        # -- caches ---------------------------------------------------------------------
-        self._const: tuple[Array, Array] | None = None
-        if self.constant_properties:
-            T0 = np.full(n, float(panel.initial_temperature))
-            C, K, _, _ = self._element_data(T0, None, jacobian=False)
-            self._const = (C, K)
-        self._factor: Factorization | None = None
-        self._factor_data: Array | None = None
-        self._factor_key: tuple | None = None
-        self._factor_stale = False
-        self._penalty_scale: dict[tuple, float] = {}
-        self.factorizations = 0
-        self._scatter_cache: tuple | None = None
 
     # ------------------------------------------------------------------------------------
     # Properties at quadrature points
