@@ -21,12 +21,9 @@ import warnings
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.config import load_panel
 from hypate.solvers.errors import InputError
-from hypate.solvers.structure.model import (
-    StructuralModel,
-    buckling_delta_T,
-    modes,
-    static,
-)
+from hypate.solvers.structure.modal import buckling_delta_T, modes
+from hypate.solvers.structure.model import StructuralModel
+from hypate.solvers.structure.static import static
 
 
 def register(sub: argparse._SubParsersAction) -> None:

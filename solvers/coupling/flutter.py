@@ -37,7 +37,8 @@ from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.laminate import laminate
 from hypate.solvers.panel import PanelSpec
-from hypate.solvers.structure.model import StructuralModel, buckling_delta_T, modes
+from hypate.solvers.structure.modal import buckling_delta_T, modes
+from hypate.solvers.structure.model import StructuralModel
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,8 @@ import numpy as np
 import pandas as pd
 from hypate.solvers.materials import isotropic
 from hypate.solvers.panel import Layer, PanelSpec
-from hypate.solvers.structure.model import StructuralModel, modes
+from hypate.solvers.structure.modal import modes
+from hypate.solvers.structure.model import StructuralModel
 from hypate.studies.scripts._table import side_by_side, simple_main
 
 INCH, LBFT3, PSI = 0.0254, 16.018463373960142, 6894.757293168361

@@ -3,16 +3,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypate.solvers.errors import InputError
 from hypate.solvers.materials import isotropic, library_material, orthotropic
 from hypate.solvers.panel import Layer, PanelSpec, thermal_levels
-from hypate.solvers.structure.model import (
-    GeneralizedAlpha,
-    StructuralModel,
-    buckling_delta_T,
-    modes,
-    static,
-    transient,
-)
+from hypate.solvers.structure.dynamics import AlphaStepper, GeneralizedAlpha, transient
+from hypate.solvers.structure.modal import buckling_delta_T, modes
+from hypate.solvers.structure.model import StructuralModel
+from hypate.solvers.structure.static import static
 
 INCH, LBFT3, PSI = 0.0254, 16.018463373960142, 6894.757293168361
 
@@ -292,6 +289,22 @@ def test_generalized_alpha_parameters():
     assert (g.alpha_f, g.alpha_m, g.gamma, g.beta) == (0.5, 0.5, 0.5, 0.25)
     g0 = GeneralizedAlpha(0.0)
     assert (g0.alpha_f, g0.alpha_m) == (0.0, -1.0)
+
+
+def test_transient_is_the_stepper_and_the_linear_stepper_factorizes_once():
+    # transient() marches AlphaStepper (scale="net"): driving the stepper by hand gives the
+    # same history bit for bit; the linear model's Newton matrix is constant (one factor)
+    model = _small_plate()
+    u0 = model.factor(model.linear_stiffness()).solve(model.pressure_load(1e3))
+    res = transient(model, 1e-4, 20, u0=u0, rho_bar=0.8, nonlinear=False)
+    st = AlphaStepper(model, 1e-4, rho_bar=0.8, u0=u0, rtol=1e-10, nonlinear=False,
+                      mass=model.mass(), damping=model.damping(), scale="net")
+    for _ in range(20):
+        u, v, a = st.step(np.zeros(model.n_dof))
+    assert np.array_equal(u, res.u[-1]) and np.array_equal(v, res.v[-1])
+    assert st.factorizations == 1 and st.iterations == res.iterations
+    with pytest.raises(InputError, match="scale"):
+        AlphaStepper(model, 1e-4, scale="free")
 
 
 def test_generalized_alpha_conserves_energy_of_free_vibration():
