@@ -29,16 +29,14 @@ earlier iterations, so a resumed run proposes exactly what the uninterrupted run
 from __future__ import annotations
 
 import math
-import threading
 import time
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-import pandas as pd
 from hypate.scaling.engine.acquisition import (
     Acquisition,
     ExpectedImprovement,
@@ -48,28 +46,27 @@ from hypate.scaling.engine.acquisition import (
     LowerConfidenceBound,
     ProbabilityOfImprovement,
     WeightedMetricLCB,
-    weighted_metric,
 )
+from hypate.scaling.engine.coordinates import LogLinearCoordinates, WarpedModel
+from hypate.scaling.engine.inner import optimize_acquisition
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
-from hypate.scaling.engine.sampling import as_rng, latin_hypercube, raw_latin_hypercube
-from hypate.scaling.engine.store import (
+from hypate.scaling.engine.problem import (
     STATUS_OK,
-    Evaluation,
-    EvaluationStore,
-    evaluations_to_dataframe,
+    CheapConstraint,
+    evaluate_design,
+    project_unit,
+    scipy_constraints,
 )
+from hypate.scaling.engine.result import OptimizationResult
+from hypate.scaling.engine.sampling import latin_hypercube, raw_latin_hypercube
+from hypate.scaling.engine.store import Evaluation, EvaluationStore, evaluations_to_dataframe
 from hypate.scaling.engine.surrogate import ProbabilisticConstraint, fit_surrogate
 from hypate.solvers.numerics.threads import blas_threads
-from scipy.optimize import Bounds, minimize
+from scipy.optimize import minimize
 
 __all__ = [
-    "CheapConstraint",
-    "LogLinearCoordinates",
     "AcquisitionContext",
     "BayesianOptimizer",
-    "OptimizationResult",
-    "optimize_acquisition",
-    "evaluate_design",
     "SINGLE_OBJECTIVE_ACQUISITIONS",
     "MULTI_OBJECTIVE_ACQUISITIONS",
 ]
@@ -81,8 +78,6 @@ OUTPUT_TRANSFORMS: tuple[str, ...] = ("none", "log")
 #: Smallest objective value of the log transform (ln 1e-12 = -27.6).
 LOG_FLOOR = 1e-12
 
-#: Feasibility tolerance of the cheap constraints at every proposal.
-CHEAP_TOL = 1e-8
 #: Default HVLCB exploration weight ``v`` of Eq. (6.28): tuned on the issue's benchmarks
 #: (v = 1 over-exploits BraninCurrin's x1 = 1 edge for one seed in five; v = 2 costs DTLZ2
 #: about 4 % of hypervolume regret-wise); see the closing note of issue 3.
@@ -92,463 +87,6 @@ FAILURE_NUGGET = 0.05
 FAILURE_LENGTH_SCALES = (0.15, 1e2)
 #: Largest predicted failure indicator accepted for a proposal.
 FAILURE_THRESHOLD = 0.15
-
-
-# ----------------------------------------------------------------- cheap constraints
-@dataclass(frozen=True)
-class CheapConstraint:
-    """An analytic constraint enforced exactly inside the inner optimization.
-
-    Parameters
-    ----------
-    fun : callable
-        ``fun(x) -> ndarray of shape (k,)`` (or a scalar) for one design ``x`` of shape (d,).
-    jac : callable
-        ``jac(x) -> ndarray of shape (k, d)`` (or (d,)).
-    kind : {"ineq", "eq"}
-        ``"ineq"``: ``fun(x) <= 0`` (pymoo's convention); ``"eq"``: ``fun(x) == 0``
-        (Eqs. (6.10b)-(6.10c)).
-    """
-
-    fun: Callable[[np.ndarray], Any]
-    jac: Callable[[np.ndarray], Any]
-    kind: Literal["ineq", "eq"] = "ineq"
-
-    def __post_init__(self) -> None:
-        if self.kind not in ("ineq", "eq"):
-            raise ValueError(f"kind must be 'ineq' or 'eq', got {self.kind!r}")
-
-    def violation(self, x: np.ndarray) -> float:
-        """Largest violation at ``x`` (0 if satisfied)."""
-        c = np.atleast_1d(np.asarray(self.fun(x), dtype=float))
-        v = np.abs(c) if self.kind == "eq" else np.maximum(c, 0.0)
-        return float(v.max(initial=0.0))
-
-
-def _cheap_violation(constraints: Sequence[CheapConstraint], x: np.ndarray) -> float:
-    return max((c.violation(x) for c in constraints), default=0.0)
-
-
-def _scipy_cheap(constraints: Sequence[CheapConstraint], lo: np.ndarray, span: np.ndarray):
-    """Cheap constraints in unit coordinates ``x = lo + u span``, scipy's ``>= 0`` form."""
-    out = []
-    for c in constraints:
-        sign = 1.0 if c.kind == "eq" else -1.0
-
-        def fun(u, c=c, sign=sign):
-            return sign * np.atleast_1d(np.asarray(c.fun(lo + u * span), dtype=float))
-
-        def jac(u, c=c, sign=sign):
-            J = np.atleast_2d(np.asarray(c.jac(lo + u * span), dtype=float))
-            return sign * J * span
-
-        out.append({"type": c.kind, "fun": fun, "jac": jac})
-    return out
-
-
-def _project(u0: np.ndarray, cons: list, tol: float = 1e-14) -> np.ndarray:
-    """Closest point of the unit box satisfying the scipy-form constraints (SLSQP)."""
-    d = len(u0)
-    res = minimize(lambda u: (0.5 * np.sum((u - u0) ** 2), u - u0), u0, jac=True,
-                   method="SLSQP", bounds=Bounds(np.zeros(d), np.ones(d)), constraints=cons,
-                   options={"maxiter": 200, "ftol": tol})
-    return np.clip(res.x, 0.0, 1.0)
-
-
-def project_cheap(problem: Any, x: np.ndarray) -> np.ndarray:
-    """Clip ``x`` to the bounds of ``problem`` (a pymoo problem with ``cheap_constraints()``)
-    and project it onto its cheap constraints (e.g. the Eq. 9.7 equality), as the optimizer
-    does for its initial design, so that seeds satisfy them exactly."""
-    lo, hi = np.asarray(problem.xl, float), np.asarray(problem.xu, float)
-    x = np.clip(np.asarray(x, float), lo, hi)
-    cons = problem.cheap_constraints()
-    if not cons:
-        return x
-    span = hi - lo
-    u = _project((x - lo) / span, _scipy_cheap(cons, lo, span))
-    return lo + u * span
-
-
-# ------------------------------------------------------------ input coordinates
-@dataclass(frozen=True)
-class LogLinearCoordinates:
-    """Surrogate input coordinates ``z = A ln x`` of positive design variables.
-
-    Kriging with one length scale per input (Eq. (A.3)) resolves a landscape whose valleys
-    are aligned with the inputs. The objective of a scaling problem depends mainly on the
-    similarity parameters, monomials ``Pi_i = c_i prod_j x_j^(A_ij)`` of the design
-    (Sec. 6.1), so its valleys (``Pi_i = Pi_i^p``) are hyperplanes of ``ln x`` that are
-    oblique to the axes (Sec. 9.1: ``h``, ``p_inf ~ h^3``, ``Delta T ~ h^2``). Rows of
-    ``A`` that are the exponents of those parameters make them the axes. Only the
-    surrogates see ``z``: designs, bounds, cheap constraints and the acquisition search
-    stay in ``x`` (gradients by the chain rule).
-
-    Parameters
-    ----------
-    matrix : ndarray of shape (d, d)
-        Invertible; ``A = I`` gives plain log coordinates.
-    """
-
-    matrix: np.ndarray
-
-    def __post_init__(self) -> None:
-        A = np.asarray(self.matrix, dtype=float)
-        if A.ndim != 2 or A.shape[0] != A.shape[1] or not np.all(np.isfinite(A)):
-            raise ValueError(f"coordinate matrix must be square and finite, got shape {A.shape}")
-        if np.linalg.cond(A) > 1e10:
-            raise ValueError("coordinate matrix is singular: the rows must be independent")
-        object.__setattr__(self, "matrix", A)
-
-    @classmethod
-    def log(cls, d: int) -> "LogLinearCoordinates":
-        return cls(np.eye(d))
-
-    def __call__(self, X: np.ndarray) -> np.ndarray:
-        """``z`` of designs ``X`` of shape (N, d) (all entries positive)."""
-        X = np.atleast_2d(np.asarray(X, dtype=float))
-        return np.log(X) @ self.matrix.T
-
-    def jacobian(self, X: np.ndarray) -> np.ndarray:
-        """``dz/dx = A diag(1/x)``, shape (N, d, d)."""
-        X = np.atleast_2d(np.asarray(X, dtype=float))
-        return self.matrix[None] / X[:, None, :]
-
-    def box(self, bounds: np.ndarray) -> np.ndarray:
-        """Bounding box (d, 2) of the image of the design box (the surrogates' unit box)."""
-        b = np.log(np.asarray(bounds, dtype=float))
-        lo = np.where(self.matrix > 0, self.matrix * b[:, 0], self.matrix * b[:, 1]).sum(axis=1)
-        hi = np.where(self.matrix > 0, self.matrix * b[:, 1], self.matrix * b[:, 0]).sum(axis=1)
-        return np.c_[lo, hi]
-
-
-class _WarpedModel:
-    """A surrogate fitted in ``z`` coordinates, queried (with gradients) in ``x``."""
-
-    def __init__(self, model: Any, coords: LogLinearCoordinates) -> None:
-        self.model = model
-        self.coords = coords
-
-    def predict_moments(self, X: np.ndarray):
-        return self.model.predict_moments(self.coords(X))
-
-    def predict_with_gradients(self, X: np.ndarray):
-        mean, std, dmean, dstd = self.model.predict_with_gradients(self.coords(X))
-        J = self.coords.jacobian(X)
-        return (mean, std, np.einsum("nmk,nkd->nmd", dmean, J),
-                np.einsum("nmk,nkd->nmd", dstd, J))
-
-    def condition(self, X: np.ndarray, y: np.ndarray) -> "_WarpedModel":
-        return _WarpedModel(self.model.condition(self.coords(X), y), self.coords)
-
-
-# ----------------------------------------------------------- inner optimization
-def optimize_acquisition(
-    acquisition: Acquisition,
-    bounds: np.ndarray,
-    *,
-    n_raw: int = 256,
-    n_starts: int = 5,
-    cheap_constraints: Sequence[CheapConstraint] = (),
-    model_constraints: Sequence[ProbabilisticConstraint] = (),
-    X_avoid: np.ndarray | None = None,
-    min_distance: float = 1e-5,
-    extra_starts: np.ndarray | None = None,
-    rng: np.random.Generator | int | None = None,
-    maxiter: int = 200,
-    ftol: float = 1e-9,
-) -> tuple[np.ndarray, float]:
-    """Multistart SLSQP maximization (or minimization) of an acquisition (Sec. 6.3.3).
-
-    Raw OLH points (plus ``extra_starts``) are scored by the acquisition; the best
-    ``n_starts`` (those satisfying the model constraints first) start SLSQP with the
-    analytic gradient, the cheap constraints (exact) and the model constraints. Results
-    whose cheap constraints are violated by more than 1e-8 are polished by a projection and
-    rejected if still infeasible; a result closer than ``min_distance`` (unit-box
-    coordinates) to a row of ``X_avoid`` is rejected in favour of the next best.
-
-    Parameters
-    ----------
-    acquisition : Acquisition
-        ``maximize`` says the sense.
-    bounds : ndarray of shape (d, 2)
-    n_raw, n_starts : int
-    cheap_constraints : sequence of CheapConstraint
-    model_constraints : sequence of ProbabilisticConstraint
-        Each ``c(x) <= 0``.
-    X_avoid : ndarray of shape (n, d) or None
-        Existing (and pending) samples.
-    min_distance : float
-    extra_starts : ndarray of shape (s, d) or None
-        Additional candidate starts (e.g. the best designs so far).
-    rng : numpy.random.Generator, int or None
-    maxiter : int
-        SLSQP iteration limit.
-    ftol : float
-        SLSQP tolerance on the scaled acquisition.
-
-    Returns
-    -------
-    x : ndarray of shape (d,)
-    value : float
-        Acquisition value at ``x``.
-    """
-    rng = as_rng(rng)
-    b = np.asarray(bounds, dtype=float)
-    lo, span = b[:, 0], b[:, 1] - b[:, 0]
-    d = len(lo)
-    sign = -1.0 if acquisition.maximize else 1.0
-    U = raw_latin_hypercube(n_raw, np.c_[np.zeros(d), np.ones(d)], rng)
-    if extra_starts is not None and len(extra_starts):
-        U = np.vstack([U, np.clip((np.atleast_2d(extra_starts) - lo) / span, 0.0, 1.0)])
-    X = lo + U * span
-    loss = sign * acquisition(X)
-    viol = np.zeros(len(U))
-    for mc in model_constraints:
-        viol += np.maximum(mc(X), 0.0).sum(axis=1)
-    loss = np.where(np.isfinite(loss), loss, np.inf)
-    order = np.lexsort((loss, viol > 0))
-    U_avoid = None if X_avoid is None or len(X_avoid) == 0 else (np.atleast_2d(X_avoid) - lo) / span
-
-    def far(u: np.ndarray) -> bool:
-        return U_avoid is None or float(np.min(np.linalg.norm(U_avoid - u, axis=1))) >= min_distance
-
-    starts = U[order[:n_starts]]
-    scale = max(float(np.max(np.abs(loss[order[:n_starts]]))), 1e-300)
-    if not np.isfinite(scale):
-        scale = 1.0
-    cheap = _scipy_cheap(cheap_constraints, lo, span)
-    model_cons = []
-    for mc in model_constraints:
-        model_cons.append({
-            "type": "ineq",
-            "fun": lambda u, mc=mc: -mc(lo + u * span)[0],
-            "jac": lambda u, mc=mc: -mc.jacobian(lo + u * span)[0] * span,
-        })
-
-    def fun(u: np.ndarray):
-        val, grad = acquisition.value_and_gradient((lo + u * span)[None])
-        return sign * float(val[0]) / scale, sign * grad[0] * span / scale
-
-    def model_violation(u: np.ndarray) -> float:
-        x = (lo + u * span)[None]
-        return float(sum(np.maximum(mc(x), 0.0).sum() for mc in model_constraints))
-
-    def cheap_ok(u: np.ndarray) -> bool:
-        return _cheap_violation(cheap_constraints, lo + u * span) <= CHEAP_TOL
-
-    candidates: list[tuple[bool, float, np.ndarray]] = []
-    box = Bounds(np.zeros(d), np.ones(d))
-    for u0 in starts:  # loop over starts
-        if cheap and not cheap_ok(u0):
-            u0 = _project(u0, cheap)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)
-            res = minimize(fun, u0, jac=True, method="SLSQP", bounds=box,
-                           constraints=cheap + model_cons,
-                           options={"maxiter": maxiter, "ftol": ftol})
-        u = np.clip(res.x, 0.0, 1.0)
-        # status 0: converged; 9: iteration limit (a valid improved iterate); others (e.g.
-        # 4 "inequality constraints incompatible", 8 line search) keep the better of x, x0
-        if res.status not in (0, 9) and not fun(u)[0] <= fun(u0)[0]:
-            u = u0
-        if cheap and not cheap_ok(u):
-            u = _project(u, cheap)
-            if not cheap_ok(u):
-                continue
-        candidates.append((model_violation(u) > 1e-6, fun(u)[0], u))
-    candidates.sort(key=lambda c: (c[0], c[1]))
-    for _, _, u in candidates:
-        if far(u):
-            x = lo + u * span
-            return x, float(acquisition(x[None])[0])
-    # every polished start is too close to a sample: best raw point that is far and feasible
-    for i in order:
-        u = U[i]
-        if cheap and not cheap_ok(u):
-            u = _project(u, cheap)
-            if not cheap_ok(u):
-                continue
-        if far(u):
-            x = lo + u * span
-            return x, float(acquisition(x[None])[0])
-    raise RuntimeError("no admissible candidate: every start is infeasible or already sampled")
-
-
-# ------------------------------------------------------------------- evaluation
-def evaluate_design(problem: Any, x: np.ndarray, timeout: float | None = None,
-                    eq_tol: float = 1e-4) -> dict:
-    """Evaluate one design with a pymoo Problem; never raises (module level: picklable).
-
-    Parameters
-    ----------
-    problem : pymoo Problem
-    x : ndarray of shape (d,)
-    timeout : float or None
-        Seconds; the evaluation runs in a daemon thread of the evaluating process and is
-        abandoned (status ``"timeout"``) when it takes longer. The time limit thus counts
-        from the start of the evaluation, not from its submission to a busy executor.
-    eq_tol : float
-        Tolerance turning equality constraints ``H = 0`` into ``|H| - eq_tol <= 0``.
-
-    Returns
-    -------
-    dict
-        ``F`` (m,), ``G`` (k,) (inequalities ``G <= 0``, then ``|H| - eq_tol`` for
-        equalities), ``status`` (``"ok"``, ``"error"``, ``"invalid"``, ``"timeout"``),
-        ``message``, ``seconds``.
-    """
-    m = int(problem.n_obj)
-    k = int(problem.n_ieq_constr) + int(problem.n_eq_constr)
-    t0 = time.perf_counter()
-    box: dict[str, Any] = {}
-
-    def work() -> None:
-        try:
-            box["out"] = problem.evaluate(np.asarray(x, dtype=float)[None, :],
-                                          return_as_dictionary=True)
-        except Exception as exc:  # any failure of the user's model is recorded, not raised
-            box["error"] = f"{type(exc).__name__}: {exc}"
-
-    if timeout is None:
-        work()
-    else:
-        thread = threading.Thread(target=work, daemon=True)
-        thread.start()
-        thread.join(timeout)
-        if thread.is_alive():
-            return {"F": np.full(m, np.nan), "G": np.full(k, np.nan), "status": "timeout",
-                    "message": f"exceeded {timeout} s", "seconds": time.perf_counter() - t0}
-    seconds = time.perf_counter() - t0
-    if "error" in box:
-        return {"F": np.full(m, np.nan), "G": np.full(k, np.nan), "status": "error",
-                "message": box["error"], "seconds": seconds}
-    out = box["out"]
-    try:
-        F = np.asarray(out["F"], dtype=float).reshape(-1)
-        parts = []
-        if problem.n_ieq_constr:
-            parts.append(np.asarray(out["G"], dtype=float).reshape(-1))
-        if problem.n_eq_constr:
-            parts.append(np.abs(np.asarray(out["H"], dtype=float).reshape(-1)) - eq_tol)
-        G = np.concatenate(parts) if parts else np.zeros(0)
-    except (KeyError, TypeError, ValueError) as exc:
-        return {"F": np.full(m, np.nan), "G": np.full(k, np.nan), "status": "error",
-                "message": f"{type(exc).__name__}: {exc}", "seconds": seconds}
-    if F.shape != (m,) or G.shape != (k,):
-        return {"F": np.full(m, np.nan), "G": np.full(k, np.nan), "status": "error",
-                "message": f"expected {m} objectives and {k} constraints, got "
-                           f"{F.size} and {G.size}", "seconds": seconds}
-    if not (np.all(np.isfinite(F)) and np.all(np.isfinite(G))):
-        return {"F": F, "G": G, "status": "invalid", "message": "non-finite objective or "
-                "constraint", "seconds": seconds}
-    return {"F": F, "G": G, "status": STATUS_OK, "message": "", "seconds": seconds}
-
-
-# ---------------------------------------------------------------------- results
-@dataclass
-class OptimizationResult:
-    """All evaluations of a run, with Pareto/hypervolume/best-design helpers.
-
-    Attributes
-    ----------
-    data : pandas.DataFrame
-        One row per evaluation (:func:`hypate.scaling.engine.store.evaluations_to_dataframe`).
-    n_var, n_obj : int
-    ref_point : ndarray of shape (m,) or None
-        Reference point of the hypervolume (given, or the one used last).
-    seconds_per_iteration : ndarray
-        Overhead (surrogate fits + acquisition optimization) of each iteration proposed in
-        this run (iterations replayed from a store are not timed).
-    """
-
-    data: pd.DataFrame
-    n_var: int
-    n_obj: int
-    ref_point: np.ndarray | None = None
-    seconds_per_iteration: np.ndarray = field(default_factory=lambda: np.zeros(0))
-
-    @property
-    def X(self) -> np.ndarray:
-        return self.data[[f"x{i}" for i in range(self.n_var)]].to_numpy(float)
-
-    @property
-    def F(self) -> np.ndarray:
-        return self.data[[f"f{i}" for i in range(self.n_obj)]].to_numpy(float)
-
-    @property
-    def G(self) -> np.ndarray:
-        cols = [c for c in self.data.columns if c.startswith("g") and c[1:].isdigit()]
-        return self.data[cols].to_numpy(float).reshape(len(self.data), len(cols))
-
-    @property
-    def ok(self) -> np.ndarray:
-        return (self.data["status"] == STATUS_OK).to_numpy()
-
-    @property
-    def feasible(self) -> np.ndarray:
-        """Successful and satisfying every expensive constraint."""
-        return self.ok & np.all(self.G <= 0.0, axis=1)
-
-    def pareto_mask(self) -> np.ndarray:
-        """Rows in the Pareto set (feasible, non-dominated)."""
-        mask = np.zeros(len(self.data), dtype=bool)
-        idx = np.flatnonzero(self.feasible)
-        mask[idx[non_dominated_mask(self.F[idx])]] = True
-        return mask
-
-    def pareto_set(self) -> np.ndarray:
-        """Designs of the Pareto set, shape (k, d)."""
-        return self.X[self.pareto_mask()]
-
-    def pareto_front(self) -> np.ndarray:
-        """Objectives of the Pareto set, shape (k, m), sorted by the first objective."""
-        return pareto_front(self.F[self.pareto_mask()])
-
-    def hypervolume_history(self, ref_point: np.ndarray | None = None) -> np.ndarray:
-        """Hypervolume of the feasible archive after each evaluation, shape (n,)."""
-        r = self.ref_point if ref_point is None else np.asarray(ref_point, float)
-        if r is None:
-            raise ValueError("no reference point")
-        F, feas = self.F, self.feasible
-        out = np.zeros(len(F))
-        for i in range(len(F)):  # a history, not a hot path
-            out[i] = hypervolume(F[: i + 1][feas[: i + 1]], r)
-        return out
-
-    def best_history(self) -> np.ndarray:
-        """Best feasible first objective after each evaluation, shape (n,) (inf before one)."""
-        f = np.where(self.feasible, self.F[:, 0], np.inf)
-        return np.minimum.accumulate(f) if len(f) else f
-
-    def best(self, weights: np.ndarray | None = None, g: float = 1.0,
-             normalize: bool = True) -> pd.Series:
-        """The feasible evaluation minimizing ``S_g`` (Eq. (6.11)).
-
-        Parameters
-        ----------
-        weights : ndarray of shape (m,) or None
-            ``c`` (default equal weights).
-        g : float
-            ``1`` weighted sum, ``inf`` Chebyshev.
-        normalize : bool
-            Normalize the objectives by the Pareto front's ideal and nadir points first.
-
-        Returns
-        -------
-        pandas.Series
-            The row of :attr:`data`.
-        """
-        idx = np.flatnonzero(self.feasible)
-        if len(idx) == 0:
-            raise ValueError("no feasible evaluation")
-        F = self.F[idx]
-        if normalize and self.n_obj > 1:
-            P = pareto_front(F)
-            ideal, nadir = P.min(axis=0), P.max(axis=0)
-            F = (F - ideal) / np.where(nadir > ideal, nadir - ideal, 1.0)
-        c = np.full(self.n_obj, 1.0 / self.n_obj) if weights is None else np.asarray(weights)
-        s, _ = weighted_metric(F, c, g)
-        return self.data.iloc[idx[int(np.argmin(s))]]
 
 
 # --------------------------------------------------------------------- optimizer
@@ -773,8 +311,8 @@ class BayesianOptimizer:
         X = latin_hypercube(self.n_init, self.bounds, self._rng(0))
         if self.cheap_constraints and len(X):
             lo, span = self.bounds[:, 0], self.bounds[:, 1] - self.bounds[:, 0]
-            cons = _scipy_cheap(self.cheap_constraints, lo, span)
-            X = np.array([lo + _project((x - lo) / span, cons) * span for x in X])
+            cons = scipy_constraints(self.cheap_constraints, lo, span)
+            X = np.array([lo + project_unit((x - lo) / span, cons) * span for x in X])
         return X
 
     def _fit(self, X: np.ndarray, Y: np.ndarray, rng: np.random.Generator, **kw: Any):
@@ -784,7 +322,7 @@ class BayesianOptimizer:
                                  n_restarts=self.n_restarts, rng=rng, **kw)
         gp = fit_surrogate(self.coordinates(X), Y, self.coordinates.box(self.bounds),
                            kernel=self.kernel, n_restarts=self.n_restarts, rng=rng, **kw)
-        return _WarpedModel(gp, self.coordinates)
+        return WarpedModel(gp, self.coordinates)
 
     def _model_space(self, F: np.ndarray) -> np.ndarray:
         """Objective values as the surrogates see them (:attr:`output_transform`)."""
@@ -915,7 +453,7 @@ class BayesianOptimizer:
         dist = np.min(np.linalg.norm(U[:, None] - U_avoid[None], axis=2), axis=1)
         u = U[int(np.argmax(dist))]
         if self.cheap_constraints:
-            u = _project(u, _scipy_cheap(self.cheap_constraints, lo, span))
+            u = project_unit(u, scipy_constraints(self.cheap_constraints, lo, span))
         return lo + u * span
 
     # ----------------------------------------------------------- evaluation
@@ -996,7 +534,7 @@ class BayesianOptimizer:
             box = coords.box(self.bounds)
             z0, z_span = coords(x_best)[0], box[:, 1] - box[:, 0]
             A_inv = np.linalg.inv(coords.matrix)
-        cons = _scipy_cheap(self.cheap_constraints, lo, span) if self.cheap_constraints else []
+        cons = scipy_constraints(self.cheap_constraints, lo, span) if self.cheap_constraints else []
         stored = {r.batch_index: r for r in records if r.iteration == t}
         seen = {tuple(np.round(r.x, 12)): r for r in records if r.iteration < t}
         count = [0]
@@ -1005,7 +543,7 @@ class BayesianOptimizer:
             x = lo + z * span if coords is None else np.exp(A_inv @ z)
             x = np.clip(x, lo, hi)
             if cons:
-                x = lo + _project((x - lo) / span, cons) * span
+                x = lo + project_unit((x - lo) / span, cons) * span
             return x
 
         def value(z: np.ndarray) -> float:

@@ -17,11 +17,9 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from hypate.scaling.engine.problem import STATUS_OK
 
-__all__ = ["Evaluation", "EvaluationStore", "STATUS_OK", "evaluations_to_dataframe"]
-
-#: Status of a successful evaluation; anything else is a failure.
-STATUS_OK = "ok"
+__all__ = ["Evaluation", "EvaluationStore", "evaluations_to_dataframe"]
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS evaluations (

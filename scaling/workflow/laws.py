@@ -56,7 +56,7 @@ import cvxpy as cp
 import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
-from hypate.scaling.engine.optimizer import project_cheap
+from hypate.scaling.engine.problem import project_cheap
 from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem
 from hypate.scaling.workflow.similarity import analytical_scaling, reference_quantities, time_scale
 from hypate.scaling.workflow.study import load_study, study_at, study_data

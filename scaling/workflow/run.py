@@ -29,13 +29,10 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from hypate.scaling.engine.optimizer import (
-    BayesianOptimizer,
-    LogLinearCoordinates,
-    OptimizationResult,
-    evaluate_design,
-    project_cheap,
-)
+from hypate.scaling.engine.coordinates import LogLinearCoordinates
+from hypate.scaling.engine.optimizer import BayesianOptimizer
+from hypate.scaling.engine.problem import evaluate_design, project_cheap
+from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
 from hypate.scaling.workflow.classical import (
     classical_scaling,

@@ -17,14 +17,11 @@ from hypate.scaling.engine.benchmarks import (
     SlowProblem,
     get_benchmark,
 )
-from hypate.scaling.engine.optimizer import (
-    CHEAP_TOL,
-    BayesianOptimizer,
-    CheapConstraint,
-    LogLinearCoordinates,
-    optimize_acquisition,
-)
+from hypate.scaling.engine.coordinates import LogLinearCoordinates
+from hypate.scaling.engine.inner import optimize_acquisition
+from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask
+from hypate.scaling.engine.problem import CHEAP_TOL, CheapConstraint
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.solvers.numerics.kriging import KrigingRegressor
 from pymoo.core.problem import Problem
