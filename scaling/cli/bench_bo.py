@@ -11,12 +11,12 @@ import argparse
 import json
 
 import numpy as np
-from hypate.scaling.engine.benchmarks import BENCHMARKS, get_benchmark, run_nsga2, run_random
-from hypate.scaling.engine.optimizer import (
+from hypate.scaling.engine.acquisition import (
     MULTI_OBJECTIVE_ACQUISITIONS,
     SINGLE_OBJECTIVE_ACQUISITIONS,
-    BayesianOptimizer,
 )
+from hypate.scaling.engine.benchmarks import BENCHMARKS, get_benchmark, run_nsga2, run_random
+from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.solvers.errors import InputError
 
 

@@ -28,60 +28,39 @@ earlier iterations, so a resumed run proposes exactly what the uninterrupted run
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 import warnings
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from pathlib import Path
-from typing import Any, Literal
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from hypate.scaling.engine.acquisition import (
+    ACQUISITIONS,
+    MULTI_OBJECTIVE_ACQUISITIONS,
+    SINGLE_OBJECTIVE_ACQUISITIONS,
     Acquisition,
-    ExpectedImprovement,
-    HypervolumeEI,
-    HypervolumeLCB,
-    HypervolumePoI,
-    LowerConfidenceBound,
-    ProbabilityOfImprovement,
-    WeightedMetricLCB,
+    AcquisitionContext,
+    AcquisitionFactory,
 )
-from hypate.scaling.engine.coordinates import LogLinearCoordinates, WarpedModel
+from hypate.scaling.engine.coordinates import WarpedModel
 from hypate.scaling.engine.inner import optimize_acquisition
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
-from hypate.scaling.engine.problem import (
-    STATUS_OK,
-    CheapConstraint,
-    evaluate_design,
-    project_unit,
-    scipy_constraints,
-)
+from hypate.scaling.engine.problem import evaluate_design, project_unit, scipy_constraints
 from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.engine.sampling import latin_hypercube, raw_latin_hypercube
+from hypate.scaling.engine.settings import OptimizerSettings, SettingError
 from hypate.scaling.engine.store import Evaluation, EvaluationStore, evaluations_to_dataframe
 from hypate.scaling.engine.surrogate import ProbabilisticConstraint, fit_surrogate
 from hypate.solvers.numerics.threads import blas_threads
 from scipy.optimize import minimize
 
-__all__ = [
-    "AcquisitionContext",
-    "BayesianOptimizer",
-    "SINGLE_OBJECTIVE_ACQUISITIONS",
-    "MULTI_OBJECTIVE_ACQUISITIONS",
-]
+__all__ = ["BayesianOptimizer"]
 
-SINGLE_OBJECTIVE_ACQUISITIONS: tuple[str, ...] = ("lcb", "ei", "poi")
-MULTI_OBJECTIVE_ACQUISITIONS: tuple[str, ...] = ("hvlcb", "hvei", "hvpoi", "ws", "cheb", "wm")
-#: Objective transforms the surrogates may model (:class:`BayesianOptimizer`).
-OUTPUT_TRANSFORMS: tuple[str, ...] = ("none", "log")
 #: Smallest objective value of the log transform (ln 1e-12 = -27.6).
 LOG_FLOOR = 1e-12
 
-#: Default HVLCB exploration weight ``v`` of Eq. (6.28): tuned on the issue's benchmarks
-#: (v = 1 over-exploits BraninCurrin's x1 = 1 edge for one seed in five; v = 2 costs DTLZ2
-#: about 4 % of hypervolume regret-wise); see the closing note of issue 3.
-HVLCB_V = 1.5
 #: Smoothing of the failure-indicator kriging (standardized nugget, unit-box length scales).
 FAILURE_NUGGET = 0.05
 FAILURE_LENGTH_SCALES = (0.15, 1e2)
@@ -94,21 +73,6 @@ class _PolishDone(Exception):
     """The polish budget is spent."""
 
 
-@dataclass
-class AcquisitionContext:
-    """What an acquisition factory may use besides the objective model."""
-
-    best_f: float
-    pareto_front: np.ndarray
-    ref_point: np.ndarray | None
-    ideal: np.ndarray
-    scale: np.ndarray
-    rng: np.random.Generator
-
-
-AcquisitionFactory = Callable[[Any, AcquisitionContext], Acquisition]
-
-
 class BayesianOptimizer:
     """Surrogate-based (Bayesian) optimization of a pymoo Problem, Sec. 6.3.
 
@@ -117,121 +81,28 @@ class BayesianOptimizer:
     problem : pymoo.core.problem.Problem
         Objectives minimized, constraints ``G <= 0`` (equalities ``H`` become
         ``|H| - eq_tol <= 0``); finite bounds ``xl``, ``xu``.
-    acquisition : str or callable
-        ``"lcb"``, ``"ei"``, ``"poi"`` (one objective); ``"hvlcb"``, ``"hvei"``, ``"hvpoi"``
-        (indirect), ``"ws"`` (``g = 1``), ``"cheb"`` (``g = inf``), ``"wm"`` (``g``)
-        (direct); or ``factory(model, context) -> Acquisition``. ``None``: ``"lcb"`` or
-        ``"hvlcb"``.
-    n_init : int
-        Initial OLH samples (iteration 0).
-    n_iter : int
-        BO iterations (each proposes ``batch_size`` designs).
-    batch_size : int
-        ``q`` designs per iteration.
-    batch_strategy : {"believer", "liar"}
-        Kriging believer or constant liar (best value so far) fantasies within a batch.
-    v : float or None
-        Exploration weight: LCB and direct approach 2.0, HVLCB :data:`HVLCB_V`, EI 0.
-    ref_point : array-like of shape (m,) or None
-        Hypervolume reference point; ``None``: nadir of the Pareto set + 10 % of its range.
-    weights : array-like of shape (m,) or None
-        ``c`` of Eq. (6.11) for the direct approach (default equal).
-    g : float
-        Exponent of the weighted metric for ``"wm"``.
-    cheap_constraints : sequence of CheapConstraint
-    p_feasible : float
-        Required predicted probability of feasibility of each expensive constraint.
-    kernel : {"matern52", "rbf"}
-    n_restarts : int
-        Restarts of each surrogate's likelihood optimization.
-    n_raw, n_starts : int
-        Raw OLH points and SLSQP starts of the inner optimization.
-    min_distance : float
-        Unit-box distance below which a candidate duplicates a sample.
-    executor : object or None
-        ``submit(fn, *args)`` -> future with ``.result(timeout)``; ``None`` evaluates
-        in-process.
-    timeout : float or None
-        Seconds per evaluation, counted from its start in the evaluating process (see
-        :func:`evaluate_design`: the late evaluation is abandoned, status ``"timeout"``).
-    store : str, Path, EvaluationStore or None
-        SQLite store; an existing one is resumed.
-    initial_samples : tuple (X, F) or (X, F, G), or None
-        Earlier evaluations to recycle (Sec. 9.2.4), stored as iteration -1.
-    seed : int
-    max_evaluations : int or None
-        Stop after this many evaluations in the store (a budget).
-    convergence_tol : float or None
-        Stop when the best value (one objective) or hypervolume improved by less than this
-        (relative) over the last ``convergence_window`` iterations.
-    convergence_window : int
-    callback : callable or None
-        ``callback(evaluation)`` after each committed evaluation; an exception stops the run
-        (the store keeps everything committed).
-    blas_threads : int or None
-        BLAS threads during proposals (surrogate matrices are small: threading only costs,
-        and oversubscribes badly when evaluations run on the same cores); ``None`` leaves
-        the setting alone.
-    output_transform : {"none", "log"}
-        ``"log"``: the surrogates model ``ln F`` (objectives must be positive, e.g. the
-        relative errors J of Eq. 6.4) and the acquisition works in that space. An objective
-        whose good values are orders of magnitude below its typical ones (a narrow valley of
-        J ~ 1e-2 in a landscape of J ~ 1) is resolved far better; the transform is monotone,
-        so best points and Pareto dominance are unchanged.
-    coordinates : LogLinearCoordinates or None
-        Input coordinates of the surrogates (all bounds must be positive); ``None``: the
-        design variables themselves (scaled to the unit box).
-    polish : int
-        Evaluations of a final local search (one objective only): Nelder-Mead from the best
-        feasible design, in :attr:`coordinates` (or the unit box), each point clipped to
-        the bounds and projected onto the cheap constraints, failures ranked last. A
-        stationary kriging model spends its budget exploring when the optimum is a valley
-        far narrower than the landscape (Sec. 9.1: ``lambda_F`` must match to ~1 % in a
-        box spanning a factor 800); the polish converges on the valley floor. Stored as
-        iteration ``n_iter + 1`` and replayed on resume.
-    polish_step : float
-        Initial simplex edge, as a fraction of each coordinate's range.
+    settings : OptimizerSettings or None
+        Every option (``None``: the defaults).
+    **overrides
+        Fields of :class:`OptimizerSettings` replacing those of ``settings``
+        (``BayesianOptimizer(problem, n_init=8, seed=3)``).
+
+    Raises
+    ------
+    SettingError
+        A setting outside its range, or one that does not fit the problem.
+    TypeError
+        An override that is not a field of :class:`OptimizerSettings`.
     """
 
-    def __init__(
-        self,
-        problem: Any,
-        *,
-        acquisition: str | AcquisitionFactory | None = None,
-        n_init: int = 10,
-        n_iter: int = 40,
-        batch_size: int = 1,
-        batch_strategy: Literal["believer", "liar"] = "believer",
-        v: float | None = None,
-        ref_point: Sequence[float] | None = None,
-        weights: Sequence[float] | None = None,
-        g: float = 2.0,
-        cheap_constraints: Sequence[CheapConstraint] = (),
-        p_feasible: float = 0.5,
-        kernel: str = "matern52",
-        n_restarts: int = 2,
-        n_raw: int = 256,
-        n_starts: int = 5,
-        min_distance: float = 1e-5,
-        executor: Any = None,
-        timeout: float | None = None,
-        store: str | Path | EvaluationStore | None = None,
-        initial_samples: tuple[np.ndarray, ...] | None = None,
-        seed: int = 0,
-        max_evaluations: int | None = None,
-        convergence_tol: float | None = None,
-        convergence_window: int = 5,
-        callback: Callable[[Evaluation], None] | None = None,
-        blas_threads: int | None = 1,
-        output_transform: Literal["none", "log"] = "none",
-        coordinates: LogLinearCoordinates | None = None,
-        polish: int = 0,
-        polish_step: float = 0.01,
-    ) -> None:
-        if output_transform not in OUTPUT_TRANSFORMS:
-            raise ValueError(f"output_transform must be one of {OUTPUT_TRANSFORMS}, "
-                             f"got {output_transform!r}")
-        self.output_transform = output_transform
+    def __init__(self, problem: Any, settings: OptimizerSettings | None = None,
+                 **overrides: Any) -> None:
+        unknown = sorted(set(overrides) - set(OptimizerSettings.names()))
+        if unknown:
+            raise TypeError(f"unknown optimizer setting(s) {unknown}: the settings are the "
+                            "fields of OptimizerSettings")
+        base = OptimizerSettings() if settings is None else settings
+        self.settings = dataclasses.replace(base, **overrides) if overrides else base
         self.problem = problem
         self.n_var = int(problem.n_var)
         self.n_obj = int(problem.n_obj)
@@ -239,63 +110,42 @@ class BayesianOptimizer:
         self.bounds = np.c_[np.asarray(problem.xl, float), np.asarray(problem.xu, float)]
         if self.bounds.shape != (self.n_var, 2) or not np.all(np.isfinite(self.bounds)):
             raise ValueError("problem needs finite bounds xl, xu of length n_var")
-        if coordinates is not None:
-            if coordinates.matrix.shape != (self.n_var, self.n_var):
-                raise ValueError(f"coordinates need a {self.n_var} x {self.n_var} matrix, got "
-                                 f"{coordinates.matrix.shape}")
-            if not np.all(self.bounds > 0.0):
-                raise ValueError("log-linear coordinates need positive bounds xl, xu")
-        self.coordinates = coordinates
-        if polish < 0 or not 0.0 < polish_step <= 0.5:
-            raise ValueError("polish >= 0 and 0 < polish_step <= 0.5 required")
-        if polish and self.n_obj != 1:
-            raise ValueError("polish needs a single objective")
-        self.polish = int(polish)
-        self.polish_step = float(polish_step)
-        if acquisition is None:
-            acquisition = "lcb" if self.n_obj == 1 else "hvlcb"
-        if isinstance(acquisition, str):
+        self._check_fit(self.settings)
+        s = self.settings
+        if s.acquisition is None:
+            self.acquisition: str | AcquisitionFactory = "lcb" if self.n_obj == 1 else "hvlcb"
+        else:
+            self.acquisition = s.acquisition
+        self.ref_point = None if s.ref_point is None else np.asarray(s.ref_point, dtype=float)
+        self.weights = (np.full(self.n_obj, 1.0 / self.n_obj) if s.weights is None
+                        else np.asarray(s.weights, dtype=float))
+
+    def _check_fit(self, s: OptimizerSettings) -> None:
+        """The settings that depend on the problem: acquisition, vector lengths, bounds."""
+        if isinstance(s.acquisition, str):
             valid = (SINGLE_OBJECTIVE_ACQUISITIONS if self.n_obj == 1
                      else MULTI_OBJECTIVE_ACQUISITIONS)
-            if acquisition not in valid:
-                raise ValueError(f"acquisition for {self.n_obj} objective(s) must be one of "
-                                 f"{valid}, got {acquisition!r}")
-        if batch_strategy not in ("believer", "liar"):
-            raise ValueError(f"batch_strategy must be 'believer' or 'liar', got {batch_strategy!r}")
-        if batch_size < 1 or n_init < 0 or n_iter < 0:
-            raise ValueError("batch_size >= 1, n_init >= 0 and n_iter >= 0 required")
-        self.acquisition = acquisition
-        self.n_init = int(n_init)
-        self.n_iter = int(n_iter)
-        self.batch_size = int(batch_size)
-        self.batch_strategy = batch_strategy
-        self.v = v
-        self.ref_point = None if ref_point is None else np.asarray(ref_point, dtype=float)
-        self.weights = (np.full(self.n_obj, 1.0 / self.n_obj) if weights is None
-                        else np.asarray(weights, dtype=float))
-        self.g = float(g)
-        self.cheap_constraints = tuple(cheap_constraints)
-        self.p_feasible = float(p_feasible)
-        self.kernel = kernel
-        self.n_restarts = int(n_restarts)
-        self.n_raw = int(n_raw)
-        self.n_starts = int(n_starts)
-        self.min_distance = float(min_distance)
-        self.executor = executor
-        self.timeout = timeout
-        self.store = store
-        self.initial_samples = initial_samples
-        self.seed = int(seed)
-        self.max_evaluations = max_evaluations
-        self.convergence_tol = convergence_tol
-        self.convergence_window = int(convergence_window)
-        self.callback = callback
-        self.blas_threads = blas_threads
+            if s.acquisition not in valid:
+                raise SettingError("acquisition", f"for {self.n_obj} objective(s) one of "
+                                   f"{valid}", s.acquisition)
+        for name in ("ref_point", "weights"):
+            vec = getattr(s, name)
+            if vec is not None and len(vec) != self.n_obj:
+                raise SettingError(name, f"{self.n_obj} numbers (one per objective)", vec)
+        if s.coordinates is not None:
+            if s.coordinates.matrix.shape != (self.n_var, self.n_var):
+                raise SettingError("coordinates", f"a {self.n_var} x {self.n_var} matrix",
+                                   s.coordinates.matrix.shape)
+            if not np.all(self.bounds > 0.0):
+                raise ValueError("log-linear coordinates need positive bounds xl, xu")
+        if s.polish and self.n_obj != 1:
+            raise SettingError("polish", "0 for more than one objective (a polish needs a "
+                               "single objective)", s.polish)
 
     # -------------------------------------------------------------- helpers
     def _rng(self, iteration: int) -> np.random.Generator:
         """Random numbers of one iteration, from ``(seed, iteration)`` (resume-safe)."""
-        return np.random.default_rng([self.seed, iteration + 1])
+        return np.random.default_rng([self.settings.seed, iteration + 1])
 
     def _arrays(self, records: list[Evaluation]):
         n = len(records)
@@ -308,25 +158,26 @@ class BayesianOptimizer:
 
     def initial_design(self) -> np.ndarray:
         """The iteration-0 OLH design (projected onto the cheap constraints)."""
-        X = latin_hypercube(self.n_init, self.bounds, self._rng(0))
-        if self.cheap_constraints and len(X):
+        X = latin_hypercube(self.settings.n_init, self.bounds, self._rng(0))
+        if self.settings.cheap_constraints and len(X):
             lo, span = self.bounds[:, 0], self.bounds[:, 1] - self.bounds[:, 0]
-            cons = scipy_constraints(self.cheap_constraints, lo, span)
+            cons = scipy_constraints(self.settings.cheap_constraints, lo, span)
             X = np.array([lo + project_unit((x - lo) / span, cons) * span for x in X])
         return X
 
     def _fit(self, X: np.ndarray, Y: np.ndarray, rng: np.random.Generator, **kw: Any):
         """A surrogate of ``Y(X)`` in the optimizer's input coordinates, queried in ``x``."""
-        if self.coordinates is None:
-            return fit_surrogate(X, Y, self.bounds, kernel=self.kernel,
-                                 n_restarts=self.n_restarts, rng=rng, **kw)
-        gp = fit_surrogate(self.coordinates(X), Y, self.coordinates.box(self.bounds),
-                           kernel=self.kernel, n_restarts=self.n_restarts, rng=rng, **kw)
-        return WarpedModel(gp, self.coordinates)
+        s, coords = self.settings, self.settings.coordinates
+        if coords is None:
+            return fit_surrogate(X, Y, self.bounds, kernel=s.kernel, n_restarts=s.n_restarts,
+                                 rng=rng, **kw)
+        gp = fit_surrogate(coords(X), Y, coords.box(self.bounds), kernel=s.kernel,
+                           n_restarts=s.n_restarts, rng=rng, **kw)
+        return WarpedModel(gp, coords)
 
     def _model_space(self, F: np.ndarray) -> np.ndarray:
         """Objective values as the surrogates see them (:attr:`output_transform`)."""
-        if self.output_transform == "log":
+        if self.settings.output_transform == "log":
             with np.errstate(invalid="ignore"):
                 return np.log(np.maximum(F, LOG_FLOOR))
         return F
@@ -352,26 +203,11 @@ class BayesianOptimizer:
         front = pareto_front(F_feas) if len(F_feas) else np.zeros((0, self.n_obj))
         if ref is None:
             ref = nadir + scale
-        ctx = AcquisitionContext(best_f, front, ref, ideal, scale, rng)
-        name = self.acquisition
-        if callable(name):
-            return name(model, ctx)
-        v = self.v
-        if name == "lcb":
-            return LowerConfidenceBound(model, v=2.0 if v is None else v)
-        if name == "ei":
-            return ExpectedImprovement(model, best_f, v=0.0 if v is None else v)
-        if name == "poi":
-            return ProbabilityOfImprovement(model, best_f)
-        if name == "hvlcb":
-            return HypervolumeLCB(model, front, ref, v=HVLCB_V if v is None else v)
-        if name == "hvei":
-            return HypervolumeEI(model, front, ref, rng=rng)
-        if name == "hvpoi":
-            return HypervolumePoI(model, front, ref)
-        g = {"ws": 1.0, "cheb": math.inf}.get(name, self.g)
-        return WeightedMetricLCB(model, self.weights, g=g, v=2.0 if v is None else v,
-                                 ideal=ideal, scale=scale)
+        ctx = AcquisitionContext(best_f, front, ref, ideal, scale, rng, v=self.settings.v,
+                                 weights=self.weights, g=self.settings.g)
+        if callable(self.acquisition):
+            return self.acquisition(model, ctx)
+        return ACQUISITIONS[self.acquisition].from_context(model, ctx)
 
     # ------------------------------------------------------------ proposal
     def propose(self, records: list[Evaluation], iteration: int) -> np.ndarray:
@@ -388,18 +224,19 @@ class BayesianOptimizer:
         -------
         ndarray of shape (batch_size, d)
         """
+        st = self.settings
         rng = self._rng(iteration)
         X, F, G, ok, feas = self._arrays(records)
         F = self._model_space(F)
         if ok.sum() < 2:
             # nothing to model: explore with an OLH point far from the samples
-            U = latin_hypercube(self.batch_size, self.bounds, rng)
+            U = latin_hypercube(st.batch_size, self.bounds, rng)
             return U
         model = self._fit(X[ok], F[ok], rng)
         model_constraints: list[ProbabilisticConstraint] = []
         if self.n_constr:
             gm = self._fit(X[ok], G[ok], rng)
-            model_constraints.append(ProbabilisticConstraint(gm, p_min=self.p_feasible))
+            model_constraints.append(ProbabilisticConstraint(gm, p_min=st.p_feasible))
         if not np.all(ok):
             fm = self._fit(X, (~ok).astype(float)[:, None], rng, nugget=FAILURE_NUGGET,
                            length_scale_bounds=FAILURE_LENGTH_SCALES)
@@ -417,24 +254,23 @@ class BayesianOptimizer:
         X_obs, F_obs, feas_obs = X[ok], F[ok], feas[ok]
         pending: list[np.ndarray] = []
         cur_model = model
-        for b in range(self.batch_size):
+        for b in range(st.batch_size):
             acq = self._build_acquisition(cur_model, F_obs, feas_obs, F[ok], rng)
             extra = X[best_idx] + 1e-3 * span * rng.standard_normal((len(best_idx), self.n_var))
             X_avoid = np.vstack([X] + [p[None] for p in pending])
             try:
                 x, _ = optimize_acquisition(
-                    acq, self.bounds, n_raw=self.n_raw, n_starts=self.n_starts,
-                    cheap_constraints=self.cheap_constraints,
-                    model_constraints=model_constraints, X_avoid=X_avoid,
-                    min_distance=self.min_distance, extra_starts=extra, rng=rng)
+                    acq, self.bounds, n_raw=st.n_raw, n_starts=st.n_starts,
+                    cheap_constraints=st.cheap_constraints, model_constraints=model_constraints,
+                    X_avoid=X_avoid, min_distance=st.min_distance, extra_starts=extra, rng=rng)
             except RuntimeError as exc:
                 # every start infeasible or already sampled: fall back to a fresh OLH point
                 warnings.warn(f"iteration {iteration}: {exc}; proposing a space-filling point",
                               RuntimeWarning, stacklevel=2)
                 x = self._fallback_point(X_avoid, rng)
             pending.append(x)
-            if b + 1 < self.batch_size:
-                if self.batch_strategy == "believer":
+            if b + 1 < st.batch_size:
+                if st.batch_strategy == "believer":
                     y_f = cur_model.predict_moments(x[None])[0][0]
                 else:
                     base = F_obs[feas_obs] if feas_obs.any() else F_obs
@@ -448,25 +284,27 @@ class BayesianOptimizer:
     def _fallback_point(self, X_avoid: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """The OLH point farthest from the samples, projected onto the cheap constraints."""
         lo, span = self.bounds[:, 0], self.bounds[:, 1] - self.bounds[:, 0]
-        U = raw_latin_hypercube(self.n_raw, np.c_[np.zeros(self.n_var), np.ones(self.n_var)], rng)
+        unit_box = np.c_[np.zeros(self.n_var), np.ones(self.n_var)]
+        U = raw_latin_hypercube(self.settings.n_raw, unit_box, rng)
         U_avoid = (X_avoid - lo) / span
         dist = np.min(np.linalg.norm(U[:, None] - U_avoid[None], axis=2), axis=1)
         u = U[int(np.argmax(dist))]
-        if self.cheap_constraints:
-            u = project_unit(u, scipy_constraints(self.cheap_constraints, lo, span))
+        if self.settings.cheap_constraints:
+            u = project_unit(u, scipy_constraints(self.settings.cheap_constraints, lo, span))
         return lo + u * span
 
     # ----------------------------------------------------------- evaluation
     def _evaluate(self, X: np.ndarray, iteration: int, indices: Sequence[int],
                   store: EvaluationStore, records: list[Evaluation]) -> None:
         """Evaluate designs, committing each result (in batch order) before going on."""
-        if self.executor is None:
+        executor, timeout = self.settings.executor, self.settings.timeout
+        if executor is None:
             for x, i in zip(X, indices):
-                self._record(x, evaluate_design(self.problem, x, self.timeout), iteration, i,
+                self._record(x, evaluate_design(self.problem, x, timeout), iteration, i,
                              store, records)
             return
         futures = [(x, i, time.perf_counter(),
-                    self.executor.submit(evaluate_design, self.problem, x, self.timeout))
+                    executor.submit(evaluate_design, self.problem, x, timeout))
                    for x, i in zip(X, indices)]
         for x, i, t_submit, fut in futures:
             try:
@@ -481,60 +319,62 @@ class BayesianOptimizer:
         ev = Evaluation(x=np.asarray(x, float), F=np.asarray(res["F"], float),
                         G=np.asarray(res["G"], float), status=res["status"],
                         message=res["message"], seconds=float(res["seconds"]),
-                        iteration=iteration, batch_index=index, seed=self.seed)
+                        iteration=iteration, batch_index=index, seed=self.settings.seed)
         store.append(ev)
         records.append(ev)
-        if self.callback is not None:
-            self.callback(ev)
+        if self.settings.callback is not None:
+            self.settings.callback(ev)
 
     # ------------------------------------------------------------------ run
     def _open_store(self) -> tuple[EvaluationStore, bool]:
-        if isinstance(self.store, EvaluationStore):
-            return self.store, False
-        return EvaluationStore(":memory:" if self.store is None else self.store), True
+        store = self.settings.store
+        if isinstance(store, EvaluationStore):
+            return store, False
+        return EvaluationStore(":memory:" if store is None else store), True
 
     def _budget_left(self, records: list[Evaluation]) -> int:
-        if self.max_evaluations is None:
+        if self.settings.max_evaluations is None:
             return 1 << 60
-        return self.max_evaluations - sum(r.iteration >= 0 for r in records)
+        return self.settings.max_evaluations - sum(r.iteration >= 0 for r in records)
 
     def _converged(self, records: list[Evaluation], iteration: int) -> bool:
-        if self.convergence_tol is None or iteration <= self.convergence_window:
+        if self.settings.convergence_tol is None or iteration <= self.settings.convergence_window:
             return False
         X, F, G, ok, feas = self._arrays(records)
         it = np.array([r.iteration for r in records])
-        before = it < iteration - self.convergence_window
+        before = it < iteration - self.settings.convergence_window
         if self.n_obj == 1:
             now = F[feas, 0].min(initial=np.inf)
             old = F[feas & before, 0].min(initial=np.inf)
             if not np.isfinite(old):
                 return False
-            return abs(old - now) <= self.convergence_tol * max(abs(old), 1e-12)
+            return abs(old - now) <= self.settings.convergence_tol * max(abs(old), 1e-12)
         ref = self._reference_point(F[feas])
         if ref is None:
             return False
         now, old = hypervolume(F[feas], ref), hypervolume(F[feas & before], ref)
-        return old > 0 and (now - old) <= self.convergence_tol * old
+        return old > 0 and (now - old) <= self.settings.convergence_tol * old
 
     def _polish(self, store: EvaluationStore, records: list[Evaluation]) -> None:
         """Final Nelder-Mead search from the best feasible design (see ``polish``)."""
-        if self.polish <= 0:
+        if self.settings.polish <= 0:
             return
-        t = self.n_iter + 1
+        t = self.settings.n_iter + 1
         X, F, G, ok, feas = self._arrays([r for r in records if r.iteration < t])
         if not feas.any():
             return
         lo, hi = self.bounds[:, 0], self.bounds[:, 1]
         span = hi - lo
         x_best = X[feas][int(np.argmin(F[feas, 0]))]
-        coords = self.coordinates
+        coords = self.settings.coordinates
         if coords is None:  # the unit box
             z0, z_span = (x_best - lo) / span, np.ones(self.n_var)
         else:
             box = coords.box(self.bounds)
             z0, z_span = coords(x_best)[0], box[:, 1] - box[:, 0]
             A_inv = np.linalg.inv(coords.matrix)
-        cons = scipy_constraints(self.cheap_constraints, lo, span) if self.cheap_constraints else []
+        cheap = self.settings.cheap_constraints
+        cons = scipy_constraints(cheap, lo, span) if cheap else []
         stored = {r.batch_index: r for r in records if r.iteration == t}
         seen = {tuple(np.round(r.x, 12)): r for r in records if r.iteration < t}
         count = [0]
@@ -551,7 +391,7 @@ class BayesianOptimizer:
             ev = seen.get(tuple(np.round(x, 12)))
             if ev is None:
                 k = count[0]
-                if k >= self.polish or self._budget_left(records) <= 0:
+                if k >= self.settings.polish or self._budget_left(records) <= 0:
                     raise _PolishDone
                 if k in stored:
                     ev = stored[k]
@@ -566,12 +406,13 @@ class BayesianOptimizer:
             good = ev.ok and np.all(np.asarray(ev.G) <= 0.0) and np.isfinite(ev.F[0])
             return float(ev.F[0]) if good else math.inf
 
-        simplex = z0 + np.vstack([np.zeros(self.n_var), np.diag(self.polish_step * z_span)])
+        step = self.settings.polish_step * z_span
+        simplex = z0 + np.vstack([np.zeros(self.n_var), np.diag(step)])
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
                 minimize(value, z0, method="Nelder-Mead",
-                         options={"initial_simplex": simplex, "maxfev": 100 * self.polish,
+                         options={"initial_simplex": simplex, "maxfev": 100 * self.settings.polish,
                                   "xatol": 1e-9, "fatol": 0.0})
         except _PolishDone:
             pass
@@ -587,27 +428,16 @@ class BayesianOptimizer:
         try:
             return self._run(store)
         finally:
-            if owned and self.store is not None:
+            if owned and self.settings.store is not None:
                 store.close()
 
     def _run(self, store: EvaluationStore) -> OptimizationResult:
-        for key, val in (("seed", self.seed), ("n_var", self.n_var), ("n_obj", self.n_obj),
-                         ("n_constr", self.n_constr), ("n_init", self.n_init),
-                         ("batch_size", self.batch_size)):
+        for key, val in (("seed", self.settings.seed), ("n_var", self.n_var), ("n_obj", self.n_obj),
+                         ("n_constr", self.n_constr), ("n_init", self.settings.n_init),
+                         ("batch_size", self.settings.batch_size)):
             store.set_meta(key, val)
         records = store.load()
         done = {(r.iteration, r.batch_index) for r in records}
-        if self.initial_samples is not None and not any(r.iteration == -1 for r in records):
-            Xr, Fr = (np.atleast_2d(np.asarray(a, float)) for a in self.initial_samples[:2])
-            Gr = (np.atleast_2d(np.asarray(self.initial_samples[2], float))
-                  if len(self.initial_samples) > 2 else np.zeros((len(Xr), 0)))
-            Fr = Fr.reshape(len(Xr), self.n_obj)
-            Gr = Gr.reshape(len(Xr), self.n_constr)
-            for i, (x, f, gg) in enumerate(zip(Xr, Fr, Gr)):
-                finite = np.all(np.isfinite(f)) and np.all(np.isfinite(gg))
-                status = STATUS_OK if finite else "invalid"
-                self._record(x, {"F": f, "G": gg, "status": status, "message": "recycled",
-                                 "seconds": 0.0}, -1, i, store, records)
         overhead: list[float] = []
         # iteration 0: initial design
         X0 = self.initial_design()
@@ -615,20 +445,20 @@ class BayesianOptimizer:
         todo = todo[: max(0, self._budget_left(records))]
         if todo:
             self._evaluate(X0[todo], 0, todo, store, records)
-        for t in range(1, self.n_iter + 1):
-            if all((t, i) in done for i in range(self.batch_size)):
+        for t in range(1, self.settings.n_iter + 1):
+            if all((t, i) in done for i in range(self.settings.batch_size)):
                 continue  # replayed from the store
             if self._budget_left(records) <= 0 or self._converged(records, t):
                 break
             t0 = time.perf_counter()
             prior = [r for r in records if r.iteration < t]
-            if self.blas_threads is None:
+            if self.settings.blas_threads is None:
                 Xb = self.propose(prior, t)
             else:
-                with blas_threads(self.blas_threads):
+                with blas_threads(self.settings.blas_threads):
                     Xb = self.propose(prior, t)
             overhead.append(time.perf_counter() - t0)
-            todo = [i for i in range(self.batch_size) if (t, i) not in done]
+            todo = [i for i in range(self.settings.batch_size) if (t, i) not in done]
             stored = {r.batch_index: r.x for r in records if r.iteration == t}
             for i, x in stored.items():
                 if not np.allclose(x, Xb[i], rtol=0, atol=1e-9):

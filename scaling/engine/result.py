@@ -5,7 +5,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-from hypate.scaling.engine.acquisition import weighted_metric
+from hypate.scaling.engine.criteria import weighted_metric
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
 from hypate.scaling.engine.problem import STATUS_OK
 

@@ -33,6 +33,7 @@ from hypate.scaling.engine.coordinates import LogLinearCoordinates
 from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.problem import evaluate_design, project_cheap
 from hypate.scaling.engine.result import OptimizationResult
+from hypate.scaling.engine.settings import OptimizerSettings
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
 from hypate.scaling.workflow.classical import (
     classical_scaling,
@@ -365,14 +366,13 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
                 classical["evaluation_status"] = ev.status
     _write_json(out / "classical.json", classical or {"status": "not available"})
     executor, close = make_executor(workers, scheduler)
-    weights = opt.weights if opt.weights is not None else None
-    optimizer = BayesianOptimizer(
-        problem, acquisition=study.acquisition, n_init=opt.initial_samples,
-        n_iter=opt.iterations, batch_size=opt.batch_size, v=opt.v, weights=weights,
+    settings = OptimizerSettings(
+        acquisition=study.acquisition, n_init=opt.initial_samples, n_iter=opt.iterations,
+        batch_size=opt.batch_size, v=opt.v, weights=opt.weights,
         cheap_constraints=problem.cheap_constraints(), executor=executor,
-        timeout=opt.timeout, store=store_path, initial_samples=None,
-        seed=run_seed, callback=callback, output_transform=opt.transform,
-        coordinates=coordinates, polish=opt.polish)
+        timeout=opt.timeout, store=store_path, seed=run_seed, callback=callback,
+        output_transform=opt.transform, coordinates=coordinates, polish=opt.polish)
+    optimizer = BayesianOptimizer(problem, settings)
     t0 = time.perf_counter()
     try:
         result = optimizer.run()

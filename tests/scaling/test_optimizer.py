@@ -2,6 +2,7 @@
 executors and resume (scaling/optimizer.py)."""
 from __future__ import annotations
 
+import re
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 import numpy as np
@@ -22,7 +23,8 @@ from hypate.scaling.engine.inner import optimize_acquisition
 from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask
 from hypate.scaling.engine.problem import CHEAP_TOL, CheapConstraint
-from hypate.scaling.engine.store import EvaluationStore
+from hypate.scaling.engine.settings import OptimizerSettings, SettingError
+from hypate.scaling.engine.store import Evaluation, EvaluationStore
 from hypate.solvers.numerics.kriging import KrigingRegressor
 from pymoo.core.problem import Problem
 
@@ -262,13 +264,23 @@ def test_budget_stop_then_resume_and_seed_determinism(tmp_path):
         BayesianOptimizer(Branin(), store=path, **{**kw, "seed": 1}).run()
 
 
+def _recycle(path, X0, F0):
+    """Earlier evaluations stored as iteration -1, the way the workflow recycles samples."""
+    with EvaluationStore(path) as store:
+        for i, (x, f) in enumerate(zip(X0, F0)):
+            store.append(Evaluation(x=x, F=f, G=np.zeros(0), message="recycled",
+                                    iteration=-1, batch_index=i, seed=0))
+    return path
+
+
 def test_recycled_samples_are_used_and_stored(tmp_path):
     p = Branin()
     X0 = np.array([[-3.0, 12.0], [3.0, 2.0], [9.0, 2.5], [0.0, 5.0], [5.0, 10.0]])
     F0 = p.evaluate(X0, return_as_dictionary=True)["F"]
     prob = _CountingBranin()
-    res = BayesianOptimizer(prob, acquisition="ei", n_init=0, n_iter=3,
-                            initial_samples=(X0, F0), seed=0, store=tmp_path / "r.sqlite").run()
+    store = _recycle(tmp_path / "r.sqlite", X0, F0)
+    res = BayesianOptimizer(prob, acquisition="ei", n_init=0, n_iter=3, seed=0,
+                            store=store).run()
     assert prob.count == 3  # the recycled designs are not evaluated again
     assert list(res.data["iteration"]) == [-1] * 5 + [1, 2, 3]
     np.testing.assert_array_equal(res.X[:5], X0)
@@ -407,6 +419,34 @@ def test_bad_settings_raise():
         BayesianOptimizer(Branin(), batch_strategy="optimist")
 
 
+@pytest.mark.parametrize("field,value,allowed", [
+    ("n_init", -1, "integer >= 0"), ("batch_size", 0, "integer >= 1"),
+    ("n_iter", 2.5, "integer >= 0"), ("p_feasible", 1.0, "(0, 1)"),
+    ("polish_step", 0.6, "(0, 0.5]"), ("timeout", 0.0, "(0, inf)"), ("g", 0.5, "[1, inf]"),
+    ("kernel", "cubic", "one of"), ("acquisition", "hvlcbb", "one of"),
+    ("weights", [0.5, -0.5], ">= 0"), ("executor", object(), "submit"),
+])
+def test_settings_name_the_field_and_its_range(field, value, allowed):
+    with pytest.raises(SettingError, match=re.escape(allowed)) as err:
+        OptimizerSettings(**{field: value})
+    assert err.value.field == field and str(err.value).startswith(field)
+
+
+def test_settings_object_and_keyword_overrides_agree():
+    settings = OptimizerSettings(acquisition="ei", n_init=5, n_iter=2, seed=3)
+    a = BayesianOptimizer(Branin(), settings).run()
+    b = BayesianOptimizer(Branin(), acquisition="ei", n_init=5, n_iter=2, seed=3).run()
+    c = BayesianOptimizer(Branin(), OptimizerSettings(acquisition="ei", n_init=5), n_iter=2,
+                          seed=3).run()
+    np.testing.assert_array_equal(a.X, b.X)
+    np.testing.assert_array_equal(a.X, c.X)
+    assert settings.n_iter == 2  # the override made a new settings object
+    with pytest.raises(TypeError, match="initial_samples"):
+        BayesianOptimizer(Branin(), initial_samples=None)
+    with pytest.raises(SettingError, match="weights"):
+        BayesianOptimizer(BraninCurrin(), weights=[1.0, 1.0, 1.0])
+
+
 # ----------------------------------------------------------------------------- slow
 def _branin_hits(acq):
     hits = []
@@ -434,7 +474,7 @@ def test_hartmann6_four_of_five_seeds(acq):
 
 
 @pytest.mark.slow
-def test_batch_of_two_halves_wall_time_on_two_workers():
+def test_batch_of_two_halves_wall_time_on_two_workers(tmp_path):
     import time
 
     bench = get_benchmark("branincurrin")
@@ -445,10 +485,10 @@ def test_batch_of_two_halves_wall_time_on_two_workers():
         with ProcessPoolExecutor(2) as ex:
             ex.submit(int, 0).result()  # start the workers before timing
             t0 = time.perf_counter()
+            store = _recycle(tmp_path / f"q{q}.sqlite", X0, F0)
             res = BayesianOptimizer(SlowProblem(bench.problem, 1.0), acquisition="hvlcb",
                                     n_init=0, n_iter=20 // q, batch_size=q, executor=ex,
-                                    initial_samples=(X0, F0), ref_point=bench.ref_point,
-                                    seed=0).run()
+                                    store=store, ref_point=bench.ref_point, seed=0).run()
             runs[q] = (time.perf_counter() - t0, res.hypervolume_history()[-1])
     assert runs[2][0] <= 0.6 * runs[1][0], runs
     assert runs[2][1] == pytest.approx(runs[1][1], rel=0.05), runs
