@@ -47,7 +47,12 @@ from hypate.scaling.engine.acquisition import (
 from hypate.scaling.engine.coordinates import WarpedModel
 from hypate.scaling.engine.inner import optimize_acquisition
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
-from hypate.scaling.engine.problem import evaluate_design, project_unit, scipy_constraints
+from hypate.scaling.engine.problem import (
+    Outcome,
+    evaluate_design,
+    project_unit,
+    scipy_constraints,
+)
 from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.engine.sampling import latin_hypercube, raw_latin_hypercube
 from hypate.scaling.engine.settings import OptimizerSettings, SettingError
@@ -308,18 +313,18 @@ class BayesianOptimizer:
                    for x, i in zip(X, indices)]
         for x, i, t_submit, fut in futures:
             try:
-                res = fut.result()
+                outcome = fut.result()
             except Exception as exc:  # worker died, result not picklable, cancelled, ...
-                res = {"F": np.full(self.n_obj, np.nan), "G": np.full(self.n_constr, np.nan),
-                       "status": "error", "message": f"{type(exc).__name__}: {exc}",
-                       "seconds": time.perf_counter() - t_submit}
-            self._record(x, res, iteration, i, store, records)
+                outcome = Outcome.failure(self.n_obj, self.n_constr, "error",
+                                          f"{type(exc).__name__}: {exc}",
+                                          time.perf_counter() - t_submit)
+            self._record(x, outcome, iteration, i, store, records)
 
-    def _record(self, x, res, iteration, index, store, records) -> None:
-        ev = Evaluation(x=np.asarray(x, float), F=np.asarray(res["F"], float),
-                        G=np.asarray(res["G"], float), status=res["status"],
-                        message=res["message"], seconds=float(res["seconds"]),
-                        iteration=iteration, batch_index=index, seed=self.settings.seed)
+    def _record(self, x: np.ndarray, outcome: Outcome, iteration: int, index: int,
+                store: EvaluationStore, records: list[Evaluation]) -> None:
+        """Commit one evaluation to the store, then tell the callback."""
+        ev = Evaluation.from_outcome(x, outcome, iteration=iteration, batch_index=index,
+                                     seed=self.settings.seed)
         store.append(ev)
         records.append(ev)
         if self.settings.callback is not None:

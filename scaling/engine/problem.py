@@ -25,6 +25,7 @@ __all__ = [
     "scipy_constraints",
     "project_unit",
     "project_cheap",
+    "Outcome",
     "evaluate_design",
 ]
 
@@ -114,8 +115,52 @@ def project_cheap(problem: Any, x: np.ndarray) -> np.ndarray:
 
 
 # ------------------------------------------------------------------- evaluation
+@dataclass(frozen=True)
+class Outcome:
+    """What one evaluation of a design returned (:func:`evaluate_design`).
+
+    Attributes
+    ----------
+    F : ndarray of shape (m,)
+        Objectives (NaN where the evaluation failed).
+    G : ndarray of shape (k,)
+        Inequality constraints, feasible where ``G <= 0``.
+    status : str
+        ``"ok"``, ``"error"`` (raised), ``"invalid"`` (NaN/inf) or ``"timeout"``.
+    message : str
+    seconds : float
+        Wall time of the evaluation.
+    """
+
+    F: np.ndarray
+    G: np.ndarray
+    status: str = STATUS_OK
+    message: str = ""
+    seconds: float = 0.0
+
+    @classmethod
+    def failure(cls, m: int, k: int, status: str, message: str, seconds: float) -> Outcome:
+        """A failed evaluation of ``m`` objectives and ``k`` constraints (all NaN)."""
+        return cls(np.full(m, np.nan), np.full(k, np.nan), status, message, seconds)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == STATUS_OK
+
+    def __getitem__(self, key: str) -> Any:
+        """Transitional read access by the former dict keys (``outcome["F"]``): the seed
+        loop of ``scaling/workflow/run.py`` still reads them. Remove once it reads
+        attributes."""
+        if key not in _OUTCOME_KEYS:
+            raise KeyError(key)
+        return getattr(self, key)
+
+
+_OUTCOME_KEYS = frozenset(("F", "G", "status", "message", "seconds"))
+
+
 def evaluate_design(problem: Any, x: np.ndarray, timeout: float | None = None,
-                    eq_tol: float = 1e-4) -> dict:
+                    eq_tol: float = 1e-4) -> Outcome:
     """Evaluate one design with a pymoo Problem; never raises (module level: picklable).
 
     Parameters
@@ -131,10 +176,8 @@ def evaluate_design(problem: Any, x: np.ndarray, timeout: float | None = None,
 
     Returns
     -------
-    dict
-        ``F`` (m,), ``G`` (k,) (inequalities ``G <= 0``, then ``|H| - eq_tol`` for
-        equalities), ``status`` (``"ok"``, ``"error"``, ``"invalid"``, ``"timeout"``),
-        ``message``, ``seconds``.
+    Outcome
+        ``G`` holds the inequalities ``G <= 0``, then ``|H| - eq_tol`` for the equalities.
     """
     m = int(problem.n_obj)
     k = int(problem.n_ieq_constr) + int(problem.n_eq_constr)
@@ -155,12 +198,11 @@ def evaluate_design(problem: Any, x: np.ndarray, timeout: float | None = None,
         thread.start()
         thread.join(timeout)
         if thread.is_alive():
-            return {"F": np.full(m, np.nan), "G": np.full(k, np.nan), "status": "timeout",
-                    "message": f"exceeded {timeout} s", "seconds": time.perf_counter() - t0}
+            return Outcome.failure(m, k, "timeout", f"exceeded {timeout} s",
+                                   time.perf_counter() - t0)
     seconds = time.perf_counter() - t0
     if "error" in box:
-        return {"F": np.full(m, np.nan), "G": np.full(k, np.nan), "status": "error",
-                "message": box["error"], "seconds": seconds}
+        return Outcome.failure(m, k, "error", box["error"], seconds)
     out = box["out"]
     try:
         F = np.asarray(out["F"], dtype=float).reshape(-1)
@@ -171,13 +213,10 @@ def evaluate_design(problem: Any, x: np.ndarray, timeout: float | None = None,
             parts.append(np.abs(np.asarray(out["H"], dtype=float).reshape(-1)) - eq_tol)
         G = np.concatenate(parts) if parts else np.zeros(0)
     except (KeyError, TypeError, ValueError) as exc:
-        return {"F": np.full(m, np.nan), "G": np.full(k, np.nan), "status": "error",
-                "message": f"{type(exc).__name__}: {exc}", "seconds": seconds}
+        return Outcome.failure(m, k, "error", f"{type(exc).__name__}: {exc}", seconds)
     if F.shape != (m,) or G.shape != (k,):
-        return {"F": np.full(m, np.nan), "G": np.full(k, np.nan), "status": "error",
-                "message": f"expected {m} objectives and {k} constraints, got "
-                           f"{F.size} and {G.size}", "seconds": seconds}
+        return Outcome.failure(m, k, "error", f"expected {m} objectives and {k} constraints, "
+                               f"got {F.size} and {G.size}", seconds)
     if not (np.all(np.isfinite(F)) and np.all(np.isfinite(G))):
-        return {"F": F, "G": G, "status": "invalid", "message": "non-finite objective or "
-                "constraint", "seconds": seconds}
-    return {"F": F, "G": G, "status": STATUS_OK, "message": "", "seconds": seconds}
+        return Outcome(F, G, "invalid", "non-finite objective or constraint", seconds)
+    return Outcome(F, G, STATUS_OK, "", seconds)

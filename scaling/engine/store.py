@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from hypate.scaling.engine.problem import STATUS_OK
+from hypate.scaling.engine.problem import STATUS_OK, Outcome
 
 __all__ = ["Evaluation", "EvaluationStore", "evaluations_to_dataframe"]
 
@@ -40,9 +40,9 @@ CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
 """
 
 
-@dataclass
+@dataclass(frozen=True)
 class Evaluation:
-    """One finished evaluation.
+    """One finished evaluation (a committed row of the store).
 
     Attributes
     ----------
@@ -77,6 +77,15 @@ class Evaluation:
     @property
     def ok(self) -> bool:
         return self.status == STATUS_OK
+
+    @classmethod
+    def from_outcome(cls, x: np.ndarray, outcome: Outcome, *, iteration: int,
+                     batch_index: int, seed: int | None) -> Evaluation:
+        """The record of design ``x`` evaluated to ``outcome`` in slot (iteration, index)."""
+        return cls(x=np.asarray(x, float), F=np.asarray(outcome.F, float),
+                   G=np.asarray(outcome.G, float), status=outcome.status,
+                   message=outcome.message, seconds=float(outcome.seconds),
+                   iteration=iteration, batch_index=batch_index, seed=seed)
 
 
 def _dump(a: np.ndarray) -> str:

@@ -2,6 +2,7 @@
 executors and resume (scaling/optimizer.py)."""
 from __future__ import annotations
 
+import dataclasses
 import re
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
@@ -22,7 +23,7 @@ from hypate.scaling.engine.coordinates import LogLinearCoordinates
 from hypate.scaling.engine.inner import optimize_acquisition
 from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask
-from hypate.scaling.engine.problem import CHEAP_TOL, CheapConstraint
+from hypate.scaling.engine.problem import CHEAP_TOL, CheapConstraint, Outcome, evaluate_design
 from hypate.scaling.engine.settings import OptimizerSettings, SettingError
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
 from hypate.solvers.numerics.kriging import KrigingRegressor
@@ -322,6 +323,21 @@ def test_failures_are_recorded_and_avoided():
     # u1 = 0.152, which is admissible; 1e-2 after 30 evaluations despite the failures
     assert res.best_history()[-1] - Branin.optimum < 1e-2
     assert np.all(U[(st == "ok").to_numpy(), 0] <= 0.6)
+
+
+def test_evaluations_are_frozen_typed_records():
+    good = evaluate_design(Branin(), np.array([np.pi, 2.275]))
+    assert isinstance(good, Outcome) and good.ok and good.F.shape == (1,) and good.G.shape == (0,)
+    assert good.F[0] == pytest.approx(Branin.optimum, abs=1e-5)
+    bad = evaluate_design(FailingProblem(Branin(), threshold=0.0), np.array([5.0, 5.0]))
+    assert (bad.status, bad.message) == ("error", "RuntimeError: solver diverged")
+    assert np.isnan(bad.F).all() and not bad.ok
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        bad.status = "ok"
+    ev = Evaluation.from_outcome([5.0, 5.0], bad, iteration=2, batch_index=1, seed=0)
+    assert (ev.iteration, ev.batch_index, ev.status, ev.ok) == (2, 1, "error", False)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        ev.message = ""
 
 
 class _Sleepy(Problem):
