@@ -4,20 +4,22 @@ of :mod:`hypate.scaling.engine.criteria`, and the one name -> class registry
 
 Every class takes a fitted model exposing ``predict_moments(X) -> (mu, sigma)`` and
 ``predict_with_gradients(X) -> (mu, sigma, dmu, dsigma)`` with shapes ``(N, m)`` and
-``(N, m, d)`` (:class:`hypate.solvers.numerics.kriging.KrigingRegressor` does), and offers ``__call__(X)`` (shape
-``(N,)``) and ``gradient(X)`` (shape ``(N, d)``), vectorized over the rows of ``X``. The
+``(N, m, d)`` (:class:`hypate.solvers.numerics.kriging.KrigingRegressor` does), and offers
+``__call__(X)`` (shape ``(N,)``) and ``gradient(X)`` (shape ``(N, d)``), vectorized over the
+rows of ``X``. The
 chain rule ``dC/dx = dC/dmu dmu/dx + dC/dsigma dsigma/dx`` (Eqs. (6.15), (6.20), (6.22))
 is done once in :class:`Acquisition`; each subclass only supplies ``C(mu, sigma)`` and its
 two partial derivatives. ``maximize`` tells the inner optimizer the sense (it minimizes the
 negative of a maximization-type acquisition).
 
 The hypervolume acquisitions precompute the non-dominated set and the disjoint box
-decomposition of the non-dominated region (:func:`hypate.scaling.engine.pareto.nondominated_boxes`) in the
-constructor. With independent Gaussian objectives (Eq. (6.9), diagonal covariance) the
-integrals Eq. (6.25) and Eq. (6.27) factorize per box and per objective, so HVPoI and HVEI
-are exact sums of products of one-dimensional Gaussian integrals (for any number of
-objectives whose grid decomposition fits in ``max_cells``; otherwise HVEI falls back to a
-Monte Carlo estimate with fixed base samples, which is smooth in x).
+decomposition of the non-dominated region
+(:func:`hypate.scaling.engine.pareto.nondominated_boxes`) in the constructor. With
+independent Gaussian objectives (Eq. (6.9), diagonal covariance) the integrals Eq. (6.25)
+and Eq. (6.27) factorize per box and per objective, so HVPoI and HVEI are exact sums of
+products of one-dimensional Gaussian integrals (for any number of objectives whose grid
+decomposition fits in ``max_cells``; otherwise HVEI falls back to a Monte Carlo estimate
+with fixed base samples, which is smooth in x).
 """
 from __future__ import annotations
 

@@ -9,18 +9,23 @@ Each iteration (Sec. 6.3.1 step 4):
 
 1. fit kriging surrogates of the objectives on the successful evaluations, of the expensive
    constraints (``G <= 0``) and, if any evaluation failed, of the failure indicator;
-2. maximize the acquisition by :func:`optimize_acquisition`: optimal-Latin-hypercube raw
-   points, the best ``n_starts`` of them polished by SLSQP with analytic gradients, the
+2. maximize the acquisition by :func:`hypate.scaling.engine.inner.optimize_acquisition`: raw
+   optimal-Latin-hypercube points, the best ``n_starts`` polished by SLSQP with gradients, the
    cheap constraints enforced exactly and the surrogate constraints
    (:class:`hypate.scaling.engine.surrogate.ProbabilisticConstraint`: predicted probability of
    feasibility of each expensive constraint ``>= p_feasible``, predicted failure
-   indicator ``<= 1/2``) as SLSQP inequalities;
+   indicator ``<= FAILURE_THRESHOLD``) as SLSQP inequalities;
 3. for batches ``q > 1`` repeat 2 on a fantasized model (kriging believer: the predicted
    mean is appended as if observed; constant liar: the best value so far);
 4. evaluate the batch through a ``concurrent.futures``-style executor (anything with
    ``submit(fn, *args)`` returning futures with ``.result(timeout)``: a
    ``ProcessPoolExecutor`` or a ``dask.distributed.Client``) or in-process, and commit
    each finished evaluation to the store before the next proposal.
+
+The options are one frozen :class:`hypate.scaling.engine.settings.OptimizerSettings`; the
+acquisition is built by name from :data:`hypate.scaling.engine.acquisition.ACQUISITIONS`;
+evaluations are :class:`hypate.scaling.engine.problem.Outcome` records committed as
+:class:`hypate.scaling.engine.store.Evaluation` rows.
 
 Reproducibility: the random numbers of iteration ``t`` come from
 ``numpy.random.default_rng([seed, t])`` and a proposal depends only on the evaluations of

@@ -36,19 +36,23 @@ class OptimizationResult:
 
     @property
     def X(self) -> np.ndarray:
+        """Designs, shape (n, d)."""
         return self.data[[f"x{i}" for i in range(self.n_var)]].to_numpy(float)
 
     @property
     def F(self) -> np.ndarray:
+        """Objectives, shape (n, m) (NaN where an evaluation failed)."""
         return self.data[[f"f{i}" for i in range(self.n_obj)]].to_numpy(float)
 
     @property
     def G(self) -> np.ndarray:
+        """Expensive constraints, shape (n, k), feasible where ``G <= 0``."""
         cols = [c for c in self.data.columns if c.startswith("g") and c[1:].isdigit()]
         return self.data[cols].to_numpy(float).reshape(len(self.data), len(cols))
 
     @property
     def ok(self) -> np.ndarray:
+        """Successful evaluations, shape (n,)."""
         return (self.data["status"] == STATUS_OK).to_numpy()
 
     @property

@@ -3,7 +3,8 @@
 Every finished evaluation (x, F, G, status, message, seconds, iteration, seed) is one row,
 committed before the optimizer proposes anything else, in WAL mode with
 ``synchronous=FULL``: a run killed at any point loses at most the evaluation in flight, and
-:class:`hypate.scaling.engine.optimizer.BayesianOptimizer` resumes from the rows without re-evaluating.
+:class:`hypate.scaling.engine.optimizer.BayesianOptimizer` resumes from the rows without
+re-evaluating.
 Arrays are stored as JSON (Python's float ``repr`` round-trips exactly; NaN/inf allowed).
 Rows are never updated or deleted.
 """
