@@ -23,7 +23,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from hypate.scaling.engine.functional import FunctionProblem, objective_count
-from hypate.scaling.engine.optimizer import BayesianOptimizer, OptimizationResult
+from hypate.scaling.engine.optimizer import BayesianOptimizer
+from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.report.html import write_report_safely
 from hypate.scaling.workflow import run as _run
 from hypate.scaling.workflow.run import RunOutcome
@@ -119,18 +120,14 @@ def minimize(fun: Callable[[np.ndarray], Any] | Problem,
         raise ValueError(f"n_init + refine: must leave room in n_evaluations = {n_evaluations}; "
                          f"got n_init {n0}, refine {n_refine}")
     seed = 0 if seed is None else int(seed)
-    result = BayesianOptimizer(problem, acquisition=acquisition or ("ei" if m == 1 else "hvlcb"),
-                               n_init=n0, n_iter=n_iter, seed=seed).run()
-    ok = result.feasible
-    if n_refine and ok.any():
-        # the exploiting stage starts from the successful evaluations; its own rows follow
-        refined = BayesianOptimizer(problem, acquisition="lcb", v=0.0, n_init=0,
-                                    n_iter=n_refine, seed=seed,
-                                    initial_samples=(result.X[ok], result.F[ok])).run()
-        new = refined.data[refined.data["iteration"] >= 0].copy()
-        new["iteration"] += n_iter + 1
-        result = OptimizationResult(data=pd.concat([result.data, new], ignore_index=True),
-                                    n_var=d, n_obj=m)
+    with EvaluationStore(":memory:") as store:
+        common = {"n_init": n0, "seed": seed, "store": store}
+        result = BayesianOptimizer(problem, acquisition=acquisition or (
+            "ei" if m == 1 else "hvlcb"), n_iter=n_iter, **common).run()
+        if n_refine and result.feasible.any():
+            # the same store, continued: iterations n_iter + 1 ... are purely exploiting
+            result = BayesianOptimizer(problem, acquisition="lcb", v=0.0,
+                                       n_iter=n_iter + n_refine, **common).run()
     evaluations: pd.DataFrame = result.data.copy()
     ok = np.flatnonzero(result.feasible)
     if ok.size == 0:

@@ -3,7 +3,8 @@
 Every finished evaluation (x, F, G, status, message, seconds, iteration, seed) is one row,
 committed before the optimizer proposes anything else, in WAL mode with
 ``synchronous=FULL``: a run killed at any point loses at most the evaluation in flight, and
-:class:`hypate.scaling.engine.optimizer.BayesianOptimizer` resumes from the rows without re-evaluating.
+:class:`hypate.scaling.engine.optimizer.BayesianOptimizer` resumes from the rows without
+re-evaluating.
 Arrays are stored as JSON (Python's float ``repr`` round-trips exactly; NaN/inf allowed).
 Rows are never updated or deleted.
 """
@@ -17,11 +18,9 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from hypate.scaling.engine.problem import STATUS_OK, Outcome
 
-__all__ = ["Evaluation", "EvaluationStore", "STATUS_OK", "evaluations_to_dataframe"]
-
-#: Status of a successful evaluation; anything else is a failure.
-STATUS_OK = "ok"
+__all__ = ["Evaluation", "EvaluationStore", "evaluations_to_dataframe"]
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS evaluations (
@@ -42,9 +41,9 @@ CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
 """
 
 
-@dataclass
+@dataclass(frozen=True)
 class Evaluation:
-    """One finished evaluation.
+    """One finished evaluation (a committed row of the store).
 
     Attributes
     ----------
@@ -79,6 +78,15 @@ class Evaluation:
     @property
     def ok(self) -> bool:
         return self.status == STATUS_OK
+
+    @classmethod
+    def from_outcome(cls, x: np.ndarray, outcome: Outcome, *, iteration: int,
+                     batch_index: int, seed: int | None) -> Evaluation:
+        """The record of design ``x`` evaluated to ``outcome`` in slot (iteration, index)."""
+        return cls(x=np.asarray(x, float), F=np.asarray(outcome.F, float),
+                   G=np.asarray(outcome.G, float), status=outcome.status,
+                   message=outcome.message, seconds=float(outcome.seconds),
+                   iteration=iteration, batch_index=batch_index, seed=seed)
 
 
 def _dump(a: np.ndarray) -> str:

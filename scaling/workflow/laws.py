@@ -56,7 +56,7 @@ import cvxpy as cp
 import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
-from hypate.scaling.engine.optimizer import project_cheap
+from hypate.scaling.engine.problem import project_cheap
 from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem
 from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON, SWEEP_JSON
 from hypate.scaling.workflow.similarity import (

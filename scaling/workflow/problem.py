@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from hypate.scaling.engine.optimizer import CheapConstraint
+from hypate.scaling.engine.problem import CheapConstraint
 from hypate.scaling.workflow.configuration import Configuration, apply_design
 from hypate.scaling.workflow.similarity import (
     TIME_SCALINGS,

@@ -25,14 +25,12 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from hypate.scaling.engine.coordinates import LogLinearCoordinates
 from hypate.scaling.engine.executors import ExecutorError, make_executor
-from hypate.scaling.engine.optimizer import (
-    BayesianOptimizer,
-    LogLinearCoordinates,
-    OptimizationResult,
-    evaluate_design,
-    project_cheap,
-)
+from hypate.scaling.engine.optimizer import BayesianOptimizer
+from hypate.scaling.engine.problem import evaluate_design, project_cheap
+from hypate.scaling.engine.result import OptimizationResult
+from hypate.scaling.engine.settings import OptimizerSettings
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
 from hypate.scaling.workflow.classical import (
     classical_scaling,
@@ -283,14 +281,13 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
         executor, close = make_executor(workers, scheduler)
     except ExecutorError as exc:
         raise InputError(exc.field, exc.message) from None
-    weights = opt.weights if opt.weights is not None else None
-    optimizer = BayesianOptimizer(
-        problem, acquisition=study.acquisition, n_init=opt.initial_samples,
-        n_iter=opt.iterations, batch_size=opt.batch_size, v=opt.v, weights=weights,
+    settings = OptimizerSettings(
+        acquisition=study.acquisition, n_init=opt.initial_samples, n_iter=opt.iterations,
+        batch_size=opt.batch_size, v=opt.v, weights=opt.weights,
         cheap_constraints=problem.cheap_constraints(), executor=executor,
-        timeout=opt.timeout, store=store_path, initial_samples=None,
-        seed=run_seed, callback=callback, output_transform=opt.transform,
-        coordinates=coordinates, polish=opt.polish)
+        timeout=opt.timeout, store=store_path, seed=run_seed, callback=callback,
+        output_transform=opt.transform, coordinates=coordinates, polish=opt.polish)
+    optimizer = BayesianOptimizer(problem, settings)
     t0 = time.perf_counter()
     try:
         result = optimizer.run()

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from hypate.scaling.engine.optimizer import project_cheap
+from hypate.scaling.engine.problem import project_cheap
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.workflow.laws import (
     ANALYTICAL_EXPONENTS,

@@ -5,6 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from hypate.scaling.engine.acquisition import (
+    ACQUISITIONS,
+    MULTI_OBJECTIVE_ACQUISITIONS,
+    SINGLE_OBJECTIVE_ACQUISITIONS,
+    AcquisitionContext,
+    ChebyshevLCB,
     ExpectedImprovement,
     HypervolumeEI,
     HypervolumeLCB,
@@ -12,6 +17,9 @@ from hypate.scaling.engine.acquisition import (
     LowerConfidenceBound,
     ProbabilityOfImprovement,
     WeightedMetricLCB,
+    WeightedSumLCB,
+)
+from hypate.scaling.engine.criteria import (
     expected_hypervolume_improvement,
     expected_improvement,
     hypervolume_lcb,
@@ -186,3 +194,45 @@ def test_hv_acquisitions_precompute_boxes():
     assert len(lower) == len(a.pareto_front) + 1  # 2-D staircase: k + 1 strips
     assert a.maximize and HypervolumeLCB(gp, Y, Y.max(0) + 0.1).maximize
     assert not LowerConfidenceBound(gp).maximize
+
+
+# ------------------------------------------------------------------------- registry
+class _Line:
+    """mu = x (one or two outputs), sigma = 0.1: enough to build every acquisition."""
+
+    def __init__(self, m):
+        self.m = m
+
+    def predict_moments(self, X):
+        return np.repeat(X[:, :1], self.m, axis=1), np.full((len(X), self.m), 0.1)
+
+    def predict_with_gradients(self, X):
+        mu, sd = self.predict_moments(X)
+        dmu = np.zeros((len(X), self.m, X.shape[1]))
+        dmu[:, :, 0] = 1.0
+        return mu, sd, dmu, np.zeros_like(dmu)
+
+
+def test_registry_builds_every_named_acquisition_from_a_context():
+    assert SINGLE_OBJECTIVE_ACQUISITIONS == ("lcb", "ei", "poi")
+    assert MULTI_OBJECTIVE_ACQUISITIONS == ("hvlcb", "hvei", "hvpoi", "ws", "cheb", "wm")
+    X = np.array([[0.2, 0.5], [0.7, 0.1]])
+    for name, cls in ACQUISITIONS.items():
+        m = 2 if cls.multi_objective else 1
+        ctx = AcquisitionContext(best_f=0.3, pareto_front=np.array([[0.3, 0.6], [0.6, 0.3]])[:, :m],
+                                 ref_point=np.full(m, 1.0), ideal=np.zeros(m), scale=np.ones(m),
+                                 rng=np.random.default_rng(0), g=3.0)
+        acq = cls.from_context(_Line(m), ctx)
+        assert type(acq) is cls and acq(X).shape == (2,), name
+    ctx = AcquisitionContext(0.3, np.zeros((0, 2)), np.ones(2), np.zeros(2), np.ones(2),
+                             np.random.default_rng(0), v=0.5)
+    assert ACQUISITIONS["ws"].from_context(_Line(2), ctx).g == 1.0
+    assert ACQUISITIONS["cheb"].from_context(_Line(2), ctx).g == np.inf
+    assert ACQUISITIONS["hvlcb"].from_context(_Line(2), ctx).v == 0.5
+    assert ACQUISITIONS["lcb"].from_context(_Line(1), ctx).v == 0.5
+    # default exploration weights when the context sets none
+    ctx0 = AcquisitionContext(0.3, np.zeros((0, 2)), np.ones(2), np.zeros(2), np.ones(2),
+                              np.random.default_rng(0))
+    assert ACQUISITIONS["hvlcb"].from_context(_Line(2), ctx0).v == 1.5
+    assert ACQUISITIONS["ei"].from_context(_Line(1), ctx0).v == 0.0
+    assert isinstance(ChebyshevLCB(_Line(2), [0.5, 0.5]), WeightedSumLCB)

@@ -2,6 +2,8 @@
 executors and resume (scaling/optimizer.py)."""
 from __future__ import annotations
 
+import dataclasses
+import re
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 import numpy as np
@@ -17,15 +19,18 @@ from hypate.scaling.engine.benchmarks import (
     SlowProblem,
     get_benchmark,
 )
-from hypate.scaling.engine.optimizer import (
-    CHEAP_TOL,
-    BayesianOptimizer,
-    CheapConstraint,
-    LogLinearCoordinates,
-    optimize_acquisition,
-)
+from hypate.scaling.engine.coordinates import LogLinearCoordinates
+from hypate.scaling.engine.inner import optimize_acquisition
+from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask
-from hypate.scaling.engine.store import EvaluationStore
+from hypate.scaling.engine.problem import (
+    CHEAP_TOL,
+    CheapConstraint,
+    Outcome,
+    evaluate_design,
+)
+from hypate.scaling.engine.settings import OptimizerSettings, SettingError
+from hypate.scaling.engine.store import Evaluation, EvaluationStore
 from hypate.solvers.numerics.kriging import KrigingRegressor
 from pymoo.core.problem import Problem
 
@@ -265,13 +270,23 @@ def test_budget_stop_then_resume_and_seed_determinism(tmp_path):
         BayesianOptimizer(Branin(), store=path, **{**kw, "seed": 1}).run()
 
 
+def _recycle(path, X0, F0):
+    """Earlier evaluations stored as iteration -1, the way the workflow recycles samples."""
+    with EvaluationStore(path) as store:
+        for i, (x, f) in enumerate(zip(X0, F0)):
+            store.append(Evaluation(x=x, F=f, G=np.zeros(0), message="recycled",
+                                    iteration=-1, batch_index=i, seed=0))
+    return path
+
+
 def test_recycled_samples_are_used_and_stored(tmp_path):
     p = Branin()
     X0 = np.array([[-3.0, 12.0], [3.0, 2.0], [9.0, 2.5], [0.0, 5.0], [5.0, 10.0]])
     F0 = p.evaluate(X0, return_as_dictionary=True)["F"]
     prob = _CountingBranin()
-    res = BayesianOptimizer(prob, acquisition="ei", n_init=0, n_iter=3,
-                            initial_samples=(X0, F0), seed=0, store=tmp_path / "r.sqlite").run()
+    store = _recycle(tmp_path / "r.sqlite", X0, F0)
+    res = BayesianOptimizer(prob, acquisition="ei", n_init=0, n_iter=3, seed=0,
+                            store=store).run()
     assert prob.count == 3  # the recycled designs are not evaluated again
     assert list(res.data["iteration"]) == [-1] * 5 + [1, 2, 3]
     np.testing.assert_array_equal(res.X[:5], X0)
@@ -313,6 +328,21 @@ def test_failures_are_recorded_and_avoided():
     # u1 = 0.152, which is admissible; 1e-2 after 30 evaluations despite the failures
     assert res.best_history()[-1] - Branin.optimum < 1e-2
     assert np.all(U[(st == "ok").to_numpy(), 0] <= 0.6)
+
+
+def test_evaluations_are_frozen_typed_records():
+    good = evaluate_design(Branin(), np.array([np.pi, 2.275]))
+    assert isinstance(good, Outcome) and good.ok and good.F.shape == (1,) and good.G.shape == (0,)
+    assert good.F[0] == pytest.approx(Branin.optimum, abs=1e-5)
+    bad = evaluate_design(FailingProblem(Branin(), threshold=0.0), np.array([5.0, 5.0]))
+    assert (bad.status, bad.message) == ("error", "RuntimeError: solver diverged")
+    assert np.isnan(bad.F).all() and not bad.ok
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        bad.status = "ok"
+    ev = Evaluation.from_outcome([5.0, 5.0], bad, iteration=2, batch_index=1, seed=0)
+    assert (ev.iteration, ev.batch_index, ev.status, ev.ok) == (2, 1, "error", False)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        ev.message = ""
 
 
 class _Sleepy(Problem):
@@ -410,6 +440,34 @@ def test_bad_settings_raise():
         BayesianOptimizer(Branin(), batch_strategy="optimist")
 
 
+@pytest.mark.parametrize("field,value,allowed", [
+    ("n_init", -1, "integer >= 0"), ("batch_size", 0, "integer >= 1"),
+    ("n_iter", 2.5, "integer >= 0"), ("p_feasible", 1.0, "(0, 1)"),
+    ("polish_step", 0.6, "(0, 0.5]"), ("timeout", 0.0, "(0, inf)"), ("g", 0.5, "[1, inf]"),
+    ("kernel", "cubic", "one of"), ("acquisition", "hvlcbb", "one of"),
+    ("weights", [0.5, -0.5], ">= 0"), ("executor", object(), "submit"),
+])
+def test_settings_name_the_field_and_its_range(field, value, allowed):
+    with pytest.raises(SettingError, match=re.escape(allowed)) as err:
+        OptimizerSettings(**{field: value})
+    assert err.value.field == field and str(err.value).startswith(field)
+
+
+def test_settings_object_and_keyword_overrides_agree():
+    settings = OptimizerSettings(acquisition="ei", n_init=5, n_iter=2, seed=3)
+    a = BayesianOptimizer(Branin(), settings).run()
+    b = BayesianOptimizer(Branin(), acquisition="ei", n_init=5, n_iter=2, seed=3).run()
+    c = BayesianOptimizer(Branin(), OptimizerSettings(acquisition="ei", n_init=5), n_iter=2,
+                          seed=3).run()
+    np.testing.assert_array_equal(a.X, b.X)
+    np.testing.assert_array_equal(a.X, c.X)
+    assert settings.n_iter == 2  # the override made a new settings object
+    with pytest.raises(TypeError, match="initial_samples"):
+        BayesianOptimizer(Branin(), initial_samples=None)
+    with pytest.raises(SettingError, match="weights"):
+        BayesianOptimizer(BraninCurrin(), weights=[1.0, 1.0, 1.0])
+
+
 # ----------------------------------------------------------------------------- slow
 def _branin_hits(acq):
     hits = []
@@ -437,7 +495,7 @@ def test_hartmann6_four_of_five_seeds(acq):
 
 
 @pytest.mark.slow
-def test_batch_of_two_halves_wall_time_on_two_workers():
+def test_batch_of_two_halves_wall_time_on_two_workers(tmp_path):
     import time
 
     bench = get_benchmark("branincurrin")
@@ -448,10 +506,10 @@ def test_batch_of_two_halves_wall_time_on_two_workers():
         with ProcessPoolExecutor(2) as ex:
             ex.submit(int, 0).result()  # start the workers before timing
             t0 = time.perf_counter()
+            store = _recycle(tmp_path / f"q{q}.sqlite", X0, F0)
             res = BayesianOptimizer(SlowProblem(bench.problem, 1.0), acquisition="hvlcb",
                                     n_init=0, n_iter=20 // q, batch_size=q, executor=ex,
-                                    initial_samples=(X0, F0), ref_point=bench.ref_point,
-                                    seed=0).run()
+                                    store=store, ref_point=bench.ref_point, seed=0).run()
             runs[q] = (time.perf_counter() - t0, res.hypervolume_history()[-1])
     assert runs[2][0] <= 0.6 * runs[1][0], runs
     assert runs[2][1] == pytest.approx(runs[1][1], rel=0.05), runs

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypate.scaling.engine.optimizer import evaluate_design
+from hypate.scaling.engine.problem import evaluate_design
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.similarity import analytical_scaling
 from hypate.scaling.workflow.study import load_study

@@ -1,0 +1,206 @@
+"""The inner optimization: multistart SLSQP on an acquisition (Sec. 6.3.3).
+
+Raw optimal-Latin-hypercube points are scored by the acquisition; the best few start SLSQP
+with the analytic gradient, the cheap constraints (exact) and the surrogate constraints
+(:class:`hypate.scaling.engine.surrogate.ProbabilisticConstraint`). Everything happens in
+unit-box coordinates ``u`` (``x = lo + u span``) so that SLSQP sees a well-scaled problem.
+"""
+from __future__ import annotations
+
+import itertools
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from hypate.scaling.engine.acquisition import Acquisition
+from hypate.scaling.engine.problem import (
+    CHEAP_TOL,
+    CheapConstraint,
+    cheap_violation,
+    project_unit,
+    scipy_constraints,
+)
+from hypate.scaling.engine.sampling import as_rng, raw_latin_hypercube
+from hypate.scaling.engine.surrogate import ProbabilisticConstraint
+from scipy.optimize import Bounds, minimize
+
+__all__ = ["optimize_acquisition"]
+
+#: Predicted violation of the surrogate constraints above which a candidate ranks last.
+MODEL_VIOLATION_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class _UnitSearch:
+    """The acquisition and its constraints seen in unit-box coordinates ``u``."""
+
+    acquisition: Acquisition
+    lo: np.ndarray
+    span: np.ndarray
+    sign: float                  # -1 for a maximized acquisition: SLSQP minimizes
+    scale: float                 # loss scale: SLSQP's ftol is relative to O(1) values
+    cheap_constraints: Sequence[CheapConstraint]
+    cheap: list[dict[str, Any]]  # the cheap constraints in scipy form, in u
+    model_constraints: Sequence[ProbabilisticConstraint]
+    U_avoid: np.ndarray | None
+    min_distance: float
+
+    def loss(self, u: np.ndarray) -> tuple[float, np.ndarray]:
+        """Scaled, sign-flipped acquisition and its u-gradient (SLSQP's objective)."""
+        val, grad = self.acquisition.value_and_gradient((self.lo + u * self.span)[None])
+        return (self.sign * float(val[0]) / self.scale,
+                self.sign * grad[0] * self.span / self.scale)
+
+    def model_violation(self, u: np.ndarray) -> float:
+        x = (self.lo + u * self.span)[None]
+        return float(sum(np.maximum(mc(x), 0.0).sum() for mc in self.model_constraints))
+
+    def cheap_ok(self, u: np.ndarray) -> bool:
+        return cheap_violation(self.cheap_constraints, self.lo + u * self.span) <= CHEAP_TOL
+
+    def far(self, u: np.ndarray) -> bool:
+        """At least ``min_distance`` from every sample (unit-box distance)."""
+        return self.U_avoid is None or \
+            float(np.min(np.linalg.norm(self.U_avoid - u, axis=1))) >= self.min_distance
+
+    def feasible(self, u: np.ndarray) -> np.ndarray | None:
+        """``u``, projected onto the cheap constraints if needed; None if that fails."""
+        if self.cheap and not self.cheap_ok(u):
+            u = project_unit(u, self.cheap)
+            if not self.cheap_ok(u):
+                return None
+        return u
+
+    def scipy_model_constraints(self) -> list[dict[str, Any]]:
+        """The surrogate constraints ``c(x) <= 0`` as scipy inequalities ``-c >= 0`` in u."""
+        lo, span = self.lo, self.span
+        return [{"type": "ineq",
+                 "fun": lambda u, mc=mc: -mc(lo + u * span)[0],
+                 "jac": lambda u, mc=mc: -mc.jacobian(lo + u * span)[0] * span}
+                for mc in self.model_constraints]
+
+
+def _raw_points(acquisition: Acquisition, lo: np.ndarray, span: np.ndarray, n_raw: int,
+                extra_starts: np.ndarray | None,
+                model_constraints: Sequence[ProbabilisticConstraint], sign: float,
+                rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Raw OLH points (+ extra starts) in u, their losses, and their ranking: points that
+    satisfy the surrogate constraints first, then by loss (non-finite losses last)."""
+    d = len(lo)
+    U = raw_latin_hypercube(n_raw, np.c_[np.zeros(d), np.ones(d)], rng)
+    if extra_starts is not None and len(extra_starts):
+        U = np.vstack([U, np.clip((np.atleast_2d(extra_starts) - lo) / span, 0.0, 1.0)])
+    X = lo + U * span
+    loss = sign * acquisition(X)
+    viol = np.zeros(len(U))
+    for mc in model_constraints:
+        viol += np.maximum(mc(X), 0.0).sum(axis=1)
+    loss = np.where(np.isfinite(loss), loss, np.inf)
+    return U, loss, np.lexsort((loss, viol > 0))
+
+
+def _slsqp(search: _UnitSearch, u0: np.ndarray, model_cons: list[dict[str, Any]],
+           maxiter: int, ftol: float) -> np.ndarray | None:
+    """One SLSQP run from ``u0``; the polished point, or None if no feasible point results."""
+    if search.cheap and not search.cheap_ok(u0):
+        u0 = project_unit(u0, search.cheap)
+    box = Bounds(np.zeros(len(u0)), np.ones(len(u0)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        res = minimize(search.loss, u0, jac=True, method="SLSQP", bounds=box,
+                       constraints=search.cheap + model_cons,
+                       options={"maxiter": maxiter, "ftol": ftol})
+    u = np.clip(res.x, 0.0, 1.0)
+    # status 0: converged; 9: iteration limit (a valid improved iterate); others (e.g.
+    # 4 "inequality constraints incompatible", 8 line search) keep the better of x, x0
+    if res.status not in (0, 9) and not search.loss(u)[0] <= search.loss(u0)[0]:
+        u = u0
+    return search.feasible(u)
+
+
+def optimize_acquisition(
+    acquisition: Acquisition,
+    bounds: np.ndarray,
+    *,
+    n_raw: int = 256,
+    n_starts: int = 5,
+    cheap_constraints: Sequence[CheapConstraint] = (),
+    model_constraints: Sequence[ProbabilisticConstraint] = (),
+    X_avoid: np.ndarray | None = None,
+    min_distance: float = 1e-5,
+    extra_starts: np.ndarray | None = None,
+    rng: np.random.Generator | int | None = None,
+    maxiter: int = 200,
+    ftol: float = 1e-9,
+) -> tuple[np.ndarray, float]:
+    """Multistart SLSQP maximization (or minimization) of an acquisition (Sec. 6.3.3).
+
+    Raw OLH points (plus ``extra_starts``) are scored by the acquisition; the best
+    ``n_starts`` (those satisfying the model constraints first) start SLSQP with the
+    analytic gradient, the cheap constraints (exact) and the model constraints. Results
+    whose cheap constraints are violated by more than ``CHEAP_TOL`` are polished by a
+    projection and rejected if still infeasible; a result closer than ``min_distance``
+    (unit-box coordinates) to a row of ``X_avoid`` is rejected in favour of the next best.
+
+    Parameters
+    ----------
+    acquisition : Acquisition
+        ``maximize`` says the sense.
+    bounds : ndarray of shape (d, 2)
+    n_raw, n_starts : int
+    cheap_constraints : sequence of CheapConstraint
+    model_constraints : sequence of ProbabilisticConstraint
+        Each ``c(x) <= 0``.
+    X_avoid : ndarray of shape (n, d) or None
+        Existing (and pending) samples.
+    min_distance : float
+    extra_starts : ndarray of shape (s, d) or None
+        Additional candidate starts (e.g. the best designs so far).
+    rng : numpy.random.Generator, int or None
+    maxiter : int
+        SLSQP iteration limit.
+    ftol : float
+        SLSQP tolerance on the scaled acquisition.
+
+    Returns
+    -------
+    x : ndarray of shape (d,)
+    value : float
+        Acquisition value at ``x``.
+
+    Raises
+    ------
+    RuntimeError
+        If every start is infeasible or already sampled.
+    """
+    rng = as_rng(rng)
+    b = np.asarray(bounds, dtype=float)
+    lo, span = b[:, 0], b[:, 1] - b[:, 0]
+    sign = -1.0 if acquisition.maximize else 1.0
+    U, loss, order = _raw_points(acquisition, lo, span, n_raw, extra_starts,
+                                 model_constraints, sign, rng)
+    scale = max(float(np.max(np.abs(loss[order[:n_starts]]))), 1e-300)
+    if not np.isfinite(scale):
+        scale = 1.0
+    U_avoid = None if X_avoid is None or len(X_avoid) == 0 else (np.atleast_2d(X_avoid) - lo) / span
+    search = _UnitSearch(acquisition, lo, span, sign, scale, cheap_constraints,
+                         scipy_constraints(cheap_constraints, lo, span), model_constraints,
+                         U_avoid, min_distance)
+    model_cons = search.scipy_model_constraints()
+    candidates: list[tuple[bool, float, np.ndarray]] = []
+    for u0 in U[order[:n_starts]]:  # loop over starts
+        u = _slsqp(search, u0, model_cons, maxiter, ftol)
+        if u is not None:
+            candidates.append((search.model_violation(u) > MODEL_VIOLATION_TOL,
+                               search.loss(u)[0], u))
+    candidates.sort(key=lambda c: (c[0], c[1]))
+    # after the polished starts, if all are too close to a sample: the raw points in rank
+    # order (projected lazily: usually the first polished start is taken)
+    raw = (search.feasible(U[i]) for i in order)
+    for u in itertools.chain((c[2] for c in candidates), raw):
+        if u is not None and search.far(u):
+            x = lo + u * span
+            return x, float(acquisition(x[None])[0])
+    raise RuntimeError("no admissible candidate: every start is infeasible or already sampled")

@@ -1,0 +1,222 @@
+"""The problem contract of the engine: a pymoo ``Problem`` plus cheap analytic constraints.
+
+The optimizer accepts any ``pymoo.core.problem.Problem`` (objectives minimized, constraints
+satisfied when ``G <= 0``, finite bounds ``xl``, ``xu``). Cheap analytic constraints
+(:class:`CheapConstraint`, e.g. similarity-parameter equalities, Eqs. (6.10b)-(6.10c)) are
+handed to the inner SLSQP exactly; expensive ones come from evaluations
+(:func:`evaluate_design`, which never raises: a failure is a status).
+"""
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from scipy.optimize import Bounds, minimize
+
+__all__ = [
+    "STATUS_OK",
+    "CHEAP_TOL",
+    "CheapConstraint",
+    "cheap_violation",
+    "scipy_constraints",
+    "project_unit",
+    "project_cheap",
+    "Outcome",
+    "evaluate_design",
+]
+
+#: Status of a successful evaluation; anything else is a failure.
+STATUS_OK = "ok"
+#: Feasibility tolerance of the cheap constraints at every proposal.
+CHEAP_TOL = 1e-8
+
+
+# ----------------------------------------------------------------- cheap constraints
+@dataclass(frozen=True)
+class CheapConstraint:
+    """An analytic constraint enforced exactly inside the inner optimization.
+
+    Parameters
+    ----------
+    fun : callable
+        ``fun(x) -> ndarray of shape (k,)`` (or a scalar) for one design ``x`` of shape (d,).
+    jac : callable
+        ``jac(x) -> ndarray of shape (k, d)`` (or (d,)).
+    kind : {"ineq", "eq"}
+        ``"ineq"``: ``fun(x) <= 0`` (pymoo's convention); ``"eq"``: ``fun(x) == 0``
+        (Eqs. (6.10b)-(6.10c)).
+    """
+
+    fun: Callable[[np.ndarray], Any]
+    jac: Callable[[np.ndarray], Any]
+    kind: Literal["ineq", "eq"] = "ineq"
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("ineq", "eq"):
+            raise ValueError(f"kind must be 'ineq' or 'eq', got {self.kind!r}")
+
+    def violation(self, x: np.ndarray) -> float:
+        """Largest violation at ``x`` (0 if satisfied)."""
+        c = np.atleast_1d(np.asarray(self.fun(x), dtype=float))
+        v = np.abs(c) if self.kind == "eq" else np.maximum(c, 0.0)
+        return float(v.max(initial=0.0))
+
+
+def cheap_violation(constraints: Sequence[CheapConstraint], x: np.ndarray) -> float:
+    """Largest violation of any of ``constraints`` at ``x`` (0 if all hold)."""
+    return max((c.violation(x) for c in constraints), default=0.0)
+
+
+def scipy_constraints(constraints: Sequence[CheapConstraint], lo: np.ndarray,
+                      span: np.ndarray) -> list[dict[str, Any]]:
+    """Cheap constraints in unit coordinates ``x = lo + u span``, in scipy's form
+    (``{"type", "fun", "jac"}`` dicts, inequalities ``fun >= 0``)."""
+    out = []
+    for c in constraints:
+        sign = 1.0 if c.kind == "eq" else -1.0
+
+        def fun(u, c=c, sign=sign):
+            return sign * np.atleast_1d(np.asarray(c.fun(lo + u * span), dtype=float))
+
+        def jac(u, c=c, sign=sign):
+            J = np.atleast_2d(np.asarray(c.jac(lo + u * span), dtype=float))
+            return sign * J * span
+
+        out.append({"type": c.kind, "fun": fun, "jac": jac})
+    return out
+
+
+def project_unit(u0: np.ndarray, cons: Sequence[dict[str, Any]], tol: float = 1e-14) -> np.ndarray:
+    """Closest point of the unit box to ``u0`` satisfying the scipy-form constraints
+    ``cons`` (:func:`scipy_constraints`), by SLSQP."""
+    d = len(u0)
+    res = minimize(lambda u: (0.5 * np.sum((u - u0) ** 2), u - u0), u0, jac=True,
+                   method="SLSQP", bounds=Bounds(np.zeros(d), np.ones(d)), constraints=cons,
+                   options={"maxiter": 200, "ftol": tol})
+    return np.clip(res.x, 0.0, 1.0)
+
+
+def project_cheap(problem: Any, x: np.ndarray) -> np.ndarray:
+    """Clip ``x`` to the bounds of ``problem`` (a pymoo problem with ``cheap_constraints()``)
+    and project it onto its cheap constraints (e.g. the Eq. 9.7 equality), as the optimizer
+    does for its initial design, so that seeds satisfy them exactly."""
+    lo, hi = np.asarray(problem.xl, float), np.asarray(problem.xu, float)
+    x = np.clip(np.asarray(x, float), lo, hi)
+    cons = problem.cheap_constraints()
+    if not cons:
+        return x
+    span = hi - lo
+    u = project_unit((x - lo) / span, scipy_constraints(cons, lo, span))
+    return lo + u * span
+
+
+# ------------------------------------------------------------------- evaluation
+@dataclass(frozen=True)
+class Outcome:
+    """What one evaluation of a design returned (:func:`evaluate_design`).
+
+    Attributes
+    ----------
+    F : ndarray of shape (m,)
+        Objectives (NaN where the evaluation failed).
+    G : ndarray of shape (k,)
+        Inequality constraints, feasible where ``G <= 0``.
+    status : str
+        ``"ok"``, ``"error"`` (raised), ``"invalid"`` (NaN/inf) or ``"timeout"``.
+    message : str
+    seconds : float
+        Wall time of the evaluation.
+    """
+
+    F: np.ndarray
+    G: np.ndarray
+    status: str = STATUS_OK
+    message: str = ""
+    seconds: float = 0.0
+
+    @classmethod
+    def failure(cls, m: int, k: int, status: str, message: str, seconds: float) -> Outcome:
+        """A failed evaluation of ``m`` objectives and ``k`` constraints (all NaN)."""
+        return cls(np.full(m, np.nan), np.full(k, np.nan), status, message, seconds)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == STATUS_OK
+
+    def __getitem__(self, key: str) -> Any:
+        """Transitional read access by the former dict keys (``outcome["F"]``): the seed
+        loop of ``scaling/workflow/run.py`` still reads them. Remove once it reads
+        attributes."""
+        if key not in _OUTCOME_KEYS:
+            raise KeyError(key)
+        return getattr(self, key)
+
+
+_OUTCOME_KEYS = frozenset(("F", "G", "status", "message", "seconds"))
+
+
+def evaluate_design(problem: Any, x: np.ndarray, timeout: float | None = None,
+                    eq_tol: float = 1e-4) -> Outcome:
+    """Evaluate one design with a pymoo Problem; never raises (module level: picklable).
+
+    Parameters
+    ----------
+    problem : pymoo Problem
+    x : ndarray of shape (d,)
+    timeout : float or None
+        Seconds; the evaluation runs in a daemon thread of the evaluating process and is
+        abandoned (status ``"timeout"``) when it takes longer. The time limit thus counts
+        from the start of the evaluation, not from its submission to a busy executor.
+    eq_tol : float
+        Tolerance turning equality constraints ``H = 0`` into ``|H| - eq_tol <= 0``.
+
+    Returns
+    -------
+    Outcome
+        ``G`` holds the inequalities ``G <= 0``, then ``|H| - eq_tol`` for the equalities.
+    """
+    m = int(problem.n_obj)
+    k = int(problem.n_ieq_constr) + int(problem.n_eq_constr)
+    t0 = time.perf_counter()
+    box: dict[str, Any] = {}
+
+    def work() -> None:
+        try:
+            box["out"] = problem.evaluate(np.asarray(x, dtype=float)[None, :],
+                                          return_as_dictionary=True)
+        except Exception as exc:  # any failure of the user's model is recorded, not raised
+            box["error"] = f"{type(exc).__name__}: {exc}"
+
+    if timeout is None:
+        work()
+    else:
+        thread = threading.Thread(target=work, daemon=True)
+        thread.start()
+        thread.join(timeout)
+        if thread.is_alive():
+            return Outcome.failure(m, k, "timeout", f"exceeded {timeout} s",
+                                   time.perf_counter() - t0)
+    seconds = time.perf_counter() - t0
+    if "error" in box:
+        return Outcome.failure(m, k, "error", box["error"], seconds)
+    out = box["out"]
+    try:
+        F = np.asarray(out["F"], dtype=float).reshape(-1)
+        parts = []
+        if problem.n_ieq_constr:
+            parts.append(np.asarray(out["G"], dtype=float).reshape(-1))
+        if problem.n_eq_constr:
+            parts.append(np.abs(np.asarray(out["H"], dtype=float).reshape(-1)) - eq_tol)
+        G = np.concatenate(parts) if parts else np.zeros(0)
+    except (KeyError, TypeError, ValueError) as exc:
+        return Outcome.failure(m, k, "error", f"{type(exc).__name__}: {exc}", seconds)
+    if F.shape != (m,) or G.shape != (k,):
+        return Outcome.failure(m, k, "error", f"expected {m} objectives and {k} constraints, "
+                               f"got {F.size} and {G.size}", seconds)
+    if not (np.all(np.isfinite(F)) and np.all(np.isfinite(G))):
+        return Outcome(F, G, "invalid", "non-finite objective or constraint", seconds)
+    return Outcome(F, G, STATUS_OK, "", seconds)

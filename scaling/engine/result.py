@@ -1,0 +1,122 @@
+"""The result of a run: every evaluation, with Pareto, hypervolume and best-design helpers."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from hypate.scaling.engine.criteria import weighted_metric
+from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
+from hypate.scaling.engine.problem import STATUS_OK
+
+__all__ = ["OptimizationResult"]
+
+
+@dataclass
+class OptimizationResult:
+    """All evaluations of a run, with Pareto/hypervolume/best-design helpers.
+
+    Attributes
+    ----------
+    data : pandas.DataFrame
+        One row per evaluation (:func:`hypate.scaling.engine.store.evaluations_to_dataframe`).
+    n_var, n_obj : int
+    ref_point : ndarray of shape (m,) or None
+        Reference point of the hypervolume (given, or the one used last).
+    seconds_per_iteration : ndarray
+        Overhead (surrogate fits + acquisition optimization) of each iteration proposed in
+        this run (iterations replayed from a store are not timed).
+    """
+
+    data: pd.DataFrame
+    n_var: int
+    n_obj: int
+    ref_point: np.ndarray | None = None
+    seconds_per_iteration: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def X(self) -> np.ndarray:
+        """Designs, shape (n, d)."""
+        return self.data[[f"x{i}" for i in range(self.n_var)]].to_numpy(float)
+
+    @property
+    def F(self) -> np.ndarray:
+        """Objectives, shape (n, m) (NaN where an evaluation failed)."""
+        return self.data[[f"f{i}" for i in range(self.n_obj)]].to_numpy(float)
+
+    @property
+    def G(self) -> np.ndarray:
+        """Expensive constraints, shape (n, k), feasible where ``G <= 0``."""
+        cols = [c for c in self.data.columns if c.startswith("g") and c[1:].isdigit()]
+        return self.data[cols].to_numpy(float).reshape(len(self.data), len(cols))
+
+    @property
+    def ok(self) -> np.ndarray:
+        """Successful evaluations, shape (n,)."""
+        return (self.data["status"] == STATUS_OK).to_numpy()
+
+    @property
+    def feasible(self) -> np.ndarray:
+        """Successful and satisfying every expensive constraint."""
+        return self.ok & np.all(self.G <= 0.0, axis=1)
+
+    def pareto_mask(self) -> np.ndarray:
+        """Rows in the Pareto set (feasible, non-dominated)."""
+        mask = np.zeros(len(self.data), dtype=bool)
+        idx = np.flatnonzero(self.feasible)
+        mask[idx[non_dominated_mask(self.F[idx])]] = True
+        return mask
+
+    def pareto_set(self) -> np.ndarray:
+        """Designs of the Pareto set, shape (k, d)."""
+        return self.X[self.pareto_mask()]
+
+    def pareto_front(self) -> np.ndarray:
+        """Objectives of the Pareto set, shape (k, m), sorted by the first objective."""
+        return pareto_front(self.F[self.pareto_mask()])
+
+    def hypervolume_history(self, ref_point: np.ndarray | None = None) -> np.ndarray:
+        """Hypervolume of the feasible archive after each evaluation, shape (n,)."""
+        r = self.ref_point if ref_point is None else np.asarray(ref_point, float)
+        if r is None:
+            raise ValueError("no reference point")
+        F, feas = self.F, self.feasible
+        out = np.zeros(len(F))
+        for i in range(len(F)):  # a history, not a hot path
+            out[i] = hypervolume(F[: i + 1][feas[: i + 1]], r)
+        return out
+
+    def best_history(self) -> np.ndarray:
+        """Best feasible first objective after each evaluation, shape (n,) (inf before one)."""
+        f = np.where(self.feasible, self.F[:, 0], np.inf)
+        return np.minimum.accumulate(f) if len(f) else f
+
+    def best(self, weights: np.ndarray | None = None, g: float = 1.0,
+             normalize: bool = True) -> pd.Series:
+        """The feasible evaluation minimizing ``S_g`` (Eq. (6.11)).
+
+        Parameters
+        ----------
+        weights : ndarray of shape (m,) or None
+            ``c`` (default equal weights).
+        g : float
+            ``1`` weighted sum, ``inf`` Chebyshev.
+        normalize : bool
+            Normalize the objectives by the Pareto front's ideal and nadir points first.
+
+        Returns
+        -------
+        pandas.Series
+            The row of :attr:`data`.
+        """
+        idx = np.flatnonzero(self.feasible)
+        if len(idx) == 0:
+            raise ValueError("no feasible evaluation")
+        F = self.F[idx]
+        if normalize and self.n_obj > 1:
+            P = pareto_front(F)
+            ideal, nadir = P.min(axis=0), P.max(axis=0)
+            F = (F - ideal) / np.where(nadir > ideal, nadir - ideal, 1.0)
+        c = np.full(self.n_obj, 1.0 / self.n_obj) if weights is None else np.asarray(weights)
+        s, _ = weighted_metric(F, c, g)
+        return self.data.iloc[idx[int(np.argmin(s))]]

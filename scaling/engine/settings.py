@@ -1,0 +1,252 @@
+"""The optimizer's settings: one frozen, validated object (:class:`OptimizerSettings`).
+
+Every option of :class:`hypate.scaling.engine.optimizer.BayesianOptimizer` is a field here,
+with its default and its allowed range; a bad value fails at construction with a
+:class:`SettingError` naming the field and the range. What depends on the problem (the
+acquisition fitting the number of objectives, lengths of ``weights`` and ``ref_point``,
+positive bounds for log coordinates) is checked by the optimizer.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from numbers import Integral, Real
+from pathlib import Path
+from typing import Any, Literal
+
+from hypate.scaling.engine.acquisition import ACQUISITIONS, AcquisitionFactory
+from hypate.scaling.engine.coordinates import LogLinearCoordinates
+from hypate.scaling.engine.problem import CheapConstraint
+from hypate.scaling.engine.store import Evaluation, EvaluationStore
+from hypate.solvers.numerics.kriging import KERNELS
+
+__all__ = ["OptimizerSettings", "SettingError", "BATCH_STRATEGIES", "OUTPUT_TRANSFORMS"]
+
+#: Fantasies within a batch: kriging believer or constant liar.
+BATCH_STRATEGIES: tuple[str, ...] = ("believer", "liar")
+#: Objective transforms the surrogates may model.
+OUTPUT_TRANSFORMS: tuple[str, ...] = ("none", "log")
+
+#: Integer fields: smallest allowed value (``None`` allowed where the field is optional).
+_INT_MIN = {"n_init": 0, "n_iter": 0, "batch_size": 1, "n_restarts": 0, "n_raw": 1,
+            "n_starts": 1, "seed": 0, "max_evaluations": 0, "convergence_window": 0,
+            "blas_threads": 1, "polish": 0}
+#: Real fields: (low, high, low inclusive, high inclusive).
+_REAL_RANGE = {"v": (0.0, math.inf, True, False), "g": (1.0, math.inf, True, True),
+               "p_feasible": (0.0, 1.0, False, False),
+               "min_distance": (0.0, math.inf, True, False),
+               "timeout": (0.0, math.inf, False, False),
+               "convergence_tol": (0.0, math.inf, True, False),
+               "polish_step": (0.0, 0.5, False, True)}
+#: Fields that may be ``None``.
+_OPTIONAL = {"acquisition", "v", "ref_point", "weights", "executor", "timeout", "store",
+             "max_evaluations", "convergence_tol", "callback", "blas_threads", "coordinates"}
+#: Fields of a fixed set of names.
+_CHOICES = {"batch_strategy": BATCH_STRATEGIES, "kernel": KERNELS,
+            "output_transform": OUTPUT_TRANSFORMS}
+
+
+class SettingError(ValueError):
+    """A setting outside its allowed range; ``field`` names it."""
+
+    def __init__(self, field: str, allowed: str, value: Any) -> None:
+        super().__init__(f"{field} must be {allowed}, got {value!r}")
+        self.field = field
+
+
+def _interval(lo: float, hi: float, lo_closed: bool, hi_closed: bool) -> str:
+    return f"a number in {'[' if lo_closed else '('}{lo:g}, {hi:g}{']' if hi_closed else ')'}"
+
+
+def _check_int(name: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, Integral) or value < _INT_MIN[name]:
+        raise SettingError(name, f"an integer >= {_INT_MIN[name]}", value)
+    return int(value)
+
+
+def _check_real(name: str, value: Any) -> Any:
+    lo, hi, lo_closed, hi_closed = _REAL_RANGE[name]
+    ok = isinstance(value, Real) and not isinstance(value, bool) and \
+        (lo <= value if lo_closed else lo < value) and (value <= hi if hi_closed else value < hi)
+    if not ok:
+        raise SettingError(name, _interval(lo, hi, lo_closed, hi_closed), value)
+    return value
+
+
+def _check_vector(name: str, value: Any, minimum: float) -> tuple[float, ...]:
+    try:
+        vec = tuple(float(v) for v in value)
+    except (TypeError, ValueError):
+        raise SettingError(name, "a sequence of numbers", value) from None
+    if not vec or not all(math.isfinite(v) and v >= minimum for v in vec):
+        raise SettingError(name, f"a non-empty sequence of finite numbers >= {minimum:g}", value)
+    return vec
+
+
+def _check_acquisition(value: Any) -> None:
+    if isinstance(value, str):
+        if value not in ACQUISITIONS:
+            raise SettingError("acquisition", f"one of {tuple(ACQUISITIONS)} or a factory", value)
+    elif not callable(value):
+        raise SettingError("acquisition", "a name, a factory(model, context) or None", value)
+
+
+@dataclass(frozen=True)
+class OptimizerSettings:
+    """Every option of the Bayesian optimizer, with its default (Sec. 6.3).
+
+    Parameters
+    ----------
+    acquisition : str, callable or None
+        A name of :data:`hypate.scaling.engine.acquisition.ACQUISITIONS`: ``"lcb"``,
+        ``"ei"``, ``"poi"`` (one objective); ``"hvlcb"``, ``"hvei"``, ``"hvpoi"`` (indirect),
+        ``"ws"`` (``g = 1``), ``"cheb"`` (``g = inf``), ``"wm"`` (``g``) (direct); or
+        ``factory(model, context) -> Acquisition``. ``None``: ``"lcb"`` or ``"hvlcb"``.
+    n_init : int >= 0
+        Initial OLH samples (iteration 0).
+    n_iter : int >= 0
+        BO iterations (each proposes ``batch_size`` designs).
+    batch_size : int >= 1
+        ``q`` designs per iteration.
+    batch_strategy : {"believer", "liar"}
+        Kriging believer or constant liar (best value so far) fantasies within a batch.
+    v : float >= 0 or None
+        Exploration weight; ``None``: each acquisition's ``default_v`` (LCB and the direct
+        approach 2.0, HVLCB 1.5, EI 0).
+    ref_point : sequence of m floats or None
+        Hypervolume reference point; ``None``: nadir of the Pareto set + 10 % of its range.
+    weights : sequence of m floats >= 0 or None
+        ``c`` of Eq. (6.11) for the direct approach (default equal).
+    g : float >= 1
+        Exponent of the weighted metric for ``"wm"``.
+    cheap_constraints : sequence of CheapConstraint
+        Enforced exactly at every proposal.
+    p_feasible : float in (0, 1)
+        Required predicted probability of feasibility of each expensive constraint.
+    kernel : {"matern52", "rbf"}
+    n_restarts : int >= 0
+        Restarts of each surrogate's likelihood optimization.
+    n_raw, n_starts : int >= 1
+        Raw OLH points and SLSQP starts of the inner optimization.
+    min_distance : float >= 0
+        Unit-box distance below which a candidate duplicates a sample.
+    executor : object or None
+        ``submit(fn, *args)`` -> future with ``.result(timeout)``; ``None`` evaluates
+        in-process.
+    timeout : float > 0 or None
+        Seconds per evaluation, counted from its start in the evaluating process (the late
+        evaluation is abandoned, status ``"timeout"``).
+    store : str, Path, EvaluationStore or None
+        SQLite store; an existing one is resumed. ``None``: in memory.
+    seed : int >= 0
+    max_evaluations : int >= 0 or None
+        Stop after this many evaluations in the store (a budget).
+    convergence_tol : float >= 0 or None
+        Stop when the best value (one objective) or hypervolume improved by less than this
+        (relative) over the last ``convergence_window`` iterations.
+    convergence_window : int >= 0
+    callback : callable or None
+        ``callback(evaluation)`` after each committed evaluation; an exception stops the run
+        (the store keeps everything committed).
+    blas_threads : int >= 1 or None
+        BLAS threads during proposals (surrogate matrices are small: threading only costs,
+        and oversubscribes badly when evaluations run on the same cores); ``None`` leaves
+        the setting alone.
+    output_transform : {"none", "log"}
+        ``"log"``: the surrogates model ``ln F`` (objectives must be positive, e.g. the
+        relative errors J of Eq. 6.4) and the acquisition works in that space. An objective
+        whose good values are orders of magnitude below its typical ones (a narrow valley of
+        J ~ 1e-2 in a landscape of J ~ 1) is resolved far better; the transform is monotone,
+        so best points and Pareto dominance are unchanged.
+    coordinates : LogLinearCoordinates or None
+        Input coordinates of the surrogates (all bounds must be positive); ``None``: the
+        design variables themselves (scaled to the unit box).
+    polish : int >= 0
+        Evaluations of a final local search (one objective only): Nelder-Mead from the best
+        feasible design, in ``coordinates`` (or the unit box), each point clipped to the
+        bounds and projected onto the cheap constraints, failures ranked last. A stationary
+        kriging model spends its budget exploring when the optimum is a valley far narrower
+        than the landscape (Sec. 9.1: ``lambda_F`` must match to ~1 % in a box spanning a
+        factor 800); the polish converges on the valley floor. Stored as iteration
+        ``n_iter + 1`` and replayed on resume.
+    polish_step : float in (0, 0.5]
+        Initial simplex edge, as a fraction of each coordinate's range.
+
+    Raises
+    ------
+    SettingError
+        A ``ValueError`` naming the field and its allowed range.
+    """
+
+    acquisition: str | AcquisitionFactory | None = None
+    n_init: int = 10
+    n_iter: int = 40
+    batch_size: int = 1
+    batch_strategy: Literal["believer", "liar"] = "believer"
+    v: float | None = None
+    ref_point: Sequence[float] | None = None
+    weights: Sequence[float] | None = None
+    g: float = 2.0
+    cheap_constraints: Sequence[CheapConstraint] = ()
+    p_feasible: float = 0.5
+    kernel: str = "matern52"
+    n_restarts: int = 2
+    n_raw: int = 256
+    n_starts: int = 5
+    min_distance: float = 1e-5
+    executor: Any = None
+    timeout: float | None = None
+    store: str | Path | EvaluationStore | None = None
+    seed: int = 0
+    max_evaluations: int | None = None
+    convergence_tol: float | None = None
+    convergence_window: int = 5
+    callback: Callable[[Evaluation], None] | None = None
+    blas_threads: int | None = 1
+    output_transform: Literal["none", "log"] = "none"
+    coordinates: LogLinearCoordinates | None = None
+    polish: int = 0
+    polish_step: float = 0.01
+
+    def __post_init__(self) -> None:
+        def put(name: str, value: Any) -> None:
+            object.__setattr__(self, name, value)  # normalized values of a frozen instance
+
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if value is None and f.name in _OPTIONAL:
+                continue
+            if f.name in _INT_MIN:
+                put(f.name, _check_int(f.name, value))
+            elif f.name in _REAL_RANGE:
+                _check_real(f.name, value)
+            elif f.name in _CHOICES and value not in _CHOICES[f.name]:
+                raise SettingError(f.name, f"one of {_CHOICES[f.name]}", value)
+        if self.acquisition is not None:
+            _check_acquisition(self.acquisition)
+        if self.ref_point is not None:
+            put("ref_point", _check_vector("ref_point", self.ref_point, -math.inf))
+        if self.weights is not None:
+            put("weights", _check_vector("weights", self.weights, 0.0))
+        cheap = tuple(self.cheap_constraints)
+        if not all(isinstance(c, CheapConstraint) for c in cheap):
+            raise SettingError("cheap_constraints", "a sequence of CheapConstraint",
+                               self.cheap_constraints)
+        put("cheap_constraints", cheap)
+        if self.executor is not None and not callable(getattr(self.executor, "submit", None)):
+            raise SettingError("executor", "None or an object with submit(fn, *args)",
+                               self.executor)
+        if self.store is not None and not isinstance(self.store, (str, Path, EvaluationStore)):
+            raise SettingError("store", "a path, an EvaluationStore or None", self.store)
+        if self.callback is not None and not callable(self.callback):
+            raise SettingError("callback", "a callable or None", self.callback)
+        if self.coordinates is not None and not isinstance(self.coordinates,
+                                                           LogLinearCoordinates):
+            raise SettingError("coordinates", "LogLinearCoordinates or None", self.coordinates)
+
+    @classmethod
+    def names(cls) -> tuple[str, ...]:
+        """The field names (the keyword overrides :class:`BayesianOptimizer` accepts)."""
+        return tuple(f.name for f in dataclasses.fields(cls))
