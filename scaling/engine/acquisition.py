@@ -24,7 +24,7 @@ from typing import Protocol
 
 import numpy as np
 from hypate.scaling.engine.pareto import hypervolume_improvement, nondominated_boxes, pareto_front
-from hypate.scaling.engine.sampling import as_rng
+from hypate.solvers.numerics.random import as_rng
 from scipy.special import ndtr
 
 __all__ = [

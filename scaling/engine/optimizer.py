@@ -51,7 +51,6 @@ from hypate.scaling.engine.acquisition import (
     weighted_metric,
 )
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
-from hypate.scaling.engine.sampling import as_rng, latin_hypercube, raw_latin_hypercube
 from hypate.scaling.engine.store import (
     STATUS_OK,
     Evaluation,
@@ -59,6 +58,7 @@ from hypate.scaling.engine.store import (
     evaluations_to_dataframe,
 )
 from hypate.scaling.engine.surrogate import ProbabilisticConstraint, fit_surrogate
+from hypate.solvers.numerics.random import as_rng, latin_hypercube, raw_latin_hypercube
 from hypate.solvers.numerics.threads import blas_threads
 from scipy.optimize import Bounds, minimize
 

@@ -103,7 +103,7 @@ from hypate.solvers.aero.shock_expansion import ShockExpansionFluid
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.numerics.kriging import KrigingRegressor
-from scipy.stats import qmc
+from hypate.solvers.numerics.random import as_rng, latin_hypercube
 from sklearn.cluster import KMeans
 from sklearn.neighbors import kneighbors_graph
 
@@ -122,10 +122,6 @@ GEOMETRY_TOL = 1e-3
 #: matrices so that solvers can assemble them like the analytic models' sparse blocks;
 #: above, as dense ndarrays.
 SPARSE_JACOBIAN_MAX = 600
-
-
-def _as_rng(rng: np.random.Generator | int | None) -> np.random.Generator:
-    return rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
 
 
 # ======================================================================================
@@ -276,7 +272,7 @@ class PodKriging:
         multi-output :class:`KrigingRegressor` with the fixed hyperparameters then serves
         every prediction.
         """
-        rng = _as_rng(self.rng)
+        rng = as_rng(self.rng)
         n_p = R.shape[1]
         thetas: list[Array] = []
         for j in range(n_p):
@@ -942,12 +938,9 @@ def load_rom(path: str | Path, correction: str | None = None, unsteady: bool = T
 # samples: plans, generation, external snapshots, smart ordering
 # ======================================================================================
 def olh_plan(bounds: Array, n: int, rng: np.random.Generator | int | None = None) -> Array:
-    """Optimal Latin hypercube plan (scipy.stats.qmc, centred-discrepancy optimized) of ``n``
-    points in the box ``bounds`` (d, 2)."""
-    bounds = np.asarray(bounds, float)
-    sampler = qmc.LatinHypercube(d=bounds.shape[0], optimization="random-cd",
-                                 rng=_as_rng(rng))
-    return qmc.scale(sampler.random(n), bounds[:, 0], bounds[:, 1])
+    """Optimal Latin hypercube plan (Sec. 2.4.5; scipy.stats.qmc, centred-discrepancy
+    optimized) of ``n`` points in the box ``bounds`` (d, 2)."""
+    return latin_hypercube(n, np.asarray(bounds, float), rng, optimization="random-cd")
 
 
 def _source_chunk(geometry: RomGeometry, source_opts: dict[str, Any], flow: FlowCondition,
@@ -1186,7 +1179,7 @@ def smart_order(samples: Array, naive: Array, n_groups: int = 1,
     scales = np.where(np.asarray(scales, float) > 0, scales, 1.0)
     Z = X / scales
     z0 = np.asarray(naive, float) / scales
-    rng = _as_rng(rng)
+    rng = as_rng(rng)
     # step 2: kNN graph, k large enough to be connected
     kk = min(k or 5, N - 1)
     while True:
@@ -1269,7 +1262,7 @@ def build_rom(geometry: RomGeometry, reference: FlowCondition, inputs: Array,
               rng: np.random.Generator | int | None = None,
               optimized_modes: int = 3) -> RomFluid:
     """Fit a ROM from samples ``inputs`` (N_s, N_d) and snapshots (N_s, n) each."""
-    rng = _as_rng(rng)
+    rng = as_rng(rng)
     p_model = PodKriging(tolerance, kernel, trend, n_restarts, rng, optimized_modes).fit(
         inputs, pressure, bounds)
     q_model = PodKriging(tolerance, kernel, trend, n_restarts, rng, optimized_modes).fit(
@@ -1354,7 +1347,7 @@ def check_samples(rom: RomFluid, n_samples: int, temperature: str = "uniform",
     n_s = g.n_modes
     i_a = slice(3, 3 + n_s) if rom.kind == "conventional" else slice(0, n_s)
     box = np.vstack([rom.input_bounds[i_a], rom.input_bounds[-1:]])
-    rng = _as_rng(rng)
+    rng = as_rng(rng)
     x_norm = g.points(1.0).x / g.length
     if temperature == "uniform":
         X = olh_plan(box, n_samples, rng)
