@@ -12,8 +12,8 @@ import time
 from pathlib import Path
 
 from hypate.scaling.workflow.shipped import resolve
-from hypate.solvers.aero.rom import build_rom_from_config, check_rom
-from hypate.solvers.aero.rom_config import load_rom_config
+from hypate.solvers.aero.rom.build import build_rom_from_config, check_rom
+from hypate.solvers.aero.rom.config import load_rom_config
 
 DEFAULT_CONFIG = Path(__file__).resolve().parents[2] / "studies" / "rom_2d_panel.toml"
 

@@ -1,4 +1,4 @@
-"""Fluid ROM (solvers/aero/rom.py): POD, POD-kriging, corrections, Jacobians, persistence,
+"""Fluid ROM (solvers/aero/rom/): POD, POD-kriging, corrections, Jacobians, persistence,
 external snapshots, sample planning. Acceptance sizes (Sec. 7.1) are the ``slow`` tests."""
 from __future__ import annotations
 
@@ -8,10 +8,21 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypate.solvers.aero import rom as R
 from hypate.solvers.aero.base import SurfacePoints, SurfaceState, dense
 from hypate.solvers.aero.factory import make_fluid_model
-from hypate.solvers.aero.rom_config import load_rom_config, parse_rom_config
+from hypate.solvers.aero.rom.build import (
+    build_rom_from_config,
+    check_rom,
+    geometry_from_config,
+    nrmse,
+)
+from hypate.solvers.aero.rom.config import load_rom_config, parse_rom_config
+from hypate.solvers.aero.rom.geometry import RomGeometry, eq76_wall_temperature
+from hypate.solvers.aero.rom.io import FORMAT_VERSION, load_rom, save_rom
+from hypate.solvers.aero.rom.model import RomFluid
+from hypate.solvers.aero.rom.plan import olh_plan, smart_order, write_plan_csv
+from hypate.solvers.aero.rom.pod import PodBasis, PodKriging
+from hypate.solvers.aero.rom.snapshots import generate_samples, read_snapshots
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 
@@ -30,18 +41,18 @@ SMALL = {
 
 
 @pytest.fixture(scope="module")
-def small_rom() -> R.RomFluid:
-    return R.build_rom_from_config(parse_rom_config(SMALL))
+def small_rom() -> RomFluid:
+    return build_rom_from_config(parse_rom_config(SMALL))
 
 
 @pytest.fixture(scope="module")
-def small_rom_file(small_rom: R.RomFluid, tmp_path_factory: pytest.TempPathFactory) -> Path:
+def small_rom_file(small_rom: RomFluid, tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("rom") / "small.npz"
-    small_rom.save(path)
+    save_rom(small_rom, path)
     return path
 
 
-def _state(geom: R.RomGeometry, scale: float, amplitudes, nonuniform: bool = True,
+def _state(geom: RomGeometry, scale: float, amplitudes, nonuniform: bool = True,
            velocity: float = 0.0) -> tuple[SurfacePoints, SurfaceState]:
     pts = geom.points(scale)
     w, ws = geom.deformation(np.asarray(amplitudes, float)[None, :], scale)
@@ -57,7 +68,7 @@ def test_pod_energy_criterion_picks_fewest_modes() -> None:
     basis = np.linalg.qr(rng.normal(size=(80, 6)))[0]
     coef = rng.normal(size=(200, 6)) * np.array([100, 30, 10, 1, 0.1, 0.01])
     Y = 5.0 + coef @ basis.T
-    pod = R.PodBasis(0.005).fit(Y)
+    pod = PodBasis(0.005).fit(Y)
     s2 = pod.singular_values_**2
     tail = np.sqrt(1 - np.cumsum(s2) / s2.sum())
     # Eq. (A.14): the chosen N_p is the first with eps_POD < 0.5 %, N_p - 1 is not
@@ -73,7 +84,7 @@ def test_pod_kriging_interpolates_and_jacobian_matches_fd() -> None:
     D = rng.uniform(-1, 1, size=(40, 3))
     x = np.linspace(0, 1, 20)
     Y = np.sin(np.outer(D[:, 0], 3 * x)) + np.outer(D[:, 1] ** 2, x) + 0.3 * D[:, 2:3]
-    pk = R.PodKriging(1e-6, trend="linear", n_restarts=0, rng=0).fit(D, Y)
+    pk = PodKriging(1e-6, trend="linear", n_restarts=0, rng=0).fit(D, Y)
     # a GP interpolates its data (invariant): POD truncation 1e-6 and nugget 1e-8 bound it
     rel = np.abs(pk.predict(D) - Y).max() / np.abs(Y).max()
     assert rel < 1e-4
@@ -84,13 +95,13 @@ def test_pod_kriging_interpolates_and_jacobian_matches_fd() -> None:
 
 
 # -- the ROM fluid model --------------------------------------------------------------------
-def test_small_rom_accuracy_at_reference(small_rom: R.RomFluid) -> None:
-    res = R.check_rom(small_rom, 30, rng=11)
+def test_small_rom_accuracy_at_reference(small_rom: RomFluid) -> None:
+    res = check_rom(small_rom, 30, rng=11)
     # 50 samples, 4 inputs: well converged already (the 200-sample acceptance is slow-marked)
     assert res["pressure_nrmse"] < 0.01 and res["heat_flux_nrmse"] < 0.02, res
 
 
-def test_corrections_are_identity_at_reference(small_rom: R.RomFluid) -> None:
+def test_corrections_are_identity_at_reference(small_rom: RomFluid) -> None:
     g = small_rom.geometry
     pts, st = _state(g, 1.0, [2.0, -1.0, 0.5], nonuniform=False)
     d = small_rom.inputs(pts, st, small_rom.reference)
@@ -114,7 +125,7 @@ def _fd4(f, x: np.ndarray, h: float) -> np.ndarray:
 @pytest.mark.parametrize("correction, edge, scale, mach, altitude", [
     ("bl", "rom", 2.0, 7.0, 30000.0), ("pt", "rom", 1.0, 5.0, 20000.0),
     ("bl", "pt", 4.0, 6.0, 25000.0)])
-def test_rom_jacobians_match_central_differences(small_rom: R.RomFluid, correction: str,
+def test_rom_jacobians_match_central_differences(small_rom: RomFluid, correction: str,
                                                  edge: str, scale: float, mach: float,
                                                  altitude: float) -> None:
     fluid = small_rom.with_options(correction=correction, edge_pressure=edge)
@@ -141,7 +152,7 @@ def test_rom_jacobians_match_central_differences(small_rom: R.RomFluid, correcti
             assert np.linalg.norm(an[part] - fd[part]) / ref < 1e-5, (key, part)
 
 
-def test_rom_on_another_grid_and_projection(small_rom: R.RomFluid) -> None:
+def test_rom_on_another_grid_and_projection(small_rom: RomFluid) -> None:
     pts = SurfacePoints.grid(0.5, 0.5, 0.5, 21, 1)  # xi = 2, coarser grid: interpolated
     xr = pts.x * 2.0
     w = (0.0025 / 2.0) * (2.0 * np.sin(np.pi * xr) - 1.0 * np.sin(2 * np.pi * xr))
@@ -153,7 +164,7 @@ def test_rom_on_another_grid_and_projection(small_rom: R.RomFluid) -> None:
     assert loads.pressure.shape == (21,) and np.all(np.isfinite(loads.heat_flux))
 
 
-def test_mismatched_panel_is_refused(small_rom: R.RomFluid) -> None:
+def test_mismatched_panel_is_refused(small_rom: RomFluid) -> None:
     flow = small_rom.reference
     bad = SurfacePoints.grid(1.0, 1.0, 0.5, 33, 1)  # a/L_le = 2 instead of 1
     with pytest.raises(InputError, match="panel mismatch"):
@@ -166,25 +177,25 @@ def test_mismatched_panel_is_refused(small_rom: R.RomFluid) -> None:
 def test_conventional_rom_builds_and_predicts() -> None:
     cfg = dict(SMALL, training=dict(SMALL["training"], samples=40),
                conventional={"mach": [5.0, 7.0], "altitude": [20000.0, 30000.0]})
-    rom = R.build_rom_from_config(parse_rom_config(cfg))
+    rom = build_rom_from_config(parse_rom_config(cfg))
     assert rom.kind == "conventional" and rom.n_inputs == 7
     pts, st = _state(rom.geometry, 1.0, [1.0, 0.5, 0.0], nonuniform=False)
     flow = FlowCondition.from_altitude(6.5, 22000.0)
     loads = rom.evaluate(pts, st, flow, jacobians=True)
-    p_src, _ = R.generate_samples(rom.geometry, [[1.0, 0.5, 0.0]], [550.0], flow)
+    p_src, _ = generate_samples(rom.geometry, [[1.0, 0.5, 0.0]], [550.0], flow)
     # 40 samples over 7 inputs: a coarse comparison model, within 5 % of the range
-    assert R.nrmse(p_src, loads.pressure[None], pts.weights)[0] < 0.05
+    assert nrmse(p_src, loads.pressure[None], pts.weights)[0] < 0.05
     with pytest.raises(InputError, match="no geometric scaling"):
         rom.evaluate(*_state(rom.geometry, 2.0, [1.0, 0.0, 0.0]), flow)
 
 
 # -- persistence -----------------------------------------------------------------------------
-def test_save_load_roundtrip_and_fluid_model_factory(small_rom: R.RomFluid,
+def test_save_load_roundtrip_and_fluid_model_factory(small_rom: RomFluid,
                                                      small_rom_file: Path) -> None:
     loaded = make_fluid_model(f"rom:{small_rom_file}")
-    assert isinstance(loaded, R.RomFluid)
+    assert isinstance(loaded, RomFluid)
     with np.load(small_rom_file, allow_pickle=False) as npz:  # no object arrays anywhere
-        assert int(npz["format_version"]) == R.FORMAT_VERSION
+        assert int(npz["format_version"]) == FORMAT_VERSION
         assert npz["input_bounds"].shape == (4, 2)
     pts, st = _state(small_rom.geometry, 2.0, [1.0, 0.3, -0.2])
     flow = FlowCondition.from_altitude(7.0, 30000.0)
@@ -212,15 +223,15 @@ def test_corrupted_or_foreign_files_are_refused(small_rom_file: Path, tmp_path: 
     np.savez(missing, **{k: v for k, v in data.items() if k != "heat_flux_modes"})
     for path in (trunc, flipped, text, tampered, version, missing, tmp_path / "none.npz"):
         with pytest.raises(InputError):
-            R.load_rom(path)
+            load_rom(path)
 
 
 # -- external snapshots ------------------------------------------------------------------------
 def test_external_snapshots_npz_and_csv(tmp_path: Path) -> None:
     cfg = parse_rom_config(SMALL)
-    geom = R.geometry_from_config(cfg)
-    D = R.olh_plan(np.array([[-6, 6], [-2, 2], [-2, 2], [200, 900]], float), 20, 5)
-    P, Q = R.generate_samples(geom, D[:, :3], D[:, 3], cfg.reference.flow())
+    geom = geometry_from_config(cfg)
+    D = olh_plan(np.array([[-6, 6], [-2, 2], [-2, 2], [200, 900]], float), 20, 5)
+    P, Q = generate_samples(geom, D[:, :3], D[:, 3], cfg.reference.flow())
     pts = geom.points()
     np.savez(tmp_path / "snap.npz", inputs=D, pressure=P, heat_flux=Q, x=pts.x, y=pts.y)
     with open(tmp_path / "snap.csv", "w", newline="") as fh:
@@ -230,32 +241,32 @@ def test_external_snapshots_npz_and_csv(tmp_path: Path) -> None:
             for k in reversed(range(pts.n)):  # any row order
                 w.writerow([i, *D[i], pts.x[k], pts.y[k], P[i, k], Q[i, k]])
     for name in ("snap.npz", "snap.csv"):
-        d2, p2, q2 = R.read_snapshots(tmp_path / name, geom)
+        d2, p2, q2 = read_snapshots(tmp_path / name, geom)
         np.testing.assert_allclose(d2, D, rtol=1e-12)
         np.testing.assert_allclose(p2, P, rtol=1e-12)
         np.testing.assert_allclose(q2, Q, rtol=1e-12)
     data = dict(SMALL, source={"kind": "snapshots", "path": "snap.csv"})
-    rom = R.build_rom_from_config(parse_rom_config(data), base_dir=tmp_path)
+    rom = build_rom_from_config(parse_rom_config(data), base_dir=tmp_path)
     assert rom.source["kind"] == "snapshots"
     with pytest.raises(InputError, match="external snapshots"):
-        R.check_rom(rom, 3)
+        check_rom(rom, 3)
     np.savez(tmp_path / "bad.npz", inputs=D[:, :2], pressure=P, heat_flux=Q)
     with pytest.raises(InputError, match="inputs must have shape"):
-        R.read_snapshots(tmp_path / "bad.npz", geom)
+        read_snapshots(tmp_path / "bad.npz", geom)
     np.savez(tmp_path / "badx.npz", inputs=D, pressure=P, heat_flux=Q, x=pts.x * 1.1)
     with pytest.raises(InputError, match="grid"):
-        R.read_snapshots(tmp_path / "badx.npz", geom)
+        read_snapshots(tmp_path / "badx.npz", geom)
 
 
 # -- sample planning ------------------------------------------------------------------------
 def test_parallel_generation_equals_serial() -> None:
-    geom = R.geometry_from_config(parse_rom_config(SMALL))
+    geom = geometry_from_config(parse_rom_config(SMALL))
     A = np.random.default_rng(0).uniform(-1, 1, (23, 3))
     T = np.linspace(300, 800, 23)
     flow = FlowCondition.from_altitude(6.0, 25000.0)
-    serial = R.generate_samples(geom, A, T, flow)
+    serial = generate_samples(geom, A, T, flow)
     with ThreadPoolExecutor(2) as pool:
-        par = R.generate_samples(geom, A, T, flow, executor=pool, chunk_size=5)
+        par = generate_samples(geom, A, T, flow, executor=pool, chunk_size=5)
     # equal up to the batch-dependent stopping of the Prandtl-Meyer Newton iteration
     np.testing.assert_allclose(par[0], serial[0], rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(par[1], serial[1], rtol=1e-9)
@@ -265,9 +276,9 @@ def test_parallel_generation_equals_serial() -> None:
 def test_smart_ordering_halves_restart_distance(groups: int, tmp_path: Path) -> None:
     cfg, _ = load_rom_config(STUDY)
     bounds = np.vstack([[m.range for m in cfg.modes], [cfg.wall_temperature.range]])
-    X = R.olh_plan(bounds, 200, 0)
+    X = olh_plan(bounds, 200, 0)
     naive = np.r_[np.zeros(6), 550.0]  # flat panel at mid-range wall temperature
-    order = R.smart_order(X, naive, groups, rng=0)
+    order = smart_order(X, naive, groups, rng=0)
     # acceptance: Eq. (2.82) total at least 1.5x smaller than restarting all from w_0
     # (measured 1.61 for n_C = 1, 1.55 for n_C = 2 on this 7-input plan)
     assert order.ratio >= 1.5
@@ -280,7 +291,7 @@ def test_smart_ordering_halves_restart_distance(groups: int, tmp_path: Path) -> 
         for i in seq[1:]:  # a restart parent is computed earlier in the same group
             par = order.parent[i]
             assert par == -1 or (order.group[par] == g and pos[int(par)] < pos[int(i)])
-    R.write_plan_csv(tmp_path / "plan.csv", X, order, [f"a{k}" for k in range(1, 7)] + ["T_w"])
+    write_plan_csv(tmp_path / "plan.csv", X, order, [f"a{k}" for k in range(1, 7)] + ["T_w"])
     rows = list(csv.DictReader(open(tmp_path / "plan.csv")))
     assert len(rows) == 200 and set(rows[0]) >= {"group", "position", "restart_from", "T_w"}
     total = sum(float(r["distance"]) for r in rows)
@@ -289,36 +300,36 @@ def test_smart_ordering_halves_restart_distance(groups: int, tmp_path: Path) -> 
 
 def test_eq76_wall_temperature_stays_in_range() -> None:
     x = np.linspace(0, 1, 65)
-    b = R.olh_plan(np.array([[0.2, 0.9], [-0.3, 0.3], [-0.3, 0.3]]), 200, 0)
-    T = R.eq76_wall_temperature(x, b)
+    b = olh_plan(np.array([[0.2, 0.9], [-0.3, 0.3], [-0.3, 0.3]]), 200, 0)
+    T = eq76_wall_temperature(x, b)
     assert T.min() >= 200.0 - 1e-9 and T.max() <= 900.0 + 1e-9
 
 
 # -- acceptance sizes (slow) -------------------------------------------------------------------
 @pytest.fixture(scope="module")
-def study_rom() -> R.RomFluid:
+def study_rom() -> RomFluid:
     cfg, base = load_rom_config(STUDY)
     assert cfg.training.samples <= 200
-    return R.build_rom_from_config(cfg, base)
+    return build_rom_from_config(cfg, base)
 
 
 @pytest.mark.slow
-def test_sec71_rom_converges_with_200_samples(study_rom: R.RomFluid) -> None:
-    res = R.check_rom(study_rom, 100, rng=2024)
+def test_sec71_rom_converges_with_200_samples(study_rom: RomFluid) -> None:
+    res = check_rom(study_rom, 100, rng=2024)
     # acceptance (Sec. 7.1, Fig. 7.3): < 1 % pressure, < 2 % heat flux on 100 held-out
     # samples; measured 0.16 % and 0.23 %
     assert res["pressure_nrmse"] < 0.01 and res["heat_flux_nrmse"] < 0.02, res
 
 
 @pytest.mark.slow
-def test_correction_and_scaling_fig76_analogue(study_rom: R.RomFluid) -> None:
+def test_correction_and_scaling_fig76_analogue(study_rom: RomFluid) -> None:
     results = {}
     for mach in (5.0, 6.0, 7.0):
         for alt in (20000.0, 25000.0, 30000.0):
             flow = FlowCondition.from_altitude(mach, alt)
             for xi in (1.0, 2.0, 4.0):
                 for corr in ("bl", "pt"):
-                    results[mach, alt, xi, corr] = R.check_rom(
+                    results[mach, alt, xi, corr] = check_rom(
                         study_rom.with_options(correction=corr), 30, flow, xi, "eq76", rng=1)
     bl = np.array([[r["pressure_nrmse"], r["heat_flux_nrmse"]]
                    for k, r in results.items() if k[3] == "bl"])
@@ -331,7 +342,7 @@ def test_correction_and_scaling_fig76_analogue(study_rom: R.RomFluid) -> None:
 
 
 @pytest.mark.slow
-def test_nonuniform_wall_temperature_eq76(study_rom: R.RomFluid) -> None:
-    res = R.check_rom(study_rom, 100, temperature="eq76", rng=5)
+def test_nonuniform_wall_temperature_eq76(study_rom: RomFluid) -> None:
+    res = check_rom(study_rom, 100, temperature="eq76", rng=5)
     # acceptance: heat-flux NRMSE < 10 % with the Eq. (7.6) non-uniform wall temperature
     assert res["heat_flux_nrmse"] < 0.10 and res["pressure_nrmse"] < 0.10, res
