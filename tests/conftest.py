@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypate.solvers.aero.base import SurfacePoints, SurfaceState
+from hypate.solvers.aero.rom.geometry import RomGeometry
 
 REPO = Path(__file__).resolve().parents[1]
 PROTOTYPE_CASE = REPO / "scaling" / "data" / "cases" / "sec9_2_prototype.toml"
@@ -120,3 +122,38 @@ def tiny_study(tmp_path: Path) -> Callable[..., Path]:
         return path
 
     return write
+
+
+#: A small 2-D fluid ROM (three modes, 33 points, 50 samples): built in about a second.
+SMALL_ROM = {
+    "panel": {"kind": "2d", "length": 1.0, "leading_edge_length": 1.0, "thickness": 0.0025},
+    "grid": {"n_x": 33},
+    "reference": {"mach": 6.0, "altitude": 25000.0},
+    "modes": [{"m": 1, "range": [-6.0, 6.0]}, {"m": 2, "range": [-2.0, 2.0]},
+              {"m": 3, "range": [-2.0, 2.0]}],
+    "wall_temperature": {"range": [200.0, 900.0]},
+    "training": {"samples": 50, "seed": 3, "restarts": 0, "optimized_modes": 2},
+}
+#: The Sec. 7.1 ROM build file (Table 7.1).
+ROM_STUDY = REPO / "studies" / "rom" / "rom_2d_panel.toml"
+
+
+def rom_state(geom: RomGeometry, scale: float, amplitudes, nonuniform: bool = True,
+              velocity: float = 0.0) -> tuple[SurfacePoints, SurfaceState]:
+    """Surface points of ``geom`` at ``scale`` and a wall state: modal ``amplitudes``, a
+    non-uniform (or uniform 550 K) wall temperature, a sine-shaped normal velocity."""
+    pts = geom.points(scale)
+    w, ws = geom.deformation(np.asarray(amplitudes, float)[None, :], scale)
+    xr = pts.x * scale
+    T = (450.0 + 150.0 * xr + 60.0 * np.sin(2 * np.pi * xr)) if nonuniform else np.full(pts.n,
+                                                                                        550.0)
+    return pts, SurfaceState(w[0], ws[0], velocity * np.sin(np.pi * xr), T)
+
+
+def fd4(f, x: np.ndarray, h: float) -> np.ndarray:
+    """Fourth-order central differences, column by column."""
+    cols = []
+    for e in np.eye(x.size):
+        cols.append((8 * (f(x + h * e) - f(x - h * e)) - (f(x + 2 * h * e) - f(x - 2 * h * e)))
+                    / (12 * h))
+    return np.stack(cols, axis=1)

@@ -13,8 +13,8 @@ import time
 from pathlib import Path
 
 from hypate.scaling.workflow.shipped import resolve
-from hypate.solvers.aero.rom import build_rom_from_config, check_rom
-from hypate.solvers.aero.rom_config import load_rom_config
+from hypate.solvers.aero.rom.build import build_rom_from_config, check_rom
+from hypate.solvers.aero.rom.config import load_rom_config
 
 #: The shipped ROM build file, by name (:mod:`hypate.scaling.workflow.shipped`).
 DEFAULT_CONFIG = "rom_2d_panel"

@@ -18,15 +18,10 @@ from pathlib import Path
 
 import numpy as np
 from hypate.scaling.workflow.shipped import resolve
-from hypate.solvers.aero.rom import (
-    build_rom_from_config,
-    check_rom,
-    load_rom,
-    olh_plan,
-    smart_order,
-    write_plan_csv,
-)
-from hypate.solvers.aero.rom_config import load_rom_config
+from hypate.solvers.aero.rom.build import build_rom_from_config, check_rom
+from hypate.solvers.aero.rom.config import load_rom_config
+from hypate.solvers.aero.rom.io import load_rom, save_rom
+from hypate.solvers.aero.rom.plan import olh_plan, smart_order, write_plan_csv
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 
@@ -98,7 +93,7 @@ def run_build(args: argparse.Namespace) -> int:
             rom = build_rom_from_config(cfg, base, executor=pool, samples=args.samples)
     else:
         rom = build_rom_from_config(cfg, base, samples=args.samples)
-    rom.save(out)
+    save_rom(rom, out)
     summary = {"out": str(out), "kind": rom.kind, "samples": int(rom.pressure_model.D_.shape[0]),
                "pressure_pod_modes": rom.pressure_model.n_modes,
                "heat_flux_pod_modes": rom.heat_model.n_modes}

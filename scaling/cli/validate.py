@@ -10,7 +10,7 @@ from typing import Any
 
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.study import parse_study
-from hypate.solvers.aero.rom_config import parse_rom_config
+from hypate.solvers.aero.rom.config import parse_rom_config
 from hypate.solvers.config import parse_case, read_toml, summary
 from hypate.solvers.errors import InputError
 

@@ -41,7 +41,7 @@ from hypate.scaling.engine.criteria import (
     weighted_metric,
 )
 from hypate.scaling.engine.pareto import nondominated_boxes, pareto_front
-from hypate.scaling.engine.sampling import as_rng
+from hypate.solvers.numerics.random import as_rng
 
 __all__ = [
     "Model",

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from hypate.scaling.engine.pareto import hypervolume
-from hypate.scaling.engine.sampling import latin_hypercube
+from hypate.solvers.numerics.random import latin_hypercube
 from pymoo.algorithms.moo.nsga2 import NSGA2
 from pymoo.core.problem import Problem
 from pymoo.optimize import minimize

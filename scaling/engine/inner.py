@@ -22,8 +22,8 @@ from hypate.scaling.engine.problem import (
     project_unit,
     scipy_constraints,
 )
-from hypate.scaling.engine.sampling import as_rng, raw_latin_hypercube
 from hypate.scaling.engine.surrogate import ProbabilisticConstraint
+from hypate.solvers.numerics.random import as_rng, raw_latin_hypercube
 from scipy.optimize import Bounds, minimize
 
 __all__ = ["optimize_acquisition"]

@@ -59,7 +59,6 @@ from hypate.scaling.engine.problem import (
     scipy_constraints,
 )
 from hypate.scaling.engine.result import OptimizationResult
-from hypate.scaling.engine.sampling import latin_hypercube, raw_latin_hypercube
 from hypate.scaling.engine.settings import OptimizerSettings, SettingError
 from hypate.scaling.engine.store import (
     Evaluation,
@@ -67,6 +66,7 @@ from hypate.scaling.engine.store import (
     evaluations_to_dataframe,
 )
 from hypate.scaling.engine.surrogate import ProbabilisticConstraint, fit_surrogate
+from hypate.solvers.numerics.random import latin_hypercube, raw_latin_hypercube
 from hypate.solvers.numerics.threads import blas_threads
 from scipy.optimize import minimize
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from hypate.solvers.aero.analytic import AnalyticFluid
 from hypate.solvers.aero.base import FluidModel
-from hypate.solvers.aero.rom import load_rom
+from hypate.solvers.aero.rom.io import load_rom
 from hypate.solvers.aero.shock_expansion import ShockExpansionFluid
 from hypate.solvers.errors import InputError
 

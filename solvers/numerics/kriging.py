@@ -27,6 +27,7 @@ import warnings
 from typing import Literal
 
 import numpy as np
+from hypate.solvers.numerics.random import as_rng
 from scipy.linalg import cho_solve, cholesky, solve_triangular
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.exceptions import ConvergenceWarning
@@ -39,10 +40,6 @@ __all__ = ["KrigingRegressor", "KERNELS"]
 KERNELS: tuple[str, ...] = ("matern52", "rbf")
 
 _SQRT5 = np.sqrt(5.0)
-
-
-def _as_rng(rng: np.random.Generator | int | None) -> np.random.Generator:
-    return rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
 
 
 def kernel_matrix(
@@ -207,7 +204,7 @@ class KrigingRegressor(RegressorMixin, BaseEstimator):
         self.n_outputs_ = m
         self.n_features_in_ = d
 
-        rng = _as_rng(self.rng)
+        rng = as_rng(self.rng)
         theta0 = None if self.theta0 is None else np.atleast_2d(np.asarray(self.theta0, float))
         if theta0 is not None and theta0.shape != (m, d + 1):
             raise ValueError(f"theta0 must have shape {(m, d + 1)}, got {theta0.shape}")

@@ -113,7 +113,7 @@ def test_plan_csv(built: Path, tmp_path: Path, capsys: pytest.CaptureFixture) ->
 
 
 def test_shipped_study_file_validates() -> None:
-    from hypate.solvers.aero.rom_config import load_rom_config
+    from hypate.solvers.aero.rom.config import load_rom_config
 
     cfg, _ = load_rom_config(Path(__file__).resolve().parents[2] / "studies" / "rom" /
                              "rom_2d_panel.toml")

@@ -7,8 +7,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypate.solvers.aero.rom import build_rom_from_config, save_rom
-from hypate.solvers.aero.rom_config import load_rom_config
+from hypate.solvers.aero.rom.build import build_rom_from_config
+from hypate.solvers.aero.rom.config import load_rom_config
+from hypate.solvers.aero.rom.io import save_rom
 from hypate.solvers.config import parse_case
 from hypate.solvers.coupling.run import simulate
 

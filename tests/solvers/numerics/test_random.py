@@ -1,9 +1,9 @@
-"""Optimal Latin hypercube designs (scaling/sampling.py, Sec. 6.3.3)."""
+"""Optimal Latin hypercube designs (solvers/numerics/random.py, Sec. 6.3.3)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypate.scaling.engine.sampling import (
+from hypate.solvers.numerics.random import (
     _cached_olh,
     latin_hypercube,
     raw_latin_hypercube,

@@ -6,6 +6,10 @@ iteration, where re-optimizing a few hundred points would cost about a second; t
 drawn as a random *symmetry* of one cached optimized design: permuting the columns and
 reflecting coordinates (``u -> 1 - u``) maps a Latin hypercube to a Latin hypercube and
 leaves the centered discrepancy unchanged, so every draw is an OLH, at no cost.
+
+The one home of random sampling: the optimization engine (initial designs, inner-loop
+starts, Monte-Carlo base samples) and the fluid ROM (sample plans, kriging restarts) draw
+through :func:`as_rng` and these designs.
 """
 from __future__ import annotations
 

@@ -1,0 +1,183 @@
+"""Building and checking fluid ROMs (Sec. 2.4, Sec. 7.1).
+
+:func:`build_rom_from_config` turns a ROM build file into a :class:`RomFluid`: OLH plan
+(:mod:`.plan`), snapshots of the built-in source or external ones (:mod:`.snapshots`),
+POD-kriging (:mod:`.pod`). :func:`check_rom` measures the mean NRMSE (Eq. 7.7) against
+fresh source samples (data sets 2 and 3 of Sec. 7.1).
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from concurrent.futures import Executor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from hypate.solvers.aero.base import Array, SurfaceState
+from hypate.solvers.aero.rom.config import RomBuildConfig
+from hypate.solvers.aero.rom.geometry import RomGeometry, eq76_wall_temperature
+from hypate.solvers.aero.rom.model import RomFluid
+from hypate.solvers.aero.rom.plan import olh_plan
+from hypate.solvers.aero.rom.pod import PodKriging
+from hypate.solvers.aero.rom.snapshots import generate_samples, read_snapshots
+from hypate.solvers.errors import InputError
+from hypate.solvers.flow import FlowCondition
+from hypate.solvers.numerics.random import as_rng
+
+__all__ = ["build_rom", "build_rom_from_config", "check_rom", "check_samples",
+           "geometry_from_config", "nrmse"]
+
+
+def nrmse(reference: Array, predicted: Array, weights: Array) -> Array:
+    """Normalized RMS error of each row, Eq. (7.7), as a fraction:
+    ``sqrt(sum(w e^2) / sum(w)) / (max(y_ref) - min(y_ref))``."""
+    Y = np.atleast_2d(reference)
+    E = np.atleast_2d(predicted) - Y
+    w = np.asarray(weights, float)
+    rms = np.sqrt((E**2 @ w) / w.sum())
+    return rms / np.maximum(np.ptp(Y, axis=1), 1e-300)
+
+
+def build_rom(geometry: RomGeometry, reference: FlowCondition, inputs: Array,
+              pressure: Array, heat_flux: Array, *, bounds: Array | None = None,
+              kind: str = "scaled", tolerance: float = 0.005, kernel: str = "rbf",
+              trend: str = "linear", n_restarts: int = 2,
+              source: dict[str, Any] | None = None, regime: str = "turbulent",
+              rng: np.random.Generator | int | None = None,
+              optimized_modes: int = 3) -> RomFluid:
+    """Fit a ROM from samples ``inputs`` (N_s, N_d) and snapshots (N_s, n) each."""
+    rng = as_rng(rng)
+    p_model = PodKriging(tolerance, kernel, trend, n_restarts, rng, optimized_modes).fit(
+        inputs, pressure, bounds)
+    q_model = PodKriging(tolerance, kernel, trend, n_restarts, rng, optimized_modes).fit(
+        inputs, heat_flux, bounds)
+    return RomFluid(geometry, reference, p_model, q_model, kind=kind, regime=regime,
+                    source=source)
+
+
+def geometry_from_config(cfg: RomBuildConfig) -> RomGeometry:
+    """:class:`RomGeometry` of a :class:`~hypate.solvers.aero.rom.config.RomBuildConfig`."""
+    p = cfg.panel
+    modes = np.array([[m.m, m.n] for m in cfg.modes], np.int64)
+    return RomGeometry(p.kind, p.length, p.width, p.leading_edge_length, p.thickness,
+                       math.radians(p.flow_angle), cfg.grid.n_x, cfg.grid.n_y, modes)
+
+
+def build_rom_from_config(cfg: RomBuildConfig, base_dir: str | Path | None = None,
+                          executor: Executor | None = None, samples: int | None = None
+                          ) -> RomFluid:
+    """Build the ROM described by a :class:`~hypate.solvers.aero.rom.config.RomBuildConfig`:
+    OLH plan + built-in source (or external snapshots) + POD-kriging.
+
+    ``samples`` overrides ``[training] samples``.
+    """
+    geometry = geometry_from_config(cfg)
+    reference = cfg.reference.flow()
+    tr = cfg.training
+    rng = np.random.default_rng(tr.seed)
+    a_bounds = np.array([m.range for m in cfg.modes], float)
+    t_bounds = np.array([cfg.wall_temperature.range], float)
+    src = {"kind": cfg.source.kind, "boundary_layer": cfg.source.boundary_layer,
+           "regime": cfg.source.regime}
+    n_s = geometry.n_modes
+    if cfg.conventional is not None:
+        if cfg.source.kind != "shock-expansion":
+            raise InputError("conventional", "the conventional ROM is built from the "
+                             "built-in source")
+        N = samples or tr.samples
+        box = np.vstack([[cfg.conventional.mach], [cfg.conventional.altitude], a_bounds,
+                         t_bounds])
+        plan = olh_plan(box, N, rng)
+        P = np.empty((N, geometry.n_x * geometry.n_y))
+        Q = np.empty_like(P)
+        D = np.empty((N, n_s + 4))
+        for i, row in enumerate(plan):
+            flow = FlowCondition.from_altitude(row[0], row[1])
+            P[i:i + 1], Q[i:i + 1] = generate_samples(geometry, row[None, 2:2 + n_s],
+                                                      row[None, -1], flow, source=src)
+            D[i] = np.r_[flow.mach, flow.pressure, flow.temperature, row[2:]]
+        return build_rom(geometry, reference, D, P, Q, kind="conventional",
+                         tolerance=tr.pod_tolerance, kernel=tr.kernel, trend=tr.trend,
+                         n_restarts=tr.restarts, source=src, regime=cfg.source.regime, rng=rng,
+                     optimized_modes=tr.optimized_modes)
+    bounds = np.vstack([a_bounds, t_bounds])
+    if cfg.source.kind == "snapshots":
+        path = Path(cfg.source.path)
+        if base_dir is not None and not path.is_absolute():
+            path = Path(base_dir) / path
+        D, P, Q = read_snapshots(path, geometry)
+        bounds = np.stack([np.minimum(bounds[:, 0], D.min(axis=0)),
+                           np.maximum(bounds[:, 1], D.max(axis=0))], axis=1)
+    else:
+        D = olh_plan(bounds, samples or tr.samples, rng)
+        P, Q = generate_samples(geometry, D[:, :n_s], D[:, -1], reference, source=src,
+                                executor=executor)
+    return build_rom(geometry, reference, D, P, Q, bounds=bounds, tolerance=tr.pod_tolerance,
+                     kernel=tr.kernel, trend=tr.trend, n_restarts=tr.restarts, source=src,
+                     regime=cfg.source.regime, rng=rng)
+
+
+def check_samples(rom: RomFluid, n_samples: int, temperature: str = "uniform",
+                  rng: np.random.Generator | int | None = None) -> tuple[Array, Array]:
+    """Fresh check inputs: modal amplitudes (N, N_S) and wall temperatures (N, n).
+
+    ``temperature = "uniform"`` draws an OLH plan of the training box (amplitudes and a
+    uniform wall temperature, as data set 2 of Sec. 7.1); ``"eq76"`` follows data set 3:
+    the first three modes from their training ranges (others zero) and the non-uniform wall
+    temperature of Eq. (7.6) with b1 in [0.2, 0.9], b2, b5 in [-0.3, 0.3] (Table 7.1),
+    rescaled into the training temperature range by Eqs. (7.4)-(7.5).
+    """
+    g = rom.geometry
+    n_s = g.n_modes
+    i_a = slice(3, 3 + n_s) if rom.kind == "conventional" else slice(0, n_s)
+    box = np.vstack([rom.input_bounds[i_a], rom.input_bounds[-1:]])
+    rng = as_rng(rng)
+    x_norm = g.points(1.0).x / g.length
+    if temperature == "uniform":
+        X = olh_plan(box, n_samples, rng)
+        return X[:, :n_s], np.repeat(X[:, -1:], x_norm.size, axis=1)
+    if temperature != "eq76":
+        raise InputError("--temperature", "must be 'uniform' or 'eq76'")
+    k = min(3, n_s)
+    X = olh_plan(np.vstack([box[:k], [[0.2, 0.9], [-0.3, 0.3], [-0.3, 0.3]]]), n_samples, rng)
+    A = np.zeros((n_samples, n_s))
+    A[:, :k] = X[:, :k]
+    return A, eq76_wall_temperature(x_norm, X[:, k:], tuple(rom.input_bounds[-1]))
+
+
+def check_rom(rom: RomFluid, n_samples: int = 100, flow: FlowCondition | None = None,
+              scale: float = 1.0, temperature: str = "uniform",
+              rng: np.random.Generator | int | None = None, executor: Executor | None = None
+              ) -> dict[str, float]:
+    """Mean NRMSE (Eq. 7.7, fractions) of the ROM against the built-in source on fresh
+    samples at ``flow`` (default: the reference condition) and geometric scale ``scale``.
+
+    Returns ``{"pressure_nrmse", "heat_flux_nrmse", "samples"}``.
+    """
+    if rom.source.get("kind") != "shock-expansion":
+        raise InputError("rom", "this ROM was trained on external snapshots; checking it "
+                         "needs the built-in source (rebuild with [source] kind = "
+                         "'shock-expansion') or your own held-out snapshots")
+    if n_samples < 1:
+        raise InputError("--samples", "must be >= 1")
+    if not scale > 0.0:
+        raise InputError("--scale", "must be > 0")
+    flow = flow or rom.reference
+    g = rom.geometry
+    A, T = check_samples(rom, n_samples, temperature, rng)
+    P, Q = generate_samples(g, A, T, flow, scale, rom.source, executor)
+    pts = g.points(scale)
+    w, ws = g.deformation(A, scale)
+    fluid = rom.with_options(scale=None)
+    pr = np.empty_like(P)
+    qr = np.empty_like(Q)
+    zero = np.zeros(pts.n)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        for i in range(n_samples):
+            loads = fluid.evaluate(pts, SurfaceState(w[i], ws[i], zero, T[i]), flow)
+            pr[i], qr[i] = loads.pressure, loads.heat_flux
+    return {"pressure_nrmse": float(nrmse(P, pr, pts.weights).mean()),
+            "heat_flux_nrmse": float(nrmse(Q, qr, pts.weights).mean()),
+            "samples": int(n_samples)}

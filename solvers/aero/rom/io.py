@@ -1,0 +1,145 @@
+"""Persistence of fluid ROMs: one ``.npz`` of plain arrays (no pickled objects).
+
+:func:`save_rom` writes the ROM (``FORMAT_VERSION``, kind, reference condition, panel
+geometry, grid, modes, training ranges, POD bases and kriging data; a SHA-256 digest of the
+content). :func:`load_rom` validates version, digest, shapes and finiteness and raises
+:class:`~hypate.solvers.errors.InputError` otherwise. Loading refits the kriging Cholesky
+factors with the stored hyperparameters (no optimization).
+"""
+from __future__ import annotations
+
+import hashlib
+import zipfile
+import zlib
+from pathlib import Path
+
+import numpy as np
+from hypate.solvers.aero.rom.geometry import RomGeometry
+from hypate.solvers.aero.rom.model import RomFluid
+from hypate.solvers.aero.rom.pod import PodKriging
+from hypate.solvers.errors import InputError
+from hypate.solvers.flow import FlowCondition
+
+__all__ = ["FORMAT_VERSION", "load_rom", "save_rom"]
+
+#: Version of the NPZ layout written by :func:`save_rom`.
+FORMAT_VERSION = 1
+
+
+def _digest(arrays: dict[str, np.ndarray]) -> str:
+    h = hashlib.sha256()
+    for key in sorted(arrays):
+        a = np.ascontiguousarray(arrays[key])
+        h.update(key.encode())
+        h.update(str(a.dtype).encode())
+        h.update(str(a.shape).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def save_rom(rom: RomFluid, path: str | Path) -> None:
+    """Save a ROM as NPZ (plain arrays only; ``numpy.load(..., allow_pickle=False)`` reads it).
+
+    Keys: ``format_version``, ``kind``, ``correction``, ``regime``, ``reference``
+    ([M, p, T, gamma, R, Pr, altitude or nan]), ``geometry`` ([a, b, L_le, h, beta, n_x,
+    n_y]), ``panel_kind``, ``modes`` (N_S, 2), ``input_names``, ``input_bounds`` (N_d, 2)
+    (training ranges), ``source`` ([kind, boundary_layer, regime] as strings), the
+    ``pressure_*`` and ``heat_flux_*`` POD-kriging arrays and ``digest`` (SHA-256 of the
+    rest).
+    """
+    ref = rom.reference
+    g = rom.geometry
+    arrays: dict[str, np.ndarray] = {
+        "format_version": np.array(FORMAT_VERSION),
+        "kind": np.array(rom.kind), "correction": np.array(rom.correction),
+        "regime": np.array(rom.regime),
+        "reference": np.array([ref.mach, ref.pressure, ref.temperature, ref.gamma,
+                               ref.gas_constant, ref.prandtl,
+                               np.nan if ref.altitude is None else ref.altitude]),
+        "geometry": g.as_array(), "panel_kind": np.array(g.kind),
+        "modes": np.asarray(g.modes, np.int64),
+        "input_names": np.array(rom.input_names()),
+        "input_bounds": rom.input_bounds,
+        "source": np.array([str(rom.source.get("kind", "unknown")),
+                            str(rom.source.get("boundary_layer", True)),
+                            str(rom.source.get("regime", rom.regime))]),
+    }
+    arrays.update(rom.pressure_model.state("pressure"))
+    arrays.update(rom.heat_model.state("heat_flux"))
+    arrays["digest"] = np.array(_digest(arrays))
+    path = Path(path)
+    with open(path, "wb") as fh:
+        np.savez_compressed(fh, **arrays)
+
+
+def load_rom(path: str | Path, correction: str | None = None, unsteady: bool = True,
+             scale: float | None = None, regime: str | None = None) -> RomFluid:
+    """Load a ROM written by :func:`save_rom`.
+
+    ``correction``, ``unsteady``, ``scale`` are :class:`RomFluid` options; ``regime``
+    (the Eckert regime of the heat-flux correction) defaults to the one stored.
+
+    Every problem (missing or unreadable file, wrong format version, digest mismatch,
+    missing keys, inconsistent shapes, non-finite values) raises :class:`InputError`.
+    """
+    path = Path(path)
+    field = f"rom:{path}"
+    if not path.is_file():
+        raise InputError(field, "file not found")
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            data = {k: npz[k] for k in npz.files}
+    except (zipfile.BadZipFile, zlib.error, EOFError) as exc:
+        raise InputError(field, f"corrupted ROM file ({exc})") from None
+    except (OSError, ValueError, KeyError) as exc:
+        raise InputError(field, f"not a readable ROM file ({type(exc).__name__}: {exc})") \
+            from None
+    try:
+        version = int(data["format_version"])
+        if version != FORMAT_VERSION:
+            raise InputError(field, f"format version {version} is not supported (this "
+                             f"version reads {FORMAT_VERSION})")
+        digest = str(data.pop("digest"))
+        if _digest(data) != digest:
+            raise InputError(field, "corrupted ROM file (content digest mismatch)")
+        ref = data["reference"].astype(float)
+        geo = data["geometry"].astype(float)
+        if ref.shape != (7,) or geo.shape != (7,):
+            raise InputError(field, "reference/geometry arrays have the wrong shape")
+        reference = FlowCondition(mach=ref[0], pressure=ref[1], temperature=ref[2],
+                                  gamma=ref[3], gas_constant=ref[4], prandtl=ref[5],
+                                  altitude=None if np.isnan(ref[6]) else float(ref[6]))
+        modes = np.asarray(data["modes"], np.int64)
+        if modes.ndim != 2 or modes.shape[1] != 2 or modes.shape[0] < 1:
+            raise InputError(field, "modes must have shape (N_S, 2)")
+        geometry = RomGeometry(str(data["panel_kind"]), geo[0], geo[1], geo[2], geo[3],
+                               geo[4], int(geo[5]), int(geo[6]), modes)
+        if geometry.kind not in ("2d", "3d") or min(geo[:4]) <= 0:
+            raise InputError(field, "invalid panel geometry")
+        kind = str(data["kind"])
+        p_model = PodKriging.from_state(data, "pressure")
+        q_model = PodKriging.from_state(data, "heat_flux")
+        src = [str(s) for s in data["source"]]
+    except KeyError as exc:
+        raise InputError(field, f"missing key {exc.args[0]!r} (not a hypate ROM file?)") \
+            from None
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, InputError):
+            raise
+        raise InputError(field, f"malformed ROM file ({exc})") from None
+    n = geometry.n_x * geometry.n_y
+    n_d = geometry.n_modes + (4 if kind == "conventional" else 1)
+    for name, model in (("pressure", p_model), ("heat_flux", q_model)):
+        if model.pod_.modes_.shape[0] != n:
+            raise InputError(field, f"{name} modes have {model.pod_.modes_.shape[0]} points; "
+                             f"the grid has {n}")
+        if model.D_.shape[1] != n_d:
+            raise InputError(field, f"{name} inputs have {model.D_.shape[1]} columns; a "
+                             f"{kind} ROM with {geometry.n_modes} modes needs {n_d}")
+        for arr in (model.pod_.mean_, model.pod_.modes_, model.D_, model.C_, model.beta_f_):
+            if not np.all(np.isfinite(arr)):
+                raise InputError(field, f"{name} arrays contain non-finite values")
+    source = {"kind": src[0], "boundary_layer": src[1] == "True", "regime": src[2]}
+    return RomFluid(geometry, reference, p_model, q_model, kind,
+                    correction or str(data["correction"]), unsteady,
+                    regime or str(data["regime"]), scale, source)
