@@ -3,10 +3,11 @@
 Run figures take a :class:`~hypate.scaling.report.rundata.RunData` and return an HTML
 ``<figure>`` (empty string when the run has nothing to plot), saving the PNG as
 ``figures/<name>.png`` too: the Pareto front with the classical baseline (Fig. 9.9 / 9.13
-style), the hypervolume history (two objectives) or best-J history (one objective), and the
+style; zoomed on the front, J in %, the full view behind a ``<details>`` toggle), the hypervolume history (two objectives) or best-J history (one objective), and the
 nondimensional response of the prototype vs the design-point model (Figs. 9.10, 9.11, 9.14,
 9.15 style). :func:`plot_sweep` draws the what-if sweep of ``hypate whatif --sweep``.
 
+Every figure's labels are wrapped to fit its axes (:func:`fit_labels`) before it is saved.
 This is the one module of the report that imports pyplot (Agg backend: no display needed).
 """
 from __future__ import annotations
@@ -14,6 +15,7 @@ from __future__ import annotations
 import base64
 import html
 import io
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -24,12 +26,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask  # noqa: E402
+from hypate.scaling.report.numbers import format_percent, percent  # noqa: E402
 from hypate.scaling.report.rundata import RunData  # noqa: E402
 from hypate.scaling.workflow.variables import variable_unit  # noqa: E402
 from hypate.solvers.coupling.response import Response  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-__all__ = ["MISMATCH_THRESHOLD", "HV_REFERENCE", "embed_png", "figure_html",
+__all__ = ["MISMATCH_THRESHOLD", "HV_REFERENCE", "ZOOM_MARGIN", "ZOOM_MIN_MARGIN", "embed_png",
+           "figure_html", "fit_labels", "label_overflows", "zoom_limits", "clip_to_box",
            "pareto_figure", "history_figure", "response_figure", "plot_sweep",
            "close_figures"]
 
@@ -52,11 +56,69 @@ def embed_png(path_or_bytes: str | Path | bytes, alt: str) -> str:
     return f'<img src="data:image/png;base64,{b64}" alt="{html.escape(alt)}">'
 
 
+def label_overflows(fig: Figure) -> list[str]:
+    """Axis labels and titles of ``fig`` longer than their axes (y-labels taller than the
+    axes, x-labels and titles wider), as ``"<text>: <size> px > <span> px"``."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    out = []
+    for ax in fig.axes:
+        box = ax.get_window_extent(renderer)
+        for label, vertical in ((ax.yaxis.label, True), (ax.xaxis.label, False),
+                                (ax.title, False)):
+            if not label.get_text():
+                continue
+            ext = label.get_window_extent(renderer)
+            size, span = (ext.height, box.height) if vertical else (ext.width, box.width)
+            # 1 px of slack: rounding of the text extent, not a visible overflow
+            if size > span + 1.0:
+                out.append(f"{label.get_text()!r}: {size:.0f} px > {span:.0f} px")
+    return out
+
+
+def _wrap_labels(fig: Figure, min_chars: int) -> None:
+    """One pass of :func:`fit_labels`: wrap each too long label to its axes' current size."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    for ax in fig.axes:
+        box = ax.get_window_extent(renderer)
+        for label, vertical in ((ax.yaxis.label, True), (ax.xaxis.label, False),
+                                (ax.title, False)):
+            text = " ".join(label.get_text().split())
+            span = box.height if vertical else box.width
+            chars = len(text)
+            while chars > min_chars:
+                ext = label.get_window_extent(renderer)
+                if (ext.height if vertical else ext.width) <= span:
+                    break
+                chars = int(chars * 0.8)
+                label.set_text(textwrap.fill(text, chars))
+
+
+def fit_labels(fig: Figure, min_chars: int = 12, passes: int = 3) -> Figure:
+    """Wrap every axis label and title of ``fig`` onto more lines until it fits its axes
+    (see :func:`label_overflows`), laying the figure out again after each pass (the
+    layout shrinks the axes to make room for the wrapped text, hence a few passes).
+
+    A label longer than its axes runs into the neighbouring axes or past the image edge at
+    the report's page width; wrapping keeps the text whole, unlike shrinking the font.
+    """
+    for _ in range(passes):
+        _wrap_labels(fig, min_chars)
+        if fig.get_layout_engine() is None:
+            fig.tight_layout()
+        if not label_overflows(fig):
+            break
+    return fig
+
+
 def figure_html(fig: Figure, run: RunData, name: str, caption: str) -> str:
     """Save ``fig`` as ``figures/<name>.png`` and return it embedded with a caption.
 
-    The figure is closed afterwards.
+    Labels are wrapped to their axes first (:func:`fit_labels`). The figure is closed
+    afterwards.
     """
+    fit_labels(fig)
     path = run.figure_path(name)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
@@ -67,55 +129,149 @@ def figure_html(fig: Figure, run: RunData, name: str, caption: str) -> str:
             f"</figcaption></figure>")
 
 
+#: Margin around the zoomed Pareto view, as a fraction of its span (log span on log axes).
+ZOOM_MARGIN = 0.08
+#: Smallest margin of the zoomed view: a fraction of the largest value shown (linear axes)
+#: or of a decade (log axes). A front of one or two close points would otherwise give a
+#: box so small that every other evaluation piles up in its corner.
+ZOOM_MIN_MARGIN = 0.25
+#: Largest/smallest positive value above which an axis of the Pareto figure is logarithmic.
+LOG_RATIO = 100.0
+
+
+def zoom_limits(V: np.ndarray, log: bool) -> tuple[float, float]:
+    """Axis limits around the values ``V`` (the Pareto set and the design point): a
+    :data:`ZOOM_MARGIN` of their span, at least :data:`ZOOM_MIN_MARGIN` (in log space on a
+    log axis); never below 0 on a linear axis of nonnegative errors."""
+    lo, hi = float(np.min(V)), float(np.max(V))
+    if log:
+        a, b = np.log10(lo), np.log10(hi)
+        pad = max(ZOOM_MARGIN * (b - a), ZOOM_MIN_MARGIN)
+        return 10.0 ** (a - pad), 10.0 ** (b + pad)
+    pad = max(ZOOM_MARGIN * (hi - lo), ZOOM_MIN_MARGIN * abs(hi), 1e-9)
+    low = lo - pad
+    return (max(low, 0.0) if lo >= 0.0 else low), hi + pad
+
+
+def clip_to_box(P: np.ndarray, xlim: tuple[float, float], ylim: tuple[float, float],
+                 log: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Points ``P`` (n, 2) outside the box moved onto its edge, and which were outside.
+
+    A point is moved along the ray from the box centre towards it (in log10 coordinates on
+    log axes), so clipped points keep their direction: clipping each coordinate on its own
+    would stack every point that is worse in both objectives in the same corner.
+    """
+    def fwd(v: np.ndarray) -> np.ndarray:
+        # a zero error on a log axis sits at the bottom edge, not at -inf
+        return np.log10(np.maximum(v, 1e-300)) if log else v
+
+    lo = fwd(np.array([xlim[0], ylim[0]], dtype=float))
+    hi = fwd(np.array([xlim[1], ylim[1]], dtype=float))
+    centre, half = (lo + hi) / 2.0, (hi - lo) / 2.0
+    d = fwd(np.asarray(P, dtype=float)) - centre
+    with np.errstate(divide="ignore"):
+        t = np.min(np.where(np.abs(d) > 0, half / np.abs(d), np.inf), axis=1)
+    out = t < 1.0
+    Q = centre + np.minimum(t, 1.0)[:, None] * d
+    C = np.where(out[:, None], 10.0 ** Q if log else Q, P)
+    return C, out
+
+
+def _pareto_plot(run: RunData, F: np.ndarray, zoom: bool) -> tuple[Figure, int]:
+    """The Pareto figure of ``F`` (n, 2; in %): zoomed on the front (and the design point)
+    or on every evaluation. Returns the figure and how many evaluations lie beyond its axes
+    (drawn on the edge with a distinct marker)."""
+    ok, objs = run.ok, run.objectives
+    pobj = (run.point or {}).get("objectives") or {}
+    point = np.array([[percent(pobj[o]) for o in objs]]) \
+        if all(isinstance(pobj.get(o), (int, float)) for o in objs) else np.zeros((0, 2))
+    cobj = (run.classical or {}).get("objectives") or {}
+    classical = np.array([[percent(cobj[o]) for o in objs]]) \
+        if all(isinstance(cobj.get(o), (int, float)) for o in objs) else np.zeros((0, 2))
+    mask = non_dominated_mask(F)
+    P = F[mask][np.argsort(F[mask][:, 0])]
+    frame = np.vstack([P, point]) if zoom else np.vstack([F, point, classical])
+    positive = frame[frame > 0]
+    log = positive.size == frame.size and positive.max() / positive.min() > LOG_RATIO
+    xlim, ylim = zoom_limits(frame[:, 0], log), zoom_limits(frame[:, 1], log)
+    fig, ax = plt.subplots(figsize=(6.4, 4.8), layout="constrained")
+    if log:
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+    C, beyond = clip_to_box(F, xlim, ylim, log)
+    inside = ~beyond
+    it = ok["iteration"].to_numpy() if "iteration" in ok else np.zeros(len(ok))
+    init = it <= 0
+    ax.scatter(C[init & inside, 0], C[init & inside, 1], s=18, c="0.65", zorder=3,
+               label="initial samples")
+    if (~init).any():
+        sc = ax.scatter(C[~init & inside, 0], C[~init & inside, 1], s=18,
+                        c=it[~init & inside], cmap="viridis", zorder=3,
+                        vmin=it[~init].min(), vmax=it[~init].max(), label="BO iterations")
+        fig.colorbar(sc, ax=ax, label="iteration")
+    if beyond.any():
+        ax.scatter(C[beyond, 0], C[beyond, 1], marker="D", s=16, facecolors="none",
+                   edgecolors="0.35", clip_on=False, zorder=3,
+                   label=f"beyond the axes ({int(beyond.sum())}, on the edge)")
+    # the star goes *behind* the hollow Pareto circles so that it never hides one
+    if len(point):
+        ax.scatter(point[:, 0], point[:, 1], marker="*", s=380, c="gold", edgecolors="0.2",
+                   linewidths=0.8, zorder=2, label="design point")
+    ax.step(P[:, 0], P[:, 1], where="post", color="tab:red", lw=1.2, zorder=4)
+    ax.scatter(P[:, 0], P[:, 1], s=60, facecolors="none", edgecolors="tab:red", lw=1.5,
+               zorder=5, label="Pareto set")
+    if len(classical):
+        Cc, cout = clip_to_box(classical, xlim, ylim, log)
+        ax.scatter(Cc[:, 0], Cc[:, 1], marker="s", s=60, c="tab:blue", edgecolors="k",
+                   zorder=5, clip_on=False, label="classical baseline"
+                   + (" (beyond the axes)" if cout.any() else ""))
+    threshold = percent(MISMATCH_THRESHOLD)
+    ax.axvline(threshold, color="0.5", ls=":", lw=0.8)
+    ax.axhline(threshold, color="0.5", ls=":", lw=0.8)
+    ax.set_xlim(*xlim)
+    ax.set_ylim(*ylim)
+    ax.set_xlabel(f"{objs[0]} (%)")
+    ax.set_ylabel(f"{objs[1]} (%)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title("Pareto front" + (" (zoomed)" if zoom else " (all evaluations)")
+                 + "; dotted: 10 % error", fontsize=10)
+    return fig, int(beyond.sum())
+
+
 def pareto_figure(run: RunData) -> str:
-    """Pareto front of a two-objective run: all successful evaluations (coloured by
-    iteration), the Pareto set, the design point and the classical baseline.
+    """Pareto front of a two-objective run, zoomed on the front: the Pareto set (hollow
+    circles), the design point (a star behind them), the classical baseline and the other
+    successful evaluations (coloured by iteration; those beyond the zoomed axes drawn on the
+    edge as hollow diamonds and counted in the caption). A ``<details>`` element holds the
+    same plot over every evaluation (no JavaScript).
 
     Returns
     -------
     str
-        The embedded ``figures/pareto_front.png``; ``""`` unless there are two objectives
-        and a successful evaluation.
+        The embedded ``figures/pareto_front.png`` (zoomed) and
+        ``figures/pareto_front_all.png``; ``""`` unless there are two objectives and a
+        successful evaluation.
     """
     ok = run.ok
     objs = run.objectives
     if len(objs) != 2 or ok.empty:
         return ""
-    F = ok[objs].to_numpy(float)
-    fig, ax = plt.subplots(figsize=(6.0, 4.6))
-    it = ok["iteration"].to_numpy() if "iteration" in ok else np.zeros(len(ok))
-    init = it <= 0
-    ax.scatter(F[init, 0], F[init, 1], s=18, c="0.65", label="initial samples")
-    if (~init).any():
-        sc = ax.scatter(F[~init, 0], F[~init, 1], s=18, c=it[~init], cmap="viridis",
-                        label="BO iterations")
-        fig.colorbar(sc, ax=ax, label="iteration")
-    mask = non_dominated_mask(F)
-    P = F[mask][np.argsort(F[mask][:, 0])]
-    ax.step(P[:, 0], P[:, 1], where="post", color="tab:red", lw=1.2)
-    ax.scatter(P[:, 0], P[:, 1], s=36, facecolors="none", edgecolors="tab:red",
-               label="Pareto set")
-    pobj = (run.point or {}).get("objectives") or {}
-    if all(isinstance(pobj.get(o), (int, float)) for o in objs):
-        ax.scatter([pobj[objs[0]]], [pobj[objs[1]]], marker="*", s=220, c="gold",
-                   edgecolors="k", zorder=5, label="design point")
-    cobj = (run.classical or {}).get("objectives") or {}
-    if all(isinstance(cobj.get(o), (int, float)) for o in objs):
-        ax.scatter([cobj[objs[0]]], [cobj[objs[1]]], marker="s", s=70, c="tab:blue",
-                   edgecolors="k", zorder=5, label="classical baseline")
-    ax.axvline(MISMATCH_THRESHOLD, color="0.5", ls=":", lw=0.8)
-    ax.axhline(MISMATCH_THRESHOLD, color="0.5", ls=":", lw=0.8)
-    ax.set_xlabel(objs[0])
-    ax.set_ylabel(objs[1])
-    if np.nanmax(F) / max(np.nanmin(F[F > 0]) if (F > 0).any() else 1.0, 1e-300) > 100:
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    ax.set_title("Pareto front (dotted: 10 % error)")
-    return figure_html(fig, run, "pareto_front",
-                       f"Pareto front: {objs[0]} vs {objs[1]} of all successful evaluations, "
-                       "the Pareto set, the design point and the classical baseline.")
+    F = percent(ok[objs].to_numpy(float))
+    fig, n_beyond = _pareto_plot(run, F, zoom=True)
+    beyond = (f" {n_beyond} evaluation{'s' if n_beyond != 1 else ''} beyond the axes (drawn "
+              "on the edge as hollow diamonds)." if n_beyond else "")
+    zoomed = figure_html(fig, run, "pareto_front",
+                         f"Pareto front: {objs[0]} vs {objs[1]} in %, zoomed on the Pareto set "
+                         "and the design point (star, drawn behind the Pareto circles), with "
+                         "the classical baseline." + beyond)
+    if not n_beyond:  # the zoomed view already shows everything
+        return zoomed
+    fig_all, _ = _pareto_plot(run, F, zoom=False)
+    full = figure_html(fig_all, run, "pareto_front_all",
+                       f"All {len(F)} successful evaluations, {objs[0]} vs {objs[1]} in %.")
+    return (zoomed + "<details class='figure-toggle'><summary>Show all evaluations "
+            f"(full axes)</summary>{full}</details>")
 
 
 def history_figure(run: RunData) -> str:
@@ -137,7 +293,7 @@ def history_figure(run: RunData) -> str:
     if not good.any():
         return ""
     n = np.arange(1, len(df) + 1)
-    fig, ax = plt.subplots(figsize=(6.0, 3.8))
+    fig, ax = plt.subplots(figsize=(6.4, 3.8), layout="constrained")
     it = df["iteration"].to_numpy() if "iteration" in df else np.zeros(len(df))
     first_bo = np.flatnonzero(it >= 1)
     if len(objs) == 2:
@@ -149,18 +305,18 @@ def history_figure(run: RunData) -> str:
             sel = good[: i + 1]
             hv[i] = hypervolume(F[: i + 1][sel], ref) if sel.any() else 0.0
         ax.plot(n, hv, drawstyle="steps-post", color="tab:blue")
-        ax.set_ylabel("hypervolume")
-        ref_text = "[1, 1]" if ref is HV_REFERENCE else \
-            f"the nadir [{ref[0]:.3g}, {ref[1]:.3g}]"
+        ax.set_ylabel("hypervolume (J as fractions)")
+        ref_text = "[100 %, 100 %]" if ref is HV_REFERENCE else \
+            f"the nadir [{format_percent(ref[0])}, {format_percent(ref[1])}]"
         title = f"Hypervolume history (reference point {ref_text})"
         name = "hypervolume_history"
     else:
-        f = np.where(good, F[:, 0], np.nan)
+        f = percent(np.where(good, F[:, 0], np.nan))
         best = np.fmin.accumulate(np.where(np.isnan(f), np.inf, f))
         best[~np.isfinite(best)] = np.nan
         ax.scatter(n, f, s=12, c="0.6", label=f"{objs[0]} per evaluation")
         ax.plot(n, best, drawstyle="steps-post", color="tab:blue", label=f"best {objs[0]}")
-        ax.set_ylabel(objs[0])
+        ax.set_ylabel(f"{objs[0]} (%)")
         ax.legend(fontsize=8)
         title = f"Best-{objs[0]} history"
         name = "best_objective_history"
@@ -221,7 +377,7 @@ def response_figure(run: RunData) -> str:
     elif proto is not None and len(proto.times) > 1:
         steps = len(proto.times) - 1
         dt_p = proto.times[1] - proto.times[0]
-    fig, axes = plt.subplots(1, 2, figsize=(10.0, 3.9))
+    fig, axes = plt.subplots(1, 2, figsize=(10.0, 3.9), layout="constrained")
     seen: set[str] = set()
     for resp, label, color, style in ((proto, "prototype", "k", "-"),
                                       (model, "model (design point)", "tab:red", "--")):
@@ -239,6 +395,7 @@ def response_figure(run: RunData) -> str:
             for ax in axes:
                 ax.axvline(resp.instability_time / (dt * steps), color=color, ls=":", lw=1)
     axes[0].set_ylabel("center deflection / thickness  w/h")
+    # long labels are wrapped to the axes by fit_labels (figure_html)
     axes[1].set_ylabel("mean temperature / stagnation temperature  T/T0")
     for ax in axes:
         ax.set_xlabel("nondimensional time  t / t_end")
@@ -246,7 +403,6 @@ def response_figure(run: RunData) -> str:
         ax.legend(fontsize=8)
     axes[0].set_title("structural response")
     axes[1].set_title("thermal response")
-    fig.tight_layout()
     note = "" if model is not None else " (no design-point response in the run directory)"
     return figure_html(fig, run, "response",
                        "Nondimensional response of the prototype and the design-point model "
@@ -304,7 +460,7 @@ def plot_sweep(rows: Sequence[dict[str, Any]], name: str, path: str | Path,
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     ax.set_title(title or f"What-if sweep of {name}")
-    fig.tight_layout()
+    fit_labels(fig)
     fig.savefig(path, format="png", dpi=110)
     plt.close(fig)
     return path

@@ -96,6 +96,9 @@ table{border-collapse:collapse;margin:.5em 0 1em;font-size:.92em}
 th,td{border:1px solid #ccd;padding:.25em .6em;text-align:right}
 th{background:#eef1f6}td:first-child,th:first-child{text-align:left}
 tr.mismatch td{background:#fde2e1}tr.active td{background:#fff4d6}
+tr.design td{background:#fff1b8;font-weight:600}tr.design td:first-child::before{content:"\\2605  "}
+.rule{background:#eef5ee;border-left:4px solid #5a5;padding:.4em .8em}
+table.glossary td,table.glossary th{text-align:left}details.figure-toggle summary{cursor:pointer;color:#345}
 dl{display:grid;grid-template-columns:max-content auto;gap:.2em 1em}dt{font-weight:600}dd{margin:0}
 figure{margin:1em 0}figure img{max-width:100%;height:auto;border:1px solid #ddd}
 figcaption{font-size:.9em;color:#555}.note{color:#555;font-style:italic}

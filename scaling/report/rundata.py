@@ -26,8 +26,10 @@ from hypate.scaling.workflow.rundir import (
     EVALUATIONS_CSV,
     FIGURES_DIR,
     PROTOTYPE_NPZ,
+    DESIGN_POINT_RULES,
+    ID_COLUMN,
     STORE,
-    rank_designs,
+    design_point_index,
 )
 from hypate.scaling.workflow.shipped import shipped
 from hypate.scaling.workflow.study import load_study
@@ -37,7 +39,7 @@ from hypate.solvers.errors import InputError
 __all__ = ["RunData", "load_run", "FIGURES_DIR"]
 
 #: Figure folder in the run directory.
-_RESERVED = {"iteration", "batch_index", "status", "message", "seconds", "seed"}
+_RESERVED = {ID_COLUMN, "iteration", "batch_index", "status", "message", "seconds", "seed"}
 
 @dataclass
 class RunData:
@@ -51,7 +53,9 @@ class RunData:
     study_path : str or None
     evaluations : pandas.DataFrame
         One row per evaluation in evaluation order: ``iteration, batch_index``, one column
-        per design variable, one per objective, ``status, message, seconds, seed``.
+        per design variable, one per objective, ``status, message, seconds, seed``. The
+        index is the evaluation id (0-based row in the store order, the ``id`` column of
+        ``evaluations.csv``): every evaluation number the report prints is this index.
     variables, objectives : list of str
         Column names of the design variables and objectives (``x0..``/``f0..`` when the
         study is unknown).
@@ -88,6 +92,30 @@ class RunData:
     def interrupted(self) -> bool:
         """True when the run has no ``design_point.json`` (killed or still running)."""
         return not (self.directory / DESIGN_POINT_JSON).is_file()
+
+    @property
+    def rule(self) -> str:
+        """The design-point rule: ``design_point.json``'s ``rule``, else the study's
+        ``[optimizer] design_point``, else the default "minmax" (runs older than the key)."""
+        recorded = (self.point or {}).get("rule")
+        if isinstance(recorded, str) and recorded in DESIGN_POINT_RULES:
+            return recorded
+        if self.study is not None:
+            return str(self.study.optimizer.design_point)
+        return DESIGN_POINT_RULES[0]
+
+    @property
+    def weights(self) -> list[float] | None:
+        """The study's ``[optimizer] weights`` (the "weighted" rule), None when unknown."""
+        if self.study is None or self.study.optimizer.weights is None:
+            return None
+        return [float(w) for w in self.study.optimizer.weights]
+
+    @property
+    def point_id(self) -> int | None:
+        """Evaluation id of the design point (None when there is none)."""
+        ev = (self.point or {}).get("evaluation")
+        return int(ev) if isinstance(ev, int) and not isinstance(ev, bool) else None
 
     @property
     def ok(self) -> pd.DataFrame:
@@ -220,7 +248,8 @@ def load_run(run_dir: str | Path, study_path: str | Path | None = None,
     _name_columns(run, df, point, csv, counts, (x_cols, f_cols))
     if x_cols or f_cols:
         df = _rename(df, run.variables, run.objectives)
-    run.evaluations = df.reset_index(drop=True)
+    # the id column of evaluations.csv is the row number itself: the index carries it
+    run.evaluations = df.drop(columns=[ID_COLUMN], errors="ignore").reset_index(drop=True)
     _attach_point(run, point, simulate)
     return run
 
@@ -335,17 +364,20 @@ def _attach_point(run: RunData, point: dict[str, Any] | None, simulate: bool) ->
 
 
 def _rebuild_point(run: RunData, simulate: bool) -> dict[str, Any] | None:
-    """Design point of an interrupted run: the successful evaluation with the smallest
-    max(J) (the runner's criterion, Sec. 9.2.3)."""
+    """Design point of an interrupted run: the runner's rule (:attr:`RunData.rule`,
+    :func:`~hypate.scaling.workflow.rundir.design_point_index`) over the successful
+    evaluations."""
     ok = run.ok
     if ok.empty:
         return None
-    row = ok.index[rank_designs(ok[run.objectives].to_numpy(float))[0]]
+    row = ok.index[design_point_index(ok[run.objectives].to_numpy(float), run.rule,
+                                      run.weights)]
     rec = run.evaluations.loc[row]
     design = {n: float(rec[n]) for n in run.variables}
     point: dict[str, Any] = {
         "design": design, "objectives": {o: float(rec[o]) for o in run.objectives},
-        "similarity": [], "active_constraints": [], "evaluation": int(row)}
+        "similarity": [], "active_constraints": [], "evaluation": int(row),
+        "rule": run.rule}
     if run.study is None:
         return point
 

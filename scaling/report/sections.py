@@ -2,15 +2,19 @@
 
 Each builder takes a :class:`~hypate.scaling.report.rundata.RunData` and returns a
 :class:`Section` (or ``None`` to leave it out). :data:`BUILTIN_SECTIONS` lists them in page
-order: *Study*, *Design point* (Table 9.8 style, with active constraints), *Similarity
-parameters* (prototype / model / relative difference; > 10 % highlighted), *Figures*,
-*Pareto set*, *Run statistics* (evaluations, failures grouped by reason, wall time) and
-*Scaling laws* (a sweep's refined laws, Fig. 9.12). :mod:`.html` renders them into the page.
+order: *Study*, *Design point* (Table 9.8 style, with the rule that chose it and the active
+constraints), *Similarity parameters* (prototype / model / relative difference; > 10 %
+highlighted), *Glossary* (symbol, formula, equation and meaning of each parameter),
+*Figures*, *Pareto set* (the design point's row marked), *Run statistics* (evaluations,
+failures grouped by reason, wall time) and *Scaling laws* (a sweep's refined laws,
+Fig. 9.12). :mod:`.html` renders them into the page.
+
+Every evaluation number printed is the evaluation id (``RunData.evaluations``' index, the
+``id`` column of ``evaluations.csv``); every number goes through :mod:`.numbers`.
 """
 from __future__ import annotations
 
 import html
-import math
 import re
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
@@ -28,6 +32,12 @@ from hypate.scaling.report.figures import (
     response_figure,
     variable_unit,
 )
+from hypate.scaling.report.glossary import glossary_rows
+from hypate.scaling.report.numbers import (
+    format_difference,
+    format_number,
+    format_percent,
+)
 from hypate.scaling.report.rundata import RunData
 from hypate.scaling.workflow.laws import (
     SWEEP_JSON,
@@ -36,6 +46,7 @@ from hypate.scaling.workflow.laws import (
     laws_table,
     load_sweep,
 )
+from hypate.scaling.workflow.rundir import describe_rule
 
 __all__ = ["Section", "html_table", "BUILTIN_SECTIONS"]
 
@@ -50,26 +61,15 @@ class Section:
 
 # -- small HTML helpers ---------------------------------------------------------------------
 def _fmt(value: Any, digits: int = 4) -> str:
-    """Numbers to short text (``-`` for missing/NaN)."""
-    if value is None:
-        return "&ndash;"
-    if isinstance(value, (bool, np.bool_)):
-        return "yes" if value else "no"
-    if isinstance(value, (int, np.integer)):
-        return str(int(value))
-    if isinstance(value, (float, np.floating)):
-        v = float(value)
-        if not math.isfinite(v):
-            return "&ndash;"
-        return f"{v:.{digits}g}"
+    """Numbers to short text (:func:`.numbers.format_number`), other values escaped."""
+    if value is None or isinstance(value, (bool, int, float, np.bool_, np.number)):
+        return format_number(value, digits)
     return html.escape(str(value))
 
 
 def _pct(value: Any) -> str:
-    if value is None or not isinstance(value, (int, float, np.number)) \
-            or not math.isfinite(float(value)):
-        return "&ndash;"
-    return f"{100.0 * float(value):.3g} %"
+    """J or a relative difference in percent (:func:`.numbers.format_percent`)."""
+    return format_percent(value)
 
 
 def html_table(header: Sequence[str], rows: Iterable[Sequence[Any]],
@@ -179,6 +179,18 @@ def _bounds_of(run: RunData) -> dict[str, tuple[float, float]]:
     return {v.name: (v.lower, v.upper) for v in run.study.spec.variables}
 
 
+def _rule_paragraph(run: RunData) -> str:
+    """The sentence that defends the design point: which rule chose it, from what."""
+    rule = describe_rule(run.rule, len(run.objectives), run.weights)
+    which = f"evaluation {run.point_id}" if run.point_id is not None else "the design point"
+    source = ("rebuilt from the evaluation store (the run did not finish)"
+              if run.point_rebuilt else "chosen by the run")
+    key = (f" Rule <code>[optimizer] design_point = \"{html.escape(run.rule)}\"</code>."
+           if len(run.objectives) > 1 else "")
+    return (f"<p class='rule'><strong>Selection rule.</strong> The design point "
+            f"({html.escape(which)}, {source}) is {html.escape(rule)}.{key}</p>")
+
+
 def _design_section(run: RunData) -> Section:
     point = run.point
     if not point or not point.get("design"):
@@ -196,10 +208,7 @@ def _design_section(run: RunData) -> Section:
         rows.append((name, variable_unit(name), value, lo, hi, state or "",
                      classical.get(name)))
         classes.append("active" if state else "")
-    intro = ""
-    if run.point_rebuilt:
-        intro = ("<p class='note'>Rebuilt from the evaluation store (the run did not finish): "
-                 "the successful evaluation with the smallest max(J).</p>")
+    intro = _rule_paragraph(run)
     objs = point.get("objectives") or {}
     obj_rows = [(k, _Raw(_pct(v)), _Raw(_pct(((run.classical or {}).get("objectives")
                                                or {}).get(k))))
@@ -232,16 +241,30 @@ def _similarity_section(run: RunData) -> Section:
     rows, classes = [], []
     for rec in rows_in:
         rd = rec.get("relative_difference")
-        bad = rd is not None and math.isfinite(float(rd)) and abs(float(rd)) > MISMATCH_THRESHOLD
-        rows.append((rec.get("name"), rec.get("prototype"), rec.get("model"), _Raw(_pct(rd))))
+        bad = rd is not None and np.isfinite(float(rd)) and abs(float(rd)) > MISMATCH_THRESHOLD
+        rows.append((rec.get("name"), rec.get("prototype"), rec.get("model"),
+                     _Raw(format_difference(rd, rec.get("prototype"), rec.get("model")))))
         classes.append("mismatch" if bad else "")
     n_bad = classes.count("mismatch")
     return Section("Similarity parameters",
                    f"<p>{n_bad} of {len(rows)} parameters differ by more than "
                    f"{100 * MISMATCH_THRESHOLD:.0f} % (highlighted). Relative difference = "
-                   "|model - prototype| / |prototype|.</p>"
+                   "|model - prototype| / |prototype|; far from 1 the model/prototype ratio "
+                   "is given instead (x13.2 = 13.2 times the prototype's value). Symbols "
+                   "are explained in the glossary.</p>"
                    + html_table(["parameter", "prototype", "model", "relative difference"],
                                 rows, classes, css_class="similarity"))
+
+
+def _glossary_section(run: RunData) -> Section | None:
+    """Symbol, formula, equation and meaning of every parameter of the similarity table."""
+    names = [str(rec.get("name")) for rec in (run.point or {}).get("similarity") or []]
+    if not names:
+        return None
+    return Section("Glossary", "<p>The similarity parameters of the table above, as computed "
+                   "by hypate (equation numbers refer to the dissertation).</p>"
+                   + html_table(["symbol", "formula", "equation", "physical meaning"],
+                                glossary_rows(names), css_class="glossary"))
 
 
 def _figures_section(run: RunData) -> Section:
@@ -265,15 +288,18 @@ def _pareto_section(run: RunData) -> Section | None:
     F = ok[run.objectives].to_numpy(float)
     if len(run.objectives) == 2:
         sel = ok[non_dominated_mask(F)].sort_values(run.objectives[0])
-        title = f"Pareto set ({len(sel)} designs)"
+        title = f"Pareto set ({len(sel)} design{'s' if len(sel) != 1 else ''})"
     else:
         sel = ok.nsmallest(10, run.objectives[0])
         title = f"Best designs ({len(sel)})"
     header = ["evaluation"] + [f"{v} ({variable_unit(v)})" for v in run.variables] + \
-        list(run.objectives)
+        [f"{o} (%)" for o in run.objectives]
     rows = [[int(i)] + [r[v] for v in run.variables] + [_Raw(_pct(r[o])) for o in run.objectives]
             for i, r in sel.iterrows()]
-    return Section(title, html_table(header, rows))
+    marked = ["design" if int(i) == run.point_id else "" for i in sel.index]
+    note = ("<p>The design point's row is marked (&#9733;).</p>" if "design" in marked
+            else "")
+    return Section(title, note + html_table(header, rows, marked))
 
 
 _NUM = re.compile(r"[-+]?\d+(\.\d+)?([eE][-+]?\d+)?")
@@ -350,5 +376,5 @@ def _laws_section(run: RunData) -> Section | None:
 
 #: The built-in section builders, in page order (registered plug-ins follow them).
 BUILTIN_SECTIONS: tuple[Callable[[RunData], Section | None], ...] = (
-    _study_section, _design_section, _similarity_section, _figures_section, _pareto_section,
-    _statistics_section, _laws_section)
+    _study_section, _design_section, _similarity_section, _glossary_section, _figures_section,
+    _pareto_section, _statistics_section, _laws_section)

@@ -4,12 +4,14 @@ Outputs in the run directory (public names):
 
 * ``evaluations.sqlite`` -- the crash-safe store (every finished evaluation committed before
   the next proposal; ``--resume`` continues from it);
-* ``evaluations.csv`` -- every design with its variables by name, objectives, status,
-  message and wall time;
+* ``evaluations.csv`` -- ``id`` (the 0-based row number in the store order, the number the
+  report cites), every design with its variables by name, objectives, status, message and
+  wall time;
 * ``pareto.csv`` -- the Pareto set (or the best designs of a single-objective study);
 * ``design_point.json`` -- ``design`` (name -> value), ``objectives`` (name -> value),
   ``similarity`` (list of ``{"name", "prototype", "model", "relative_difference"}``),
-  ``active_constraints`` (list of names), plus the classical baseline and run statistics;
+  ``active_constraints`` (list of names), ``rule`` (the study's ``[optimizer] design_point``
+  rule that chose it), plus the classical baseline and run statistics;
 * ``prototype.npz`` / ``design_point.npz`` -- the prototype's and the design point's
   responses (:class:`hypate.solvers.coupling.response.Response`).
 """
@@ -44,9 +46,11 @@ from hypate.scaling.workflow.rundir import (
     DESIGN_POINT_JSON,
     DESIGN_POINT_NPZ,
     EVALUATIONS_CSV,
+    ID_COLUMN,
     PARETO_CSV,
     PROTOTYPE_NPZ,
     STORE,
+    design_point_index,
     finite_or_none,
     rank_designs,
     write_json,
@@ -301,21 +305,26 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
 
 
 def evaluations_table(study: Study, result: OptimizationResult) -> pd.DataFrame:
-    """Evaluations with variables and objectives by name."""
+    """Evaluations with variables and objectives by name, after an ``id`` column (the
+    0-based row number in the store order: the evaluation number the report prints)."""
     df = result.data.copy()
     names = study.spec.names
     rename = {f"x{i}": n for i, n in enumerate(names)}
     rename.update({f"f{i}": o for i, o in enumerate(study.spec.objectives)})
-    return df.rename(columns=rename)
+    df = df.rename(columns=rename)
+    df.insert(0, ID_COLUMN, np.arange(len(df)))
+    return df
 
 
 def choose_design_point(study: Study, result: OptimizationResult) -> int | None:
-    """Row of the design point: the feasible evaluation with the smallest max(J_u, J_T)
-    (Sec. 9.2.3's min max criterion; the objective itself for one objective)."""
+    """Row of the design point among the feasible evaluations, by the study's
+    ``[optimizer] design_point`` rule (:func:`~hypate.scaling.workflow.rundir.design_point_index`;
+    default "minmax": the smallest max(J_u, J_T), Sec. 9.2.3); None without a feasible one."""
     idx = np.flatnonzero(result.feasible)
     if idx.size == 0:
         return None
-    return int(idx[rank_designs(result.F[idx])[0]])
+    opt = study.optimizer
+    return int(idx[design_point_index(result.F[idx], opt.design_point, opt.weights)])
 
 
 def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationResult,
@@ -333,6 +342,7 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     tmp.replace(out / PARETO_CSV)
     row = choose_design_point(study, result)
     point: dict[str, Any] = {"study": study.name, "xi": study.spec.xi,
+                             "rule": study.optimizer.design_point,
                              "study_path": str(Path(study.path).resolve())
                              if study.path != "<memory>" else None}
     if row is None:

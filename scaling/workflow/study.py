@@ -25,7 +25,9 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
                    coordinates ("design" | "log" | "similarity": the surrogates' inputs;
                    "similarity" = logs of the matched similarity parameters, completed
                    by their null space), polish (final Nelder-Mead evaluations from
-                   the best design, one objective only), timeout
+                   the best design, one objective only), timeout,
+                   design_point ("minmax" | "weighted" | "knee": how the design point
+                   is chosen, see rundir.design_point_index; default "minmax")
     [sweep]        one optimization per sweep point into sub-directories of one run
                    directory (``hypate run``; Sec. 9.1.3, 9.2.2, 9.2.4):
                    xi = [2, 3, 4]            geometric scales (sub-directories ``xi_2`` ...)
@@ -209,6 +211,9 @@ class OptimizerSection(_Strict):
     coordinates: Literal["design", "log", "similarity"] = "design"
     polish: Annotated[int, Field(ge=0, le=10000)] = 0
     timeout: PosFloat | None = None
+    #: How the design point is chosen from the feasible evaluations (rundir.DESIGN_POINT_RULES;
+    #: "weighted" uses ``weights``).
+    design_point: Literal["minmax", "weighted", "knee"] = "minmax"
 
 
 class StudyFile(_Strict):

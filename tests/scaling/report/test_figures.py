@@ -7,7 +7,10 @@ from collections.abc import Callable
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+import numpy as np
+import pytest
 from hypate.scaling.report.figures import (
+    clip_to_box,
     embed_png,
     figure_html,
     history_figure,
@@ -15,16 +18,19 @@ from hypate.scaling.report.figures import (
     plot_sweep,
     response_figure,
     variable_unit,
+    zoom_limits,
 )
 from hypate.scaling.report.rundata import RunData
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
-def _embedded(fragment: str) -> bytes:
-    """The bytes of the one ``data:image/png`` image in an HTML fragment."""
-    (b64,) = re.findall(r'src="data:image/png;base64,([^"]*)"', fragment)
-    return base64.b64decode(b64, validate=True)
+def _embedded(fragment: str, count: int = 1) -> bytes:
+    """The bytes of the first ``data:image/png`` image in an HTML fragment that holds
+    ``count`` of them."""
+    found = re.findall(r'src="data:image/png;base64,([^"]*)"', fragment)
+    assert len(found) == count
+    return base64.b64decode(found[0], validate=True)
 
 
 def test_embed_png_round_trip(tmp_path: Path) -> None:
@@ -54,6 +60,36 @@ def test_run_figures_of_two_objectives(fabricated_run: Callable[..., RunData]) -
         assert _embedded(part) == run.figure_path(name).read_bytes()
     assert response_figure(run) == ""  # no response in the run
     assert not plt.get_fignums()
+
+
+def test_pareto_figure_zooms_on_the_front(fabricated_run: Callable[..., RunData]) -> None:
+    """An evaluation far from the front is clipped to the edge and counted; the full view
+    sits behind a <details> toggle; the axes are in percent."""
+    run = fabricated_run()
+    run.evaluations.loc[len(run.evaluations)] = run.evaluations.iloc[0]
+    run.evaluations.loc[len(run.evaluations) - 1, ["J_u", "J_T"]] = [40.0, 30.0]  # 4000 %
+    part = pareto_figure(run)
+    assert "1 evaluation beyond the axes" in part
+    assert "<details" in part and "Show all evaluations" in part
+    assert _embedded(part, count=2) == run.figure_path("pareto_front").read_bytes()
+    assert run.figure_path("pareto_front_all").is_file()
+    assert not plt.get_fignums()
+
+
+def test_zoom_limits_keep_a_margin() -> None:
+    lo, hi = zoom_limits(np.array([8.84]), log=False)  # a one-point front: not degenerate
+    assert lo < 8.84 < hi and hi - lo > 1.0
+    lo, hi = zoom_limits(np.array([0.0, 10.0]), log=False)
+    assert lo == 0.0 and hi > 10.0  # errors are never negative
+
+
+def test_clipped_points_keep_their_direction() -> None:
+    C, out = clip_to_box(np.array([[0.5, 0.5], [10.0, 1.0], [10.0, 10.0]]),
+                          (0.0, 1.0), (0.0, 1.0))
+    assert out.tolist() == [False, True, True]
+    np.testing.assert_allclose(C[0], [0.5, 0.5])
+    assert C[1, 0] == pytest.approx(1.0) and 0.5 < C[1, 1] < 0.6  # on the right edge
+    np.testing.assert_allclose(C[2], [1.0, 1.0])  # the corner, along the diagonal
 
 
 def test_run_figures_of_one_objective(fabricated_run: Callable[..., RunData]) -> None:

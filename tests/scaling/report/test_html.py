@@ -9,6 +9,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import pandas as pd
 import pytest
 from hypate.scaling.cli.main import main
 from hypate.scaling.report.figures import MISMATCH_THRESHOLD
@@ -67,6 +68,23 @@ def test_report_of_finished_run(tiny_run: tuple[Path, Path]) -> None:
                 and abs(r["relative_difference"]) > MISMATCH_THRESHOLD)
     assert page.count('<tr class="mismatch">') == n_bad
     assert "tiny" in page and "ideal" in page  # study name, tunnel
+
+
+def test_report_ids_are_the_csv_ids(tiny_run: tuple[Path, Path]) -> None:
+    """evaluations.csv starts with the id column; the id the report cites for the design
+    point is the CSV row holding its objectives; the rule is stated and recorded."""
+    out, study = tiny_run
+    page = write_report(out, study_path=study).read_text(encoding="utf-8")
+    csv = pd.read_csv(out / "evaluations.csv")
+    assert csv.columns[0] == "id" and (csv["id"] == range(len(csv))).all()
+    point = json.loads((out / "design_point.json").read_text())
+    assert point["rule"] == "minmax"
+    row = csv.loc[csv["id"] == point["evaluation"]].iloc[0]
+    assert {o: row[o] for o in point["objectives"]} == pytest.approx(point["objectives"])
+    assert f"Selection rule.</strong> The design point (evaluation {point['evaluation']}," \
+        in page
+    marked = page.split('<tr class="design">')[1].split("</tr>")[0]
+    assert marked.startswith(f"<td>{point['evaluation']}</td>")
 
 
 def test_extra_and_registered_sections(tiny_run: tuple[Path, Path]) -> None:

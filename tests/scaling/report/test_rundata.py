@@ -80,6 +80,20 @@ def test_csv_alone(tiny_run: tuple[Path, Path], tmp_path: Path) -> None:
     csv = pd.read_csv(out / "evaluations.csv")
     np.testing.assert_array_equal(run.evaluations[OBJECTIVES].to_numpy(),
                                   csv[OBJECTIVES].to_numpy())
+    # the id column is the row number: it becomes the index, not a column
+    assert "id" not in run.evaluations.columns
+    np.testing.assert_array_equal(run.evaluations.index.to_numpy(), csv["id"].to_numpy())
+
+
+def test_rule_recorded_then_study_then_default(tiny_run: tuple[Path, Path]) -> None:
+    out, _ = tiny_run
+    run = load_run(out)
+    assert run.point["rule"] == "minmax" and run.rule == "minmax"
+    assert run.point_id == run.point["evaluation"]
+    run.point = {"rule": "knee"}
+    assert run.rule == "knee" and run.point_id is None
+    run.point, run.study = {}, None
+    assert run.rule == "minmax" and run.weights is None  # runs older than the key
 
 
 def test_not_a_run_directory(tmp_path: Path, tiny_run: tuple[Path, Path]) -> None:

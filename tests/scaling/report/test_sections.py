@@ -27,8 +27,9 @@ def test_builtin_sections_of_a_run_without_study(fabricated_run: Callable[..., R
                                                  ) -> None:
     """Every built-in section copes with a run that knows no study; page order kept."""
     sections = _sections(fabricated_run())
-    assert list(sections) == ["Study", "Design point", "Similarity parameters", "Figures",
-                              "Pareto set (3 designs)", "Run statistics"]  # no sweep: no laws
+    assert list(sections) == ["Study", "Design point", "Similarity parameters", "Glossary",
+                              "Figures", "Pareto set (3 designs)",
+                              "Run statistics"]  # no sweep: no laws
     similarity = sections["Similarity parameters"].html
     assert "1 of 2 parameters differ by more than 10 %" in similarity
     assert similarity.count('<tr class="mismatch">') == 1
@@ -42,3 +43,50 @@ def test_design_point_missing(fabricated_run: Callable[..., RunData]) -> None:
     run.point = {"message": "every evaluation failed"}
     design = _sections(run)["Design point"].html
     assert "No design point: every evaluation failed." in design
+
+
+def test_design_section_states_the_rule(fabricated_run: Callable[..., RunData]) -> None:
+    """The rule is stated on every report, finished or rebuilt; the point's id is cited."""
+    run = fabricated_run()
+    run.point["evaluation"] = 2
+    design = _sections(run)["Design point"].html
+    assert "Selection rule." in design and "evaluation 2" in design
+    assert "smallest max(J_u, J_T)" in design and 'design_point = "minmax"' in design
+    run.point["rule"] = "knee"
+    design = _sections(run)["Design point"].html
+    assert "knee of the Pareto front" in design and 'design_point = "knee"' in design
+
+
+def test_pareto_table_marks_the_design_point(fabricated_run: Callable[..., RunData]) -> None:
+    run = fabricated_run()
+    run.point["evaluation"] = 2  # (0.2, 0.2): on the front
+    table = _sections(run)["Pareto set (3 designs)"].html
+    assert table.count('<tr class="design">') == 1
+    row = table.split('<tr class="design">')[1].split("</tr>")[0]
+    assert row.startswith("<td>2</td>") and "20 %" in row  # the id; J in percent
+    assert "<th>J_u (%)</th>" in table
+
+
+def test_similarity_far_from_one_is_a_ratio(fabricated_run: Callable[..., RunData]) -> None:
+    run = fabricated_run()
+    run.point["similarity"].append({"name": "Re_0", "prototype": 1.0e5, "model": 1.32e6,
+                                    "relative_difference": 12.2})
+    similarity = _sections(run)["Similarity parameters"].html
+    assert "<td>x13.2</td>" in similarity and "1.22e+03 %" not in similarity
+    assert "<td>50 %</td>" in similarity  # Bi: 2 -> 3, near 1: percent
+
+
+def test_glossary_explains_every_parameter_of_the_table(
+        fabricated_run: Callable[..., RunData]) -> None:
+    run = fabricated_run()
+    glossary = _sections(run)["Glossary"].html
+    assert "<td>lambda_F</td><td>gamma p_inf M_inf L^3 / D_xx</td><td>Eq. (6.2a)</td>" \
+        in glossary
+    assert "flutter" in glossary  # lambda_F's meaning
+    assert "<td>Bi</td>" in glossary  # unknown to PARAMETERS: listed with empty cells
+
+
+def test_failure_ids_are_the_evaluation_ids(fabricated_run: Callable[..., RunData]) -> None:
+    run = fabricated_run()  # evaluation 5 failed
+    statistics = _sections(run)["Run statistics"].html
+    assert "<td>failed</td><td>1</td><td>5</td>" in statistics
