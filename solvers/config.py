@@ -35,6 +35,7 @@ from hypate.solvers.aero.factory import AERO_NAMES, is_aero_name
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.panel import Layer, PanelSpec
+from hypate.solvers.settings import DEFAULTS, SimulationSettings
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 PropertySpec = float | list[tuple[float, float]]
@@ -137,20 +138,25 @@ class FlowConfig(_Strict):
 
 
 class SimulationConfig(_Strict):
-    scheme: Literal["s1", "s2", "tc"] = "tc"
-    aero: str = "pt"
-    heating: Literal["eckert", "none"] = "eckert"
-    boundary_layer: Literal["turbulent", "laminar"] = "turbulent"
-    time_step: Positive = 0.2
-    duration: Positive = 160.0
-    radiation_temperature: Annotated[float, Field(gt=0.0, le=5000.0)] | None = None
-    external_pressure: Annotated[float, Field(ge=-1e7, le=1e7)] = 0.0
-    external_heat_flux: Annotated[float, Field(ge=-1e7, le=1e7, allow_inf_nan=False)] = 0.0
-    lsa_modes: Annotated[int, Field(ge=1, le=50)] = 6
-    unstable_steps: Annotated[int, Field(ge=1, le=1000)] = 2
-    passes: Annotated[int, Field(ge=1, le=20)] = 1
-    fluid_density: Annotated[int, Field(ge=1, le=8)] = 2
-    rho_bar: Annotated[float, Field(ge=0.0, le=1.0)] = 1.0
+    """``[simulation]`` of a case file: the keys of :class:`SimulationSettings`, with its
+    defaults (one set, :data:`hypate.solvers.settings.DEFAULTS`)."""
+
+    scheme: Literal["s1", "s2", "tc"] = DEFAULTS.scheme
+    aero: str = DEFAULTS.aero
+    heating: Literal["eckert", "none"] = DEFAULTS.heating
+    boundary_layer: Literal["turbulent", "laminar"] = DEFAULTS.boundary_layer
+    time_step: Positive = DEFAULTS.time_step
+    duration: Positive = DEFAULTS.duration
+    radiation_temperature: Annotated[float, Field(gt=0.0, le=5000.0)] | None = \
+        DEFAULTS.radiation_temperature
+    external_pressure: Annotated[float, Field(ge=-1e7, le=1e7)] = DEFAULTS.external_pressure
+    external_heat_flux: Annotated[float, Field(ge=-1e7, le=1e7, allow_inf_nan=False)] = \
+        DEFAULTS.external_heat_flux
+    lsa_modes: Annotated[int, Field(ge=1, le=50)] = DEFAULTS.lsa_modes
+    unstable_steps: Annotated[int, Field(ge=1, le=1000)] = DEFAULTS.unstable_steps
+    passes: Annotated[int, Field(ge=1, le=20)] = DEFAULTS.passes
+    fluid_density: Annotated[int, Field(ge=1, le=8)] = DEFAULTS.fluid_density
+    rho_bar: Annotated[float, Field(ge=0.0, le=1.0)] = DEFAULTS.rho_bar
 
     @model_validator(mode="after")
     def _check(self) -> SimulationConfig:
@@ -160,6 +166,11 @@ class SimulationConfig(_Strict):
         if self.duration < self.time_step:
             raise ValueError("duration: must be at least one time_step")
         return self
+
+
+def settings_from_config(sim: SimulationConfig) -> SimulationSettings:
+    """The :class:`SimulationSettings` of a validated case-file ``[simulation]`` table."""
+    return SimulationSettings(**sim.model_dump())
 
 
 class CaseConfig(_Strict):

@@ -19,8 +19,8 @@ import numpy as np
 from hypate.scaling.cli.timing import median_seconds
 from hypate.scaling.workflow.shipped import shipped
 from hypate.solvers.aero.factory import make_fluid_model
-from hypate.solvers.config import parse_case, read_toml
-from hypate.solvers.coupling.model import PanelModel, settings_from_config
+from hypate.solvers.config import parse_case, read_toml, settings_from_config
+from hypate.solvers.coupling.model import PanelModel
 from hypate.solvers.coupling.tc import run_tc
 from hypate.solvers.errors import InputError
 

@@ -372,7 +372,7 @@ def response_figure(run: RunData) -> str:
     steps = None
     dt_p = None
     if run.study is not None:
-        steps = run.study.spec.simulation.steps
+        steps = run.study.spec.simulation.n_steps
         dt_p = run.study.spec.simulation.time_step
     elif proto is not None and len(proto.times) > 1:
         steps = len(proto.times) - 1

@@ -23,11 +23,11 @@ from hypate.scaling.workflow.rundir import (
     CLASSICAL_JSON,
     DESIGN_POINT_JSON,
     DESIGN_POINT_NPZ,
+    DESIGN_POINT_RULES,
     EVALUATIONS_CSV,
     FIGURES_DIR,
-    PROTOTYPE_NPZ,
-    DESIGN_POINT_RULES,
     ID_COLUMN,
+    PROTOTYPE_NPZ,
     STORE,
     design_point_index,
 )

@@ -157,7 +157,7 @@ def _study_section(run: RunData) -> Section:
              ("study file", f"<code>{html.escape(str(run.study_path))}</code>"),
              ("prototype", prototype), ("model", model), ("tunnel", tunnel),
              ("simulation", html.escape(
-                 f"{sim.kind}, {sim.steps} steps of {sim.time_step:g} s (prototype), "
+                 f"{spec.kind}, {sim.n_steps} steps of {sim.time_step:g} s (prototype), "
                  f"aero {sim.aero}, heating {sim.heating}; time scaling {spec.time_scaling}, "
                  f"projection {spec.projection}")),
              ("objectives", html.escape(", ".join(spec.objectives))),
@@ -228,8 +228,8 @@ def _design_section(run: RunData) -> Section:
     if run.study is not None and run.model_time_step is not None:
         sim = run.study.spec.simulation
         extra.append(("model test duration",
-                      f"{run.model_time_step * sim.steps:.4g} s (prototype "
-                      f"{sim.time_step * sim.steps:.4g} s)"))
+                      f"{run.model_time_step * sim.n_steps:.4g} s (prototype "
+                      f"{sim.time_step * sim.n_steps:.4g} s)"))
     return Section("Design point", body + (_dl(extra) if extra else ""))
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from hypate.scaling.workflow.variables import (
@@ -20,6 +20,7 @@ from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.materials import STEFAN_BOLTZMANN
 from hypate.solvers.panel import PanelSpec
+from hypate.solvers.settings import SimulationSettings
 
 
 # -- inputs ----------------------------------------------------------------------------------
@@ -75,13 +76,14 @@ class Configuration:
         Uniform temperature rise Delta T (K) of Eq. (9.1a); ``None`` if not applicable.
     time : float or None
         Reference time t (s), e.g. the time step or the duration, for the time parameters of
-        Eq. (6.1b); ``None`` leaves them out.
-    external_pressure : float
-        p_ext (Pa), Eq. (6.1e).
-    external_heat_flux : float
-        Explicit q_ext (W/m^2), Eq. (6.1d).
-    radiation_temperature : float or None
-        Radiant heater temperature T_rad (K); adds ``emissivity sigma T_rad^4`` to q_ext.
+        Eq. (6.1b); ``None`` leaves them out. :meth:`with_time_step` sets it to the time
+        step the simulation runs.
+    simulation : SimulationSettings
+        How this article is simulated -- scheme, fluid model, time step, and the external
+        loads the similarity parameters see: ``external_pressure`` p_ext (Pa, Eq. 6.1e),
+        ``external_heat_flux`` q_ext (W/m^2, Eq. 6.1d), ``radiation_temperature`` T_rad (K,
+        a radiant heater). The configuration keeps no copy of them (its properties of those
+        names read these), so what the similarity table sees is what the simulator runs.
     """
 
     panel: PanelSpec
@@ -89,9 +91,35 @@ class Configuration:
     temperatures: ReferenceTemperatures | None = None
     delta_T: float | None = None
     time: float | None = None
-    external_pressure: float = 0.0
-    external_heat_flux: float = 0.0
-    radiation_temperature: float | None = None
+    simulation: SimulationSettings = field(default_factory=SimulationSettings)
+
+    @property
+    def external_pressure(self) -> float:
+        """p_ext (Pa), Eq. (6.1e): the simulation's external pressure."""
+        return float(self.simulation.external_pressure)
+
+    @property
+    def external_heat_flux(self) -> float:
+        """Explicit q_ext (W/m^2), Eq. (6.1d): the simulation's external heat flux."""
+        return float(self.simulation.external_heat_flux)
+
+    @property
+    def radiation_temperature(self) -> float | None:
+        """Radiant heater temperature T_rad (K), None without a heater."""
+        return self.simulation.radiation_temperature
+
+    def with_time_step(self, time_step: float) -> Configuration:
+        """This configuration simulated with ``time_step`` (same number of steps) and with
+        that step as the reference time of its similarity parameters (Eq. 6.1b)."""
+        sim = self.simulation
+        return dataclasses.replace(self, time=float(time_step), simulation=dataclasses.replace(
+            sim, time_step=float(time_step), duration=float(time_step) * sim.n_steps))
+
+    def run_settings(self, keep_fields: bool = False) -> SimulationSettings:
+        """The settings of this configuration's simulation: its own, with the uniform
+        temperature rise Delta T (Eq. 9.1a) as the initial state."""
+        return dataclasses.replace(self.simulation, keep_fields=keep_fields,
+                                   initial_temperature_rise=float(self.delta_T or 0.0))
 
     @property
     def heat_flux(self) -> float:
@@ -216,12 +244,15 @@ def apply_design(template: Configuration, design: Mapping[str, float]) -> Config
         changes["delta_T"] = positive("delta_T", design["delta_T"], "K")
     if "time" in design:
         changes["time"] = positive("time", design["time"], "s")
+    loads: dict[str, Any] = {}
     if "p_ext" in design:
-        changes["external_pressure"] = float(design["p_ext"])
+        loads["external_pressure"] = float(design["p_ext"])
     if "q_ext" in design:
-        changes["external_heat_flux"] = float(design["q_ext"])
+        loads["external_heat_flux"] = float(design["q_ext"])
     if "T_rad" in design:
-        changes["radiation_temperature"] = positive("T_rad", design["T_rad"], "K")
+        loads["radiation_temperature"] = positive("T_rad", design["T_rad"], "K")
+    if loads:
+        changes["simulation"] = dataclasses.replace(template.simulation, **loads)
     return dataclasses.replace(template, **changes)
 
 

@@ -52,10 +52,11 @@ from hypate.scaling.workflow.similarity import (
 )
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.coupling.lc import run_lc
-from hypate.solvers.coupling.model import CouplingSettings, PanelModel
+from hypate.solvers.coupling.model import PanelModel
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.coupling.tc import run_tc
 from hypate.solvers.errors import InputError
+from hypate.solvers.settings import SimulationSettings
 from pymoo.core.problem import Problem
 
 #: Objective names.
@@ -91,28 +92,6 @@ class Variable:
 
 
 @dataclass(frozen=True)
-class Simulation:
-    """How a configuration is simulated (shared by prototype and model)."""
-
-    kind: str = "quasi_steady"          # "quasi_steady" (TC + LSA) | "aeroelastic" (S2)
-    aero: str = "pt-bl"
-    heating: str = "eckert"
-    boundary_layer: str = "turbulent"
-    time_step: float = 1.0              # prototype time step (s)
-    steps: int = 160
-    initial_deflection: float = 0.0     # x thickness, both runs (nondimensional)
-    lsa_modes: int = 6
-    unstable_steps: int = 2
-    rho_bar: float = 0.5                # generalized-alpha: damps the stiff in-plane modes
-
-    def __post_init__(self) -> None:
-        if self.kind not in ("quasi_steady", "aeroelastic"):
-            raise InputError("simulation.kind", "must be 'quasi_steady' or 'aeroelastic'")
-        if not (self.time_step > 0 and self.steps >= 1):
-            raise InputError("simulation.steps", "need time_step > 0 and steps >= 1")
-
-
-@dataclass(frozen=True)
 class ScalingSpec:
     """Everything that defines one scaling problem.
 
@@ -127,7 +106,6 @@ class ScalingSpec:
         Design values applied to every model (names of ``apply_design``), e.g. ``L`` from
         the geometric scale.
     objectives : tuple of str
-    simulation : Simulation
     time_scaling : {"fourier", "fourier_thickness", "structural"}
         :data:`hypate.scaling.workflow.similarity.TIME_SCALINGS`: Eqs. 9.5-9.6, Eq. 6.5 or Eq. 9.3.
     projection : {"center", "modal", "fields"}
@@ -142,7 +120,6 @@ class ScalingSpec:
     variables: tuple[Variable, ...]
     fixed: dict[str, float] = field(default_factory=dict)
     objectives: tuple[str, ...] = ("J_u", "J_T")
-    simulation: Simulation = Simulation()
     time_scaling: str = "fourier"
     projection: str = "center"
     equalities: tuple[str, ...] = ()
@@ -171,32 +148,45 @@ class ScalingSpec:
             raise InputError(f"fixed.{sorted(both)[0]}", "is also a design variable")
 
     @property
+    def simulation(self) -> SimulationSettings:
+        """The prototype's simulation settings (the model template carries the same ones;
+        each model runs them with its own time step)."""
+        return self.prototype.simulation
+
+    @property
+    def kind(self) -> str:
+        """``"quasi_steady"`` (TC + LSA) or ``"aeroelastic"`` (S2): the study kind."""
+        return "quasi_steady" if self.simulation.scheme == "tc" else "aeroelastic"
+
+    def with_steps(self, steps: int) -> ScalingSpec:
+        """The same problem simulated for ``steps`` prototype time steps."""
+        def resized(config: Configuration) -> Configuration:
+            sim = config.simulation
+            return dataclasses.replace(config, simulation=dataclasses.replace(
+                sim, duration=sim.time_step * int(steps)))
+        return dataclasses.replace(self, prototype=resized(self.prototype),
+                                   model=resized(self.model))
+
+    @property
     def names(self) -> list[str]:
         return [v.name for v in self.variables]
 
 
 # -- simulation of one configuration --------------------------------------------------------
-def simulate_configuration(config: Configuration, sim: Simulation, time_step: float,
-                           keep_fields: bool = False) -> Response:
-    """Run the simulator on one configuration for ``sim.steps`` steps of ``time_step``.
-
-    The explicit external heat flux ``config.external_heat_flux`` (q_ext, Eq. 6.1d) heats
-    the upper surface; a radiant heater's part of q_ext (``Configuration.heat_flux``) is the
-    radiation exchange with ``radiation_temperature`` and is not added again.
+def simulate_configuration(config: Configuration, keep_fields: bool = False) -> Response:
+    """Run the simulator on one configuration with its own settings
+    (:meth:`Configuration.run_settings`): what the similarity table of ``config`` describes
+    is what runs. The TC scheme runs with LSA each step; the aeroelastic S2 scheme records
+    every step and runs past a snap-through (the comparison needs the whole history). The
+    explicit external heat flux q_ext (Eq. 6.1d) heats the upper surface; a radiant heater's
+    part of q_ext is the radiation exchange with ``radiation_temperature``.
     """
-    fluid = make_fluid_model(sim.aero, sim.heating, sim.boundary_layer)
-    settings = CouplingSettings(
-        time_step=time_step, duration=time_step * sim.steps,
-        radiation_temperature=config.radiation_temperature,
-        external_pressure=config.external_pressure,
-        external_heat_flux=float(config.external_heat_flux), lsa_modes=sim.lsa_modes,
-        unstable_steps=sim.unstable_steps, keep_fields=keep_fields,
-        initial_temperature_rise=float(config.delta_T or 0.0),
-        initial_deflection=sim.initial_deflection)
+    settings = config.run_settings(keep_fields=keep_fields)
+    fluid = make_fluid_model(settings.aero, settings.heating, settings.boundary_layer)
     model = PanelModel(config.panel, config.flow, fluid, settings)
-    if sim.kind == "quasi_steady":
+    if settings.scheme == "tc":
         return run_tc(model)
-    return run_lc(model, "s2", rho_bar=sim.rho_bar, record_every=1, stop_on_snap=False)
+    return run_lc(model, settings.scheme, record_every=1, stop_on_snap=False)
 
 
 def _series(resp: Response, projection: str) -> np.ndarray:
@@ -270,8 +260,7 @@ class ScalingProblem(Problem):
     def prototype_response(self) -> Response:
         """The prototype's response (simulated once, then cached)."""
         if self._prototype_response is None:
-            resp = simulate_configuration(self.spec.prototype, self.spec.simulation,
-                                          self.spec.simulation.time_step,
+            resp = simulate_configuration(self.spec.prototype,
                                           keep_fields=self.spec.projection == "fields")
             if resp.status == "failed":
                 raise InputError("prototype", f"the prototype simulation failed: {resp.message}")
@@ -287,8 +276,11 @@ class ScalingProblem(Problem):
         return {**self.spec.fixed, **dict(zip(self.spec.names, map(float, x)))}
 
     def model_configuration(self, x: Sequence[float]) -> Configuration:
-        """The model configuration of design vector ``x`` (DESIGN.md data flow)."""
-        return apply_design(self.spec.model, self.design(x))
+        """The model configuration of design vector ``x`` (DESIGN.md data flow), simulated
+        with its matched time step (:meth:`model_time_step`), which is also the reference
+        time of its similarity parameters."""
+        config = apply_design(self.spec.model, self.design(x))
+        return config.with_time_step(self.model_time_step(config))
 
     def model_time_step(self, config: Configuration) -> float:
         """Model time step at matched nondimensional time (Eqs. 9.6, 6.5 or 9.3)."""
@@ -298,9 +290,7 @@ class ScalingProblem(Problem):
     def simulate_model(self, x: Sequence[float], keep_fields: bool = False
                        ) -> tuple[Configuration, Response]:
         config = self.model_configuration(x)
-        resp = simulate_configuration(config, self.spec.simulation,
-                                      self.model_time_step(config), keep_fields=keep_fields)
-        return config, resp
+        return config, simulate_configuration(config, keep_fields=keep_fields)
 
     def errors(self, x: Sequence[float]) -> dict[str, float]:
         """J_u, J_T, J_s of one design; raises :class:`ModelFailure` when not comparable."""
@@ -378,11 +368,9 @@ class ScalingProblem(Problem):
     # -- reporting ------------------------------------------------------------------------------
     def similarity(self, x: Sequence[float]) -> list[dict[str, Any]]:
         """Similarity-parameter table of a design, public ``design_point.json`` form."""
-        config = self.model_configuration(x)
         proto = self.spec.prototype
-        dt_m = self.model_time_step(config)
-        table = compare(dataclasses.replace(proto, time=self.spec.simulation.time_step),
-                        dataclasses.replace(config, time=dt_m))
+        table = compare(proto.with_time_step(proto.simulation.time_step),
+                        self.model_configuration(x))
         return comparison_records(table)
 
     def active_bounds(self, x: Sequence[float], rtol: float = 1e-3) -> list[str]:

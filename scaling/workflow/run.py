@@ -79,7 +79,7 @@ def classical_baseline(study: Study, problem: ScalingProblem) -> dict[str, Any] 
     spec = study.spec
     bounds = {v.name: (v.lower, v.upper) for v in spec.variables}
     bounds.update({k: (v, v) for k, v in spec.fixed.items() if v > 0})
-    match = CLASSICAL_MATCH[spec.simulation.kind]
+    match = CLASSICAL_MATCH[spec.kind]
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -116,7 +116,7 @@ def surrogate_coordinates(study: Study, problem: ScalingProblem
     centre = dict(zip(names, np.sqrt(lo * hi).tolist()))
     design = {**{k: v for k, v in spec.fixed.items() if v > 0}, **centre}
     try:
-        E = similarity_exponents(spec.model, design, names, CLASSICAL_MATCH[spec.simulation.kind])
+        E = similarity_exponents(spec.model, design, names, CLASSICAL_MATCH[spec.kind])
     except (ValueError, ArithmeticError) as exc:
         raise InputError("optimizer.coordinates", f"similarity exponents: {exc}") from None
     return LogLinearCoordinates(similarity_basis(E))

@@ -64,7 +64,6 @@ from hypate.scaling.workflow.problem import (
     EQUALITY_CONSTRAINTS,
     OBJECTIVES,
     ScalingSpec,
-    Simulation,
     Variable,
 )
 from hypate.scaling.workflow.shipped import resolve
@@ -82,6 +81,7 @@ from hypate.solvers.config import (
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.panel import Layer, PanelSpec
+from hypate.solvers.settings import DEFAULTS, SimulationSettings
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 PosFloat = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
@@ -162,15 +162,18 @@ class LawsSection(_Strict):
 
 
 class SimulationSection(_Strict):
-    time_step: PosFloat = 1.0
-    steps: Annotated[int, Field(ge=1, le=100000)] = 160
-    aero: str = "pt-bl"
-    heating: Literal["eckert", "none"] = "eckert"
-    boundary_layer: Literal["turbulent", "laminar"] = "turbulent"
-    initial_deflection: Annotated[float, Field(ge=-10.0, le=10.0)] = 0.0
-    lsa_modes: Annotated[int, Field(ge=1, le=50)] = 6
-    unstable_steps: Annotated[int, Field(ge=1, le=1000)] = 2
-    rho_bar: Annotated[float, Field(ge=0.0, le=1.0)] = 0.5
+    """``[simulation]`` of a study: the keys of :class:`SimulationSettings` a study sets,
+    with its defaults, plus ``steps`` (of the prototype time step) and a ``mesh`` override."""
+
+    time_step: PosFloat = DEFAULTS.time_step
+    steps: Annotated[int, Field(ge=1, le=100000)] = DEFAULTS.n_steps
+    aero: str = DEFAULTS.aero
+    heating: Literal["eckert", "none"] = DEFAULTS.heating
+    boundary_layer: Literal["turbulent", "laminar"] = DEFAULTS.boundary_layer
+    initial_deflection: Annotated[float, Field(ge=-10.0, le=10.0)] = DEFAULTS.initial_deflection
+    lsa_modes: Annotated[int, Field(ge=1, le=50)] = DEFAULTS.lsa_modes
+    unstable_steps: Annotated[int, Field(ge=1, le=1000)] = DEFAULTS.unstable_steps
+    rho_bar: Annotated[float, Field(ge=0.0, le=1.0)] = DEFAULTS.rho_bar
     mesh: Annotated[list[Annotated[int, Field(ge=1, le=100)]], Field(min_length=2,
                                                                       max_length=2)] | None = None
 
@@ -353,6 +356,17 @@ def _bounds(name: str, value: list[float] | str, tunnel: TunnelEnvelope | None
     return lo, hi
 
 
+def simulation_settings(kind: str, sim: SimulationSection) -> SimulationSettings:
+    """The one settings type from a study's ``[simulation]``: the prototype's time step and
+    step count; ``kind`` picks the scheme (quasi-steady: TC with LSA, aeroelastic: S2)."""
+    return SimulationSettings(
+        scheme="tc" if kind == "quasi_steady" else "s2", aero=sim.aero, heating=sim.heating,
+        boundary_layer=sim.boundary_layer, time_step=sim.time_step,
+        duration=sim.time_step * sim.steps, lsa_modes=sim.lsa_modes,
+        unstable_steps=sim.unstable_steps, rho_bar=sim.rho_bar,
+        initial_deflection=sim.initial_deflection)
+
+
 def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
     """Validate a parsed study and build its :class:`ScalingSpec` (nothing is simulated)."""
     try:
@@ -381,7 +395,9 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
     elif cfg.prototype.mach is not None:
         proto_flow = FlowCondition.from_static(cfg.prototype.mach, case.flow.pressure,
                                                case.flow.temperature)
-    prototype = Configuration(panel=proto_panel, flow=proto_flow, delta_T=cfg.prototype.delta_T)
+    simulation = simulation_settings(cfg.study.kind, sim_cfg)
+    prototype = Configuration(panel=proto_panel, flow=proto_flow, delta_T=cfg.prototype.delta_T,
+                              simulation=simulation)
 
     tunnel = None
     if cfg.tunnel is not None:
@@ -416,7 +432,8 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
                                                    math.sqrt(lo_T * hi_T))
     else:
         model_flow = case.flow
-    model = Configuration(panel=model_panel, flow=model_flow, delta_T=cfg.prototype.delta_T)
+    model = Configuration(panel=model_panel, flow=model_flow, delta_T=cfg.prototype.delta_T,
+                          simulation=simulation)
 
     variables = tuple(Variable(name, *_bounds(name, value, tunnel))
                       for name, value in cfg.variables.items())
@@ -436,13 +453,8 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
     if not is_aero_name(aero):
         raise InputError("simulation.aero", f"must be one of {', '.join(AERO_NAMES)} or "
                          f"'rom:PATH'; got {aero!r}")
-    simulation = Simulation(kind=cfg.study.kind, aero=aero, heating=sim_cfg.heating,
-                            boundary_layer=sim_cfg.boundary_layer, time_step=sim_cfg.time_step,
-                            steps=sim_cfg.steps, initial_deflection=sim_cfg.initial_deflection,
-                            lsa_modes=sim_cfg.lsa_modes, unstable_steps=sim_cfg.unstable_steps,
-                            rho_bar=sim_cfg.rho_bar)
     spec = ScalingSpec(prototype=prototype, model=model, variables=variables, fixed=fixed,
-                       objectives=tuple(cfg.study.objectives), simulation=simulation,
+                       objectives=tuple(cfg.study.objectives),
                        time_scaling=cfg.study.time_scaling, projection=cfg.study.projection,
                        equalities=tuple(cfg.constraints.equality), xi=xi)
     return Study(path=str(path), name=cfg.study.name, description=cfg.study.description,

@@ -31,12 +31,13 @@ from dataclasses import dataclass
 import numpy as np
 from hypate.solvers.aero.analytic import AnalyticFluid
 from hypate.solvers.coupling.lc import run_lc
-from hypate.solvers.coupling.model import CouplingSettings, EquilibriumError, PanelModel
+from hypate.solvers.coupling.model import EquilibriumError, PanelModel
 from hypate.solvers.coupling.stability import StabilityResult, gep, pep
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.laminate import laminate
 from hypate.solvers.panel import PanelSpec
+from hypate.solvers.settings import SimulationSettings
 from hypate.solvers.structure.modal import buckling_delta_T, modes
 from hypate.solvers.structure.model import StructuralModel
 
@@ -111,7 +112,7 @@ class FlutterAnalysis:
         return FlowCondition.from_static(self.mach, p, T)
 
     def _model(self, lam: float) -> PanelModel:
-        settings = CouplingSettings(time_step=1.0, duration=1.0, lsa_modes=6, passes=1)
+        settings = SimulationSettings(time_step=1.0, duration=1.0, lsa_modes=6, passes=1)
         return PanelModel(self.panel, self._flow(lam), AnalyticFluid(self.aero, heating="none"),
                           settings, structure=self.structure)
 
@@ -170,7 +171,7 @@ class FlutterAnalysis:
         step = T1 / 100.0 if dt is None else float(dt)
         if not (step > 0 and periods > 0):
             raise InputError("lco", "dt and periods must be > 0")
-        settings = CouplingSettings(time_step=step, duration=periods * T1, lsa_modes=1,
+        settings = SimulationSettings(time_step=step, duration=periods * T1, lsa_modes=1,
                                     keep_fields=False, initial_temperature_rise=self.delta_T,
                                     initial_deflection=initial_deflection)
         # purely aeroelastic: no heating and no radiation, so the thermal field stays frozen

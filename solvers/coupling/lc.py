@@ -32,7 +32,8 @@ def explicit_thermal_loads(model: PanelModel, q_fluid: Array) -> ThermalLoads:
     return ThermalLoads(top=top)
 
 
-def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float = 1.0, record_every: int = 1,
+def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float | None = None,
+           record_every: int = 1,
            progress=None, stop_on_snap: bool = True,
            record_energy: bool = False, ramp_time: float = 0.0) -> Response:
     """Loosely coupled transient schemes S1 and S2 (Sec. 5.3.1), time step ``settings.time_step``.
@@ -52,6 +53,9 @@ def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float = 1.0, record_e
     for convergence studies, where the impulsive start's high-frequency transient (modes no
     practical step resolves) masks the schemes' order. The stored pressure and heat flux are
     the ramped ones.
+
+    ``rho_bar`` (generalized-alpha spectral radius, Eq. 3.45): ``None`` takes
+    ``model.settings.rho_bar``.
 
     The run ends at ``settings.duration``; with ``stop_on_snap`` it ends once a snap-through
     is over (the centre deflection has reversed sign and passed its pre-snap magnitude).
@@ -97,7 +101,8 @@ def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float = 1.0, record_e
 
     loads0 = fluid(0.0, u0, T_w)
     F0 = model.aero_force(loads0)
-    stepper = AlphaStepper(st, dt, rho_bar=rho_bar, u0=u0, T0=T_s, F0=F0)
+    rho = model.settings.rho_bar if rho_bar is None else rho_bar  # None: the settings'
+    stepper = AlphaStepper(st, dt, rho_bar=rho, u0=u0, T0=T_s, F0=F0)
     record(0.0, stepper.u, T)
     center = 5 * st.mesh.center + 2
     t_start = time.perf_counter()

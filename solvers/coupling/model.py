@@ -30,7 +30,6 @@ from hypate.solvers.coupling.stability import (
     start_vector,
 )
 from hypate.solvers.coupling.transfer import PointwiseTransfer, Transfer, fluid_points
-from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.numerics.sparse import (
     DeferredMatrix,
@@ -38,94 +37,12 @@ from hypate.solvers.numerics.sparse import (
     gmres,
 )
 from hypate.solvers.panel import PanelSpec
+from hypate.solvers.settings import SimulationSettings
 from hypate.solvers.structure.model import StructuralModel
 from hypate.solvers.thermal.model import SurfaceCondition, ThermalLoads, ThermalModel
 from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
-
-
-@dataclass(frozen=True)
-class CouplingSettings:
-    """Settings of a coupled run (SI units).
-
-    Attributes
-    ----------
-    time_step, duration : float
-        s.
-    radiation_temperature : float or None
-        Surroundings of the upper-surface radiation (K); None = free-stream temperature.
-        A radiant heater of the scaling problem sets this to T_rad.
-    external_pressure : float
-        Uniform pressure on the panel's lower surface minus p_inf (Pa): positive pushes
-        the panel towards +z (into the flow).
-    external_heat_flux : float
-        Uniform external heat flux q_ext (W/m^2) absorbed by the upper surface (a design
-        or what-if value; a radiant heater is ``radiation_temperature``), the q_ext of
-        ``Bi_ext = q_ext h / (k T_T)`` (Eq. 6.1d): added to the fluid heat flux delivered to
-        the thermal model, ``Q = H_TF (q + q_ext)`` (Eq. 5.1b). Not ramped by ``run_lc``'s
-        ``ramp_time`` and not part of the recorded (fluid) heat flux. 0 = none (the results
-        are exactly those without it).
-    lsa_modes : int
-        Eigenvalues computed per LSA.
-    lsa_every : int
-        LSA every this many steps (1 = every step).
-    unstable_steps : int
-        Consecutive unstable LSA results that end the run.
-    passes : int
-        Maximum thermal/aeroelastic fixed-point passes per step (1 = one of each).
-    pass_tol : float
-        Relative change of T and u that ends the passes.
-    newton_rtol : float
-        Residual tolerance of the aeroelastic Newton (relative to the load scale).
-    newton_max_iter : int
-    fluid_density : int
-        Fluid points per shell-node spacing (transfer grid).
-    thermal_alpha : float
-        Crank-Nicolson alpha-bar.
-    keep_fields : bool
-        Store nodal u and T for every step in the response.
-    initial_temperature_rise : float
-        Uniform temperature rise (K) of the panel at t = 0 over its stress-free initial
-        temperature (the uniformly heated panel of Sec. 9.1).
-    initial_deflection : float
-        Amplitude of an initial deflection ``w0 = A h sin(pi x/a) sin(pi y/b)`` in units of
-        the thickness (a perturbation that lets a flat heated panel leave the trivial state).
-    """
-
-    time_step: float = 1.0
-    duration: float = 160.0
-    radiation_temperature: float | None = None
-    external_pressure: float = 0.0
-    external_heat_flux: float = 0.0
-    lsa_modes: int = 6
-    lsa_every: int = 1
-    unstable_steps: int = 2
-    passes: int = 1
-    pass_tol: float = 1e-5
-    newton_rtol: float = 1e-8
-    newton_max_iter: int = 30
-    fluid_density: int = 2
-    thermal_alpha: float = 0.5
-    keep_fields: bool = True
-    initial_temperature_rise: float = 0.0
-    initial_deflection: float = 0.0
-
-    def __post_init__(self) -> None:
-        if not (self.time_step > 0 and math.isfinite(self.time_step)):
-            raise InputError("simulation.time_step", "must be > 0 (s)")
-        if not (self.duration >= self.time_step):
-            raise InputError("simulation.duration", "must be at least one time_step")
-        if self.unstable_steps < 1:
-            raise InputError("simulation.unstable_steps", "must be >= 1")
-        if self.passes < 1:
-            raise InputError("simulation.passes", "must be >= 1")
-        if not math.isfinite(self.external_heat_flux):
-            raise InputError("simulation.external_heat_flux", "must be finite (W/m^2)")
-
-    @property
-    def n_steps(self) -> int:
-        return int(round(self.duration / self.time_step))
 
 
 @dataclass
@@ -155,18 +72,18 @@ class PanelModel:
     panel : PanelSpec
     flow : FlowCondition
     fluid : FluidModel
-    settings : CouplingSettings
+    settings : SimulationSettings
     structure : StructuralModel, optional
         Reused when given (same panel).
     """
 
     def __init__(self, panel: PanelSpec, flow: FlowCondition, fluid: FluidModel,
-                 settings: CouplingSettings | None = None,
+                 settings: SimulationSettings | None = None,
                  structure: StructuralModel | None = None) -> None:
         self.panel = panel
         self.flow = flow
         self.fluid = fluid
-        self.settings = settings or CouplingSettings()
+        self.settings = settings or SimulationSettings()
         self.structure = structure if structure is not None else StructuralModel(panel)
         self.thermal = ThermalModel(panel)
         self.points = fluid_points(panel, self.settings.fluid_density)
@@ -595,11 +512,3 @@ def _scaled(op: spla.LinearOperator, factor: float) -> spla.LinearOperator:
     return spla.LinearOperator(op.shape, matvec=lambda x: factor * (op @ x), dtype=float)
 
 
-def settings_from_config(sim) -> CouplingSettings:
-    """:class:`CouplingSettings` from a validated ``[simulation]`` table."""
-    return CouplingSettings(time_step=sim.time_step, duration=sim.duration,
-                            radiation_temperature=sim.radiation_temperature,
-                            external_pressure=sim.external_pressure,
-                            external_heat_flux=sim.external_heat_flux, lsa_modes=sim.lsa_modes,
-                            unstable_steps=sim.unstable_steps, passes=sim.passes,
-                            fluid_density=sim.fluid_density)

@@ -4,8 +4,9 @@ from __future__ import annotations
 from dataclasses import replace
 
 from hypate.solvers.aero.factory import make_fluid_model
+from hypate.solvers.config import settings_from_config
 from hypate.solvers.coupling.lc import run_lc
-from hypate.solvers.coupling.model import PanelModel, settings_from_config
+from hypate.solvers.coupling.model import PanelModel
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.coupling.tc import run_tc
 from hypate.solvers.flow import FlowCondition
@@ -25,4 +26,4 @@ def simulate(panel: PanelSpec, flow: FlowCondition, sim, progress=None,
     if sim.scheme == "tc":
         return run_tc(model, progress=progress)
     every = max(1, int(round(0.01 / sim.time_step)))  # record about every 10 ms
-    return run_lc(model, sim.scheme, rho_bar=sim.rho_bar, record_every=every, progress=progress)
+    return run_lc(model, sim.scheme, record_every=every, progress=progress)

@@ -22,6 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 from hypate.solvers.errors import InputError
 from hypate.solvers.numerics.sparse import Factor
+from hypate.solvers.settings import DEFAULTS
 from hypate.solvers.structure.model import Array, StructuralModel, TemperatureLike
 
 #: Residual (relative to the load scale) below which a stalled Newton iteration is taken as
@@ -31,9 +32,10 @@ ROUNDOFF_RTOL = 1e-6
 
 @dataclass(frozen=True)
 class GeneralizedAlpha:
-    """Generalized-alpha parameters from the spectral radius rho-bar (Eq. 3.45)."""
+    """Generalized-alpha parameters from the spectral radius rho-bar (Eq. 3.45); the default
+    spectral radius of every integrator is :data:`hypate.solvers.settings.DEFAULTS`'s."""
 
-    rho_bar: float = 0.95
+    rho_bar: float
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.rho_bar <= 1.0:
@@ -123,7 +125,7 @@ class AlphaStepper:
         norm over all DOFs of the load, the internal force and the inertia force.
     """
 
-    def __init__(self, model: StructuralModel, dt: float, rho_bar: float = 1.0,
+    def __init__(self, model: StructuralModel, dt: float, rho_bar: float = DEFAULTS.rho_bar,
                  u0: Array | None = None, v0: Array | None = None, T0: TemperatureLike = None,
                  F0: Array | None = None, rtol: float = 1e-9, max_iter: int = 25, *,
                  nonlinear: bool = True, mass: sp.csr_matrix | None = None,
@@ -252,7 +254,7 @@ class TransientResult:
 
 
 def transient(model: StructuralModel, dt: float, n_steps: int, u0: Array | None = None,
-              v0: Array | None = None, rho_bar: float = 0.95,
+              v0: Array | None = None, rho_bar: float = DEFAULTS.rho_bar,
               temperature: Callable[[float], TemperatureLike] | None = None,
               load: Callable[[float], Array] | None = None, nonlinear: bool = True,
               rtol: float = 1e-10, max_iter: int = 25, record_every: int = 1,

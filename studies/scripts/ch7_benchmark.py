@@ -19,9 +19,9 @@ import numpy as np
 import pandas as pd
 from hypate.scaling.workflow.shipped import shipped
 from hypate.solvers.aero.factory import make_fluid_model
-from hypate.solvers.config import parse_case, read_toml
+from hypate.solvers.config import parse_case, read_toml, settings_from_config
 from hypate.solvers.coupling.lc import run_lc
-from hypate.solvers.coupling.model import PanelModel, settings_from_config
+from hypate.solvers.coupling.model import PanelModel
 from hypate.solvers.coupling.tc import run_tc
 from hypate.studies.scripts._table import side_by_side, simple_main
 

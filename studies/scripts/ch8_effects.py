@@ -28,11 +28,12 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 from hypate.solvers.aero.factory import make_fluid_model
-from hypate.solvers.coupling.model import CouplingSettings, PanelModel
+from hypate.solvers.coupling.model import PanelModel
 from hypate.solvers.coupling.tc import run_tc
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.materials import homogenized_stiffener, library_material
 from hypate.solvers.panel import Layer, PanelSpec
+from hypate.solvers.settings import SimulationSettings
 from hypate.studies.scripts._table import side_by_side, simple_main
 from hypate.studies.scripts.ch7_benchmark import benchmark_model
 
@@ -107,7 +108,7 @@ def failed_area_history(case: str, flow_angle_deg: float, config: Config
 
     panel = stiffened_panel(case, flow_angle_deg, config.sec8_3_mesh)
     flow = FlowCondition.from_altitude(6.0, 25000.0)
-    settings = CouplingSettings(time_step=config.sec8_3_time_step,
+    settings = SimulationSettings(time_step=config.sec8_3_time_step,
                                 duration=config.sec8_3_duration, keep_fields=True)
     model = PanelModel(panel, flow, make_fluid_model(config.sec8_3_aero, "eckert", "turbulent"),
                        settings)

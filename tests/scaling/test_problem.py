@@ -22,9 +22,8 @@ def _coarse_91(xi: int = 2, steps: int = 40) -> ScalingProblem:
         spec.prototype.panel, mesh=(4, 4)))
     model = dataclasses.replace(spec.model, panel=dataclasses.replace(spec.model.panel,
                                                                        mesh=(4, 4)))
-    sim = dataclasses.replace(spec.simulation, steps=steps)
-    return ScalingProblem(dataclasses.replace(spec, prototype=proto, model=model,
-                                              simulation=sim))
+    return ScalingProblem(dataclasses.replace(spec, prototype=proto, model=model
+                                              ).with_steps(steps))
 
 
 def test_analytical_laws_make_the_aeroelastic_responses_similar() -> None:
@@ -164,8 +163,7 @@ def test_equal_materials_are_exactly_similar_at_any_scale(xi: float) -> None:
     model = dataclasses.replace(spec.model, panel=scaled_panel(
         dataclasses.replace(spec.model.panel, layers=proto.panel.layers), length=1.0 / xi))
     prob = ScalingProblem(dataclasses.replace(
-        spec, prototype=proto, model=model, xi=xi,
-        simulation=dataclasses.replace(spec.simulation, steps=60)))
+        spec, prototype=proto, model=model, xi=xi).with_steps(60))
     an = analytical_scaling(proto, model, xi).design()
     assert prob.errors(np.array([an["h"], an["p_inf"], an["delta_T"]]))["J_u"] < 1e-8
 

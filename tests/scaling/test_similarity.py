@@ -126,8 +126,9 @@ def test_optional_parameters_and_inputs(sec9_1):
     assert err.value.field == "similarity.Fo"
     with pytest.raises(InputError):
         similarity_parameters(bare, names=["nope"])
-    heated = dataclasses.replace(proto, radiation_temperature=1000.0, external_pressure=500.0,
-                                 external_heat_flux=100.0)
+    heated = dataclasses.replace(proto, simulation=dataclasses.replace(
+        proto.simulation, radiation_temperature=1000.0, external_pressure=500.0,
+        external_heat_flux=100.0))
     q = heated.panel.emissivity * 5.670374419e-8 * 1000.0**4 + 100.0
     ref = reference_quantities(heated)
     hp = similarity_parameters(heated)

@@ -10,19 +10,16 @@ import pytest
 import scipy.sparse as sp
 from hypate.scaling.cli.main import main
 from hypate.solvers.aero.factory import make_fluid_model
-from hypate.solvers.config import parse_case
+from hypate.solvers.config import parse_case, settings_from_config
 from hypate.solvers.coupling.lc import run_lc
-from hypate.solvers.coupling.model import (
-    CouplingSettings,
-    PanelModel,
-    settings_from_config,
-)
+from hypate.solvers.coupling.model import PanelModel
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.coupling.tc import extrapolate, run_tc
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.materials import isotropic, library_material
 from hypate.solvers.numerics.sparse import splu_symmetric
 from hypate.solvers.panel import Layer, PanelSpec
+from hypate.solvers.settings import SimulationSettings
 
 FLOW = FlowCondition.from_altitude(6.0, 25000.0)
 
@@ -33,7 +30,7 @@ def _panel(mesh=(4, 4), thickness=0.002, **kw) -> PanelSpec:
 
 
 def test_aero_stiffness_and_damping_match_finite_differences() -> None:
-    m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), CouplingSettings())
+    m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), SimulationSettings())
     st = m.structure
     rng = np.random.default_rng(2)
     u = np.zeros(st.n_dof)
@@ -60,7 +57,7 @@ def test_equilibrium_under_external_pressure_matches_navier() -> None:
     panel = PanelSpec(layers=(Layer(mat, 0.01),), mesh=(8, 8), emissivity=0.0)
     q = 100.0  # Pa, w/h ~ 1e-3: linear regime
     m = PanelModel(panel, flow, make_fluid_model("pt", "none"),
-                   CouplingSettings(external_pressure=q))
+                   SimulationSettings(external_pressure=q))
     u, _ = m.equilibrium(np.zeros(m.structure.n_dof), m.thermal.initial_state())
     D = 200e9 * 0.01**3 / (12 * (1 - 0.3**2))
     # Navier series for the centre deflection of a uniformly loaded SS square plate
@@ -71,7 +68,7 @@ def test_equilibrium_under_external_pressure_matches_navier() -> None:
 
 
 def test_heat_input_transfer_conserves_total_heat() -> None:
-    m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), CouplingSettings())
+    m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), SimulationSettings())
     T = m.thermal.initial_state() + 100.0
     u = np.zeros(m.structure.n_dof)
     loads = m.thermal_loads(u)
@@ -98,7 +95,7 @@ def test_external_heat_flux_heats_the_panel_by_the_energy_balance(
     mat = isotropic("slab", rho, 70e9, 0.3, 0.0, 150.0, cp)  # no expansion: stays flat
     panel = PanelSpec(layers=(Layer(mat, h, 0.0, 2),), kind=kind, length=a, width=b,
                       mesh=(4, 4), emissivity=0.0)
-    settings = CouplingSettings(time_step=time_step, duration=steps * time_step,
+    settings = SimulationSettings(time_step=time_step, duration=steps * time_step,
                                 external_heat_flux=q)
     model = PanelModel(panel, FLOW, make_fluid_model("pt", "none"), settings)
     assert not model.thermal_frozen  # q_ext heats even without aerodynamic heating
@@ -121,7 +118,7 @@ def test_case_file_external_heat_flux_reaches_the_settings() -> None:
 
 
 def test_tc_heats_and_bulges_into_the_flow(tmp_path: Path) -> None:
-    s = CouplingSettings(time_step=1.0, duration=4.0)
+    s = SimulationSettings(time_step=1.0, duration=4.0)
     m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), s)
     r = run_tc(m)
     assert r.status == "completed" and len(r.times) == 5
@@ -176,7 +173,7 @@ def test_extrapolate_is_exact_for_polynomials_of_its_order() -> None:
 
 
 def test_equilibrium_from_a_prediction_is_the_same_equilibrium() -> None:
-    m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), CouplingSettings())
+    m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), SimulationSettings())
     T0 = m.thermal.initial_state()
     u0, _ = m.equilibrium(np.zeros(m.structure.n_dof), T0 + 60.0)
     T1 = T0 + 80.0
@@ -205,7 +202,7 @@ def test_equilibrium_from_a_prediction_is_the_same_equilibrium() -> None:
 
 
 def test_pre_ordered_free_factor_equals_the_minimum_degree_factor() -> None:
-    m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), CouplingSettings())
+    m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), SimulationSettings())
     st = m.structure
     u = np.zeros(st.n_dof)
     u[2::5] = 0.003 * np.sin(math.pi * st.mesh.x) * np.sin(math.pi * st.mesh.y)
@@ -231,7 +228,7 @@ def test_pre_ordered_free_factor_equals_the_minimum_degree_factor() -> None:
 def test_warm_started_lsa_equals_a_cold_one() -> None:
     # the LSA of the next state starts ARPACK from the last modes (Eq. 5.36): the same
     # eigenvalues as a fresh model's LSA at that state, to ARPACK's tolerance (1e-10)
-    s = CouplingSettings()
+    s = SimulationSettings()
     warm = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), s)
     cold = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), s)
     T0 = warm.thermal.initial_state()
@@ -249,7 +246,7 @@ def test_tc_states_are_the_equilibria_without_predictors() -> None:
     # run_tc predicts u and T by extrapolation; every recorded state must still be the
     # equilibrium reached from the previous state without a prediction (Eq. 5.31b) and the
     # thermal step from the previous temperature (Eq. 5.31a), to the Newton tolerances
-    s = CouplingSettings(time_step=1.0, duration=5.0)
+    s = SimulationSettings(time_step=1.0, duration=5.0)
     m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), s)
     r = run_tc(m)
     assert r.status == "completed"
@@ -266,7 +263,7 @@ def test_a_rejected_prediction_leaves_the_solution_path_unchanged() -> None:
     # failed or rejected prediction the solution from u must start exactly as without one,
     # i.e. with the same preconditioner (the LSA factor of the last state), and end at the
     # same equilibrium
-    s = CouplingSettings()
+    s = SimulationSettings()
     m = PanelModel(_panel(), FLOW, make_fluid_model("pt-bl"), s)
     T0 = m.thermal.initial_state()
     u0, _ = m.equilibrium(np.zeros(m.structure.n_dof), T0 + 60.0)

@@ -20,17 +20,14 @@ import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
 from hypate.solvers.aero.factory import make_fluid_model
-from hypate.solvers.config import parse_case, read_toml
+from hypate.solvers.config import parse_case, read_toml, settings_from_config
 from hypate.solvers.coupling.lc import run_lc
-from hypate.solvers.coupling.model import (
-    CouplingSettings,
-    PanelModel,
-    settings_from_config,
-)
+from hypate.solvers.coupling.model import PanelModel
 from hypate.solvers.coupling.tc import run_tc
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.materials import library_material
 from hypate.solvers.panel import Layer, PanelSpec
+from hypate.solvers.settings import SimulationSettings
 
 CASE = Path(__file__).resolve().parents[2] / "studies" / "cases" / "sec7_3_benchmark.toml"
 
@@ -114,7 +111,7 @@ def test_newton_update_gmres_and_low_rank_match_direct() -> None:
     flow = FlowCondition.from_altitude(6.0, 25000.0)
     panel = PanelSpec(layers=(Layer(library_material("inconel718"), 0.002, 0.0, 2),),
                       mesh=(6, 6))
-    m = PanelModel(panel, flow, make_fluid_model("pt-bl"), CouplingSettings())
+    m = PanelModel(panel, flow, make_fluid_model("pt-bl"), SimulationSettings())
     st = m.structure
     u = np.zeros(st.n_dof)
     u[2::5] = 0.003 * np.sin(math.pi * st.mesh.x) * np.sin(math.pi * st.mesh.y)
