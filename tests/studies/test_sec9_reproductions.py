@@ -15,13 +15,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import REPO
 from hypate.scaling.workflow.laws import laws_of_run, load_runs
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.run import run_study
 from hypate.scaling.workflow.similarity import analytical_scaling
 from hypate.scaling.workflow.study import load_study, parse_study, study_data
 
-REPO = Path(__file__).resolve().parents[2]
 STUDIES = REPO / "studies" / "optimization"
 #: Similarity parameters of Table 9.3 and the design variables of Eq. (9.2).
 TABLE_9_3 = ("h/L", "lambda_F", "DeltaT_NTx_L2/Dxx")

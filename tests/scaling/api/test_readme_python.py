@@ -7,8 +7,9 @@ import re
 from pathlib import Path
 
 import pytest
+from conftest import REPO
 
-README = Path(__file__).resolve().parents[3] / "README.md"
+README = REPO / "README.md"
 
 
 def python_examples() -> list[str]:

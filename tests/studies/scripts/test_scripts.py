@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import REPO
 
-REPO = Path(__file__).resolve().parents[2]
 SCRIPTS = ("ch7_table7_3_modes", "ch7_flutter", "ch7_benchmark", "ch8_effects",
            "ch9_table9_3", "ch9_tables")
 

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import REPO
 from hypate.scaling.workflow.laws import (
     DesignPoint,
     SweepRun,
@@ -19,7 +20,6 @@ from hypate.scaling.workflow.laws import (
 from hypate.scaling.workflow.similarity import analytical_scaling
 from hypate.scaling.workflow.study import load_study, study_at, study_data
 
-REPO = Path(__file__).resolve().parents[2]
 SIMILARITY_91 = ("h/L", "lambda_F", "DeltaT_NTx_L2/Dxx")
 
 

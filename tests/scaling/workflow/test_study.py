@@ -7,11 +7,10 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from conftest import tiny_study_text
+from conftest import REPO, tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.workflow.study import load_study
 
-REPO = Path(__file__).resolve().parents[2]
 TINY = tiny_study_text()
 
 

@@ -7,12 +7,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import REPO
 from hypate.scaling.engine.problem import evaluate_design
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.similarity import analytical_scaling
 from hypate.scaling.workflow.study import load_study
-
-REPO = Path(__file__).resolve().parents[2]
 
 
 def _coarse_91(xi: int = 2, steps: int = 40) -> ScalingProblem:

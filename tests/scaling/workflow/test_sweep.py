@@ -7,14 +7,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import tiny_study_text
+from conftest import REPO, tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.workflow.rundir import STORE as STORE_NAME
 from hypate.scaling.workflow.study import load_study, study_at, sweep_points
 from hypate.scaling.workflow.sweep import run_sweep
 
-REPO = Path(__file__).resolve().parents[2]
 TINY_SWEEP = tiny_study_text(name="tiny_sweep", xi=2.0, tail="""
 [sweep]
 xi = [2, 3, 4]

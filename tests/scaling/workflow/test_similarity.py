@@ -4,10 +4,10 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import REPO
 from hypate.scaling.workflow.configuration import (
     Configuration,
     ReferenceTemperatures,
@@ -38,7 +38,6 @@ INCONEL = dict(density=8220.0, youngs_modulus=204.0e9, poisson_ratio=0.29,
 TI6242 = dict(density=4540.0, youngs_modulus=114.3e9, poisson_ratio=0.32,
               thermal_expansion=0.6975e-5, conductivity=6.937, specific_heat=459.4)
 SEC9_1 = ("h/L", "lambda_F", "DeltaT_NTx_L2/Dxx")
-REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

@@ -14,11 +14,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
+from conftest import REPO
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.config import parse_case, read_toml, settings_from_config
 from hypate.solvers.coupling.lc import run_lc
@@ -29,7 +29,7 @@ from hypate.solvers.materials import library_material
 from hypate.solvers.panel import Layer, PanelSpec
 from hypate.solvers.settings import SimulationSettings
 
-CASE = Path(__file__).resolve().parents[2] / "studies" / "cases" / "sec7_3_benchmark.toml"
+CASE = REPO / "studies" / "cases" / "sec7_3_benchmark.toml"
 
 
 def _benchmark(time_step: float, duration: float, keep_fields: bool = False) -> PanelModel:

@@ -7,13 +7,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import REPO
 from hypate.solvers.aero.rom.build import build_rom_from_config
 from hypate.solvers.aero.rom.config import load_rom_config
 from hypate.solvers.aero.rom.io import save_rom
 from hypate.solvers.config import parse_case
 from hypate.solvers.coupling.run import simulate
 
-REPO = Path(__file__).resolve().parents[2]
 CASE = """
 [panel]
 kind = "2d"

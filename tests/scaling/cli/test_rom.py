@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import REPO
 from hypate.scaling.cli.main import main
 
 SMALL_TOML = """
@@ -115,7 +116,7 @@ def test_plan_csv(built: Path, tmp_path: Path, capsys: pytest.CaptureFixture) ->
 def test_shipped_study_file_validates() -> None:
     from hypate.solvers.aero.rom.config import load_rom_config
 
-    cfg, _ = load_rom_config(Path(__file__).resolve().parents[2] / "studies" / "rom" /
+    cfg, _ = load_rom_config(REPO / "studies" / "rom" /
                              "rom_2d_panel.toml")
     assert len(cfg.modes) == 6 and cfg.training.samples <= 200
     assert [m.range for m in cfg.modes] == [[-6, 6], [-2, 2], [-2, 2], [-2, 2], [-1.5, 1.5],

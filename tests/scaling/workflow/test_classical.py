@@ -3,10 +3,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import REPO
 from hypate.scaling.workflow.classical import classical_scaling, design_vector
 from hypate.scaling.workflow.configuration import (
     Configuration,
@@ -20,7 +20,6 @@ from hypate.solvers.errors import InputError
 from hypate.solvers.materials import library_material
 from hypate.solvers.panel import Layer
 
-REPO = Path(__file__).resolve().parents[2]
 SEC9_1 = ["h/L", "lambda_F", "DeltaT_NTx_L2/Dxx"]
 
 
