@@ -2,10 +2,14 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import sys
 import time
+import warnings
+from collections import Counter
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -61,6 +65,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    '{"directory", "report", "evaluations", "new_evaluations", "seconds", '
                    '"design_point"} (progress still goes to stderr)')
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+    p.add_argument("-v", "--verbose", action="store_true", help="show every solver warning "
+                   "as it happens (otherwise: one summary line per kind at the end)")
     p.add_argument("--seed-from", action="append", default=[], metavar="RUN_DIR",
                    help="seed the initial sample with the 10 best designs of an earlier run "
                    "(repeatable; e.g. Case 1 for the Case 2 strategy); variables it lacks "
@@ -109,6 +115,28 @@ class _Progress:
 
     def close(self) -> None:
         self.bar.close()
+
+
+@contextlib.contextmanager
+def collected_warnings(verbose: bool) -> Iterator[list[warnings.WarningMessage]]:
+    """Collect the Python warnings of a run instead of printing them into the progress bar
+    (``verbose``: print them as they come, collect nothing)."""
+    if verbose:
+        yield []
+        return
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")  # count every occurrence
+        yield caught
+
+
+def warning_summary(caught: list[warnings.WarningMessage]) -> list[str]:
+    """One line per distinct warning, most frequent first: ``"12 x RuntimeWarning: ..."``."""
+    counts = Counter(f"{w.category.__name__}: {w.message}" for w in caught)
+    if not counts:
+        return []
+    head = (f"{sum(counts.values())} solver warnings of {len(counts)} kinds during the run "
+            "(-v shows each as it happens):")
+    return [head, *(f"  {n} x {text}" for text, n in counts.most_common())]
 
 
 def stored_evaluations(run_dir: Path) -> int:
@@ -178,11 +206,15 @@ def run(args: argparse.Namespace) -> int:
     say("simulating the prototype ...")
     bar = _Progress(quiet=args.quiet)
     try:
-        outcome = run_study(study, out, resume=args.resume, workers=args.workers,
-                            scheduler=args.scheduler, seed=args.seed, progress=bar,
-                            seed_runs=args.seed_from, on_written=write_report_safely)
+        with collected_warnings(args.verbose) as caught:
+            outcome = run_study(study, out, resume=args.resume, workers=args.workers,
+                                scheduler=args.scheduler, seed=args.seed, progress=bar,
+                                seed_runs=args.seed_from, on_written=write_report_safely)
     finally:
         bar.close()
+    if not args.quiet:
+        for line in warning_summary(caught):
+            say(line)
     point = outcome.design_point
     summary = _summary(out, point, before, time.perf_counter() - t0)
     if args.json:
@@ -210,12 +242,16 @@ def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
             bars[-1](done, budget, evaluation)
 
     try:
-        outcome = run_sweep(study, out, resume=args.resume, workers=args.workers,
-                            scheduler=args.scheduler, seed=args.seed, progress=progress,
-                            on_point=on_point, on_written=write_report_safely)
+        with collected_warnings(args.verbose) as caught:
+            outcome = run_sweep(study, out, resume=args.resume, workers=args.workers,
+                                scheduler=args.scheduler, seed=args.seed, progress=progress,
+                                on_point=on_point, on_written=write_report_safely)
     finally:
         for bar in bars:
             bar.close()
+    if not args.quiet:
+        for line in warning_summary(caught):
+            print(line, file=sys.stderr)
     if args.json:
         print(json.dumps({"directory": str(out), "summary": str(out / SWEEP_CSV),
                           "seconds": time.perf_counter() - t0, "points": outcome.points},

@@ -113,3 +113,21 @@ def test_progress_without_a_terminal_prints_lines(capsys: pytest.CaptureFixture,
     # one line once 10 s have passed (t = 12 s: 2 evaluations since the first in 12 s,
     # 6 s each, one left) and one at the end; none in between
     assert lines == ["evaluations 3/4, 12 s, ETA 6 s", "evaluations 4/4, 13 s"]
+
+
+def test_solver_warnings_are_collected_and_summarized_once(capsys: pytest.CaptureFixture) -> None:
+    import warnings
+
+    from hypate.scaling.cli.run import collected_warnings, warning_summary
+
+    with collected_warnings(verbose=False) as caught:
+        for _ in range(3):
+            warnings.warn("ti6242.conductivity: clamped", RuntimeWarning, stacklevel=1)
+        warnings.warn("other", UserWarning, stacklevel=1)
+    assert capsys.readouterr().err == ""  # nothing reached the terminal
+    assert warning_summary(caught) == [
+        "4 solver warnings of 2 kinds during the run (-v shows each as it happens):",
+        "  3 x RuntimeWarning: ti6242.conductivity: clamped", "  1 x UserWarning: other"]
+    with pytest.warns(RuntimeWarning), collected_warnings(verbose=True) as shown:
+        warnings.warn("shown", RuntimeWarning, stacklevel=1)
+    assert shown == [] and warning_summary(shown) == []
