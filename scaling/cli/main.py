@@ -11,7 +11,6 @@ import difflib
 import re
 import sys
 from collections.abc import Sequence
-from importlib.metadata import PackageNotFoundError, version
 from types import ModuleType
 
 from hypate.scaling.cli import (
@@ -30,6 +29,7 @@ from hypate.scaling.cli import (
     validate,
     whatif,
 )
+from hypate.scaling.workflow.campaign import package_version
 from hypate.solvers.errors import InputError
 
 #: The command registry: modules providing subcommands (each has ``register(subparsers)``),
@@ -39,6 +39,7 @@ COMMAND_MODULES: tuple[ModuleType, ...] = (run, studies, init, validate, report,
                                            rom, bench)
 
 EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
 
 
 class DefaultsHelpFormatter(argparse.HelpFormatter):
@@ -68,14 +69,6 @@ class _Parser(argparse.ArgumentParser):
             if close:
                 message += f"; did you mean {close[0]!r}?"
         self.exit(EXIT_USAGE, f"hypate: error: {message}\n")
-
-
-def package_version() -> str:
-    """The installed distribution's version (``pyproject.toml``)."""
-    try:
-        return version("hypate")
-    except PackageNotFoundError:  # pragma: no cover - running from an uninstalled tree
-        return "unknown"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -118,6 +111,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except FileNotFoundError as exc:
         print(f"hypate: error: file not found: {exc.filename}", file=sys.stderr)
         return EXIT_USAGE
+    except KeyboardInterrupt:
+        print(f"hypate: interrupted ({args.command})", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -15,8 +15,9 @@ from typing import Any
 
 import numpy as np
 from hypate.scaling.engine.pareto import hypervolume
-from hypate.scaling.engine.store import EvaluationStore
+from hypate.scaling.engine.store import EvaluationStore, StoreError
 from hypate.scaling.report.html import write_report_safely
+from hypate.scaling.workflow.campaign import preflight
 from hypate.scaling.workflow.run import run_study
 from hypate.scaling.workflow.rundir import (
     DESIGN_POINT_JSON,
@@ -33,6 +34,10 @@ from tqdm import tqdm
 
 #: Reference point of the progress-bar hypervolume (relative errors of 100 %).
 PROGRESS_REF = np.array([1.0, 1.0])
+#: Exit codes beyond 0 and 2 (README, "Exit codes"): a finished campaign without a single
+#: successful evaluation; Ctrl-C (128 + SIGINT).
+EXIT_NO_RESULT = 1
+EXIT_INTERRUPTED = 130
 #: Seconds between progress lines when stderr is not a terminal (a log file, CI, nohup).
 LOG_EVERY = 10.0
 
@@ -73,7 +78,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "take the model template's values")
     p.set_defaults(func=run, field_flags={"out": "--out", "resume": "--resume",
                                           "workers": "--workers", "scheduler": "--scheduler",
-                                          "seed_runs": "--seed-from"})
+                                          "seed": "--seed", "seed_runs": "--seed-from"})
 
 
 class _Progress:
@@ -140,11 +145,27 @@ def warning_summary(caught: list[warnings.WarningMessage]) -> list[str]:
 
 
 def stored_evaluations(run_dir: Path) -> int:
-    """Evaluations already in a run directory's store (0 without one)."""
+    """Evaluations already in a run directory's store (0 without one), read-only."""
     if not (run_dir / STORE).is_file():
         return 0
-    with EvaluationStore(run_dir / STORE) as store:
-        return len(store.load())
+    try:
+        with EvaluationStore(run_dir / STORE, read_only=True) as store:
+            return len(store)
+    except StoreError as exc:
+        raise InputError("resume", str(exc)) from None
+
+
+def failure_reasons(run_dir: Path, limit: int = 5) -> list[str]:
+    """The most frequent failure messages of a run's evaluations: ``"12 x error: ..."``."""
+    with EvaluationStore(run_dir / STORE, read_only=True) as store:
+        counts = Counter(f"{r.status}: {r.message[:120]}" for r in store.load() if not r.ok)
+    return [f"  {n} x {text}" for text, n in counts.most_common(limit)]
+
+
+def resume_command(args: argparse.Namespace, out: Path) -> str:
+    """The command that continues an interrupted run."""
+    study = f" {args.study}" if args.study else ""
+    return f"hypate run{study} --out {out} --resume"
 
 
 def _summary(out: Path, point: dict[str, Any], before: int, seconds: float) -> dict[str, Any]:
@@ -179,8 +200,6 @@ def run(args: argparse.Namespace) -> int:
     path = resolve(args.study, "study") if args.study else default_study()
     study = load_study(path)
     out = Path(args.out) if args.out else default_run_dir(study.name, args.resume)
-    if args.seed is not None and args.seed < 0:
-        raise InputError("--seed", "must be >= 0")
     t0 = time.perf_counter()
     say = (lambda *a: None) if args.quiet else (lambda *a: print(*a, file=sys.stderr))
     say(f"study {study.name}: {study.description or path}")
@@ -192,6 +211,9 @@ def run(args: argparse.Namespace) -> int:
             raise InputError("--seed-from", "not available for sweep studies (their points "
                              "are seeded by recycling, [sweep] recycle)")
         return _run_sweep(args, study, out, t0)
+    # refuse a bad setting or another campaign before anything is simulated or written
+    preflight(study, out, resume=args.resume, seed=args.seed, workers=args.workers,
+              scheduler=args.scheduler)
     before = stored_evaluations(out) if args.resume else 0
     if args.resume and (out / DESIGN_POINT_JSON).is_file() and before >= study.budget:
         point = json.loads((out / DESIGN_POINT_JSON).read_text())
@@ -210,6 +232,9 @@ def run(args: argparse.Namespace) -> int:
             outcome = run_study(study, out, resume=args.resume, workers=args.workers,
                                 scheduler=args.scheduler, seed=args.seed, progress=bar,
                                 seed_runs=args.seed_from, on_written=write_report_safely)
+    except KeyboardInterrupt:
+        bar.close()
+        return interrupted(args, out)
     finally:
         bar.close()
     if not args.quiet:
@@ -221,9 +246,24 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(summary, indent=2))
     else:
         _print_summary(summary, before)
+    if not point["statistics"]["successful"]:
+        print(f"hypate: error: no evaluation succeeded ({point['statistics']['evaluations']}"
+              " failed); the reasons:", file=sys.stderr)
+        for line in failure_reasons(out):
+            print(line, file=sys.stderr)
+        return EXIT_NO_RESULT
     if not math.isfinite(point["statistics"].get("wall_seconds") or 0.0):
-        return 1
+        return EXIT_NO_RESULT
     return 0
+
+
+def interrupted(args: argparse.Namespace, out: Path) -> int:
+    """Ctrl-C: one line with what is stored and how to continue; exit 130."""
+    stores = [out / STORE, *out.glob(f"*/{STORE}")] if out.is_dir() else []
+    n = sum(stored_evaluations(s.parent) for s in stores)
+    print(f"hypate: interrupted after {n} evaluations; continue with "
+          f"`{resume_command(args, out)}`", file=sys.stderr)
+    return EXIT_INTERRUPTED
 
 
 def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
@@ -246,6 +286,10 @@ def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
             outcome = run_sweep(study, out, resume=args.resume, workers=args.workers,
                                 scheduler=args.scheduler, seed=args.seed, progress=progress,
                                 on_point=on_point, on_written=write_report_safely)
+    except KeyboardInterrupt:
+        for bar in bars:
+            bar.close()
+        return interrupted(args, out)
     finally:
         for bar in bars:
             bar.close()

@@ -3,6 +3,7 @@ worker, or a ``dask.distributed`` cluster. The optimizer sees a ``concurrent.fut
 executor only (DESIGN.md, "Contracts between parts: Executor")."""
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -15,6 +16,13 @@ class ExecutorError(ValueError):
     def __init__(self, field: str, message: str) -> None:
         super().__init__(f"{field}: {message}")
         self.field, self.message = field, message
+
+
+def check_scheduler_address(text: str) -> None:
+    """An executor address of a known form: ``tcp://HOST:PORT`` or ``tls://HOST:PORT``."""
+    if not re.fullmatch(r"(tcp|tls)://[\w.\-\[\]:]+:\d+", text):
+        raise ExecutorError("scheduler", f"{text!r} is not an address; expected "
+                            "tcp://HOST:PORT")
 
 
 def make_executor(workers: int, scheduler: str | None) -> tuple[Any, Callable[[], None]]:

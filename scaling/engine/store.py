@@ -11,7 +11,9 @@ Rows are never updated or deleted.
 from __future__ import annotations
 
 import json
+import shutil
 import sqlite3
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,7 +22,7 @@ import numpy as np
 import pandas as pd
 from hypate.scaling.engine.problem import STATUS_OK, Outcome
 
-__all__ = ["Evaluation", "EvaluationStore", "evaluations_to_dataframe"]
+__all__ = ["Evaluation", "EvaluationStore", "StoreError", "evaluations_to_dataframe"]
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS evaluations (
@@ -39,6 +41,10 @@ CREATE TABLE IF NOT EXISTS evaluations (
 );
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
 """
+
+
+class StoreError(ValueError):
+    """A file that is not a readable evaluation store (corrupt, foreign, or a directory)."""
 
 
 @dataclass(frozen=True)
@@ -104,16 +110,49 @@ class EvaluationStore:
     ----------
     path : str or Path
         Database file (created if missing); ``":memory:"`` for a throwaway store.
+    read_only : bool
+        Read an existing store without writing anything in its directory (a private
+        snapshot of the database and its WAL is read).
+
+    Raises
+    ------
+    StoreError
+        The file is not a SQLite database, or (read-only) not a hypate store.
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, *, read_only: bool = False) -> None:
         self.path = str(path)
-        self._con = sqlite3.connect(self.path)
-        if self.path != ":memory:":
-            self._con.execute("PRAGMA journal_mode=WAL")
-        self._con.execute("PRAGMA synchronous=FULL")
-        self._con.executescript(_SCHEMA)
-        self._con.commit()
+        self.read_only = read_only
+        self._snapshot: tempfile.TemporaryDirectory[str] | None = None
+        try:
+            if read_only:
+                self._con = self._snapshot_connection(Path(path))
+                self._con.execute("SELECT COUNT(*) FROM evaluations").fetchone()
+                self._con.execute("SELECT COUNT(*) FROM meta").fetchone()
+                return
+            self._con = sqlite3.connect(self.path)
+            if self.path != ":memory:":
+                self._con.execute("PRAGMA journal_mode=WAL")
+            self._con.execute("PRAGMA synchronous=FULL")
+            self._con.executescript(_SCHEMA)
+            self._con.commit()
+        except sqlite3.Error as exc:
+            raise StoreError(f"{self.path} is not a readable hypate evaluation store: {exc}"
+                             ) from None
+
+    def _snapshot_connection(self, path: Path) -> sqlite3.Connection:
+        """A connection to a private copy of the database and its WAL: even a read-only
+        SQLite connection writes the WAL index (``-shm``) of a store left by a killed run,
+        and a refused resume must leave the directory byte for byte as it was."""
+        if not path.is_file():
+            raise StoreError(f"{path} is not a file")
+        self._snapshot = tempfile.TemporaryDirectory(prefix="hypate-store-")
+        copy = Path(self._snapshot.name) / path.name
+        shutil.copyfile(path, copy)
+        wal = path.with_name(path.name + "-wal")
+        if wal.is_file():
+            shutil.copyfile(wal, copy.with_name(copy.name + "-wal"))
+        return sqlite3.connect(copy)
 
     def append(self, ev: Evaluation) -> None:
         """Insert one evaluation and commit it."""
@@ -137,9 +176,15 @@ class EvaluationStore:
     def __len__(self) -> int:
         return int(self._con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0])
 
-    def set_meta(self, key: str, value: object) -> None:
-        """Record a run setting (JSON) once; later calls with the same key must agree."""
+    def set_meta(self, key: str, value: object, *, replace: bool = False) -> None:
+        """Record a run setting (JSON) once; later calls with the same key must agree
+        (``replace``: a pointer such as the study file's path, which may move)."""
         text = json.dumps(value, sort_keys=True)
+        if replace:
+            self._con.execute("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)",
+                              (key, text))
+            self._con.commit()
+            return
         old = self.get_meta(key)
         if old is not None and json.dumps(old, sort_keys=True) != text:
             raise ValueError(f"store {self.path!r} holds a run with {key}={old!r}, not {value!r}")
@@ -156,6 +201,8 @@ class EvaluationStore:
 
     def close(self) -> None:
         self._con.close()
+        if self._snapshot is not None:
+            self._snapshot.cleanup()
 
     def __enter__(self) -> "EvaluationStore":
         return self

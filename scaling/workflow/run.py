@@ -17,6 +17,7 @@ Outputs in the run directory (public names):
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 import warnings
@@ -34,6 +35,7 @@ from hypate.scaling.engine.problem import evaluate_design, project_cheap
 from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.engine.settings import OptimizerSettings
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
+from hypate.scaling.workflow.campaign import preflight, record_campaign, run_lock
 from hypate.scaling.workflow.classical import (
     classical_scaling,
     design_vector,
@@ -193,6 +195,29 @@ def _seed_designs(study: Study, problem: ScalingProblem, classical: dict[str, An
     return out
 
 
+def _evaluate_seeds(problem: ScalingProblem, study: Study, store: EvaluationStore,
+                    seed_list: Sequence[tuple[np.ndarray, str]],
+                    classical: dict[str, Any] | None, run_seed: int,
+                    callback: Callable[[Evaluation], None]) -> None:
+    """The seeds as iteration -1, committed one by one (crash-safe; skipped when already
+    stored); the classical baseline's objectives are noted in ``classical``."""
+    stored = {r.batch_index: r for r in store.load() if r.iteration == -1}
+    for i, (x, why) in enumerate(seed_list):
+        if i in stored:
+            ev = stored[i]
+        else:
+            res = evaluate_design(problem, x, timeout=study.optimizer.timeout)
+            ev = Evaluation.from_outcome(x, res, iteration=-1, batch_index=i, seed=run_seed)
+            ev = dataclasses.replace(ev, message=f"{why}; {res.message}" if res.message
+                                     else why)
+            store.append(ev)
+            callback(ev)
+        if i == 0 and why == "seed: classical baseline" and classical is not None:
+            classical["objectives"] = {o: finite_or_none(f) for o, f in
+                                       zip(study.spec.objectives, ev.F)}
+            classical["evaluation_status"] = ev.status
+
+
 def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: int = 1,
               scheduler: str | None = None, seed: int | None = None,
               progress: Callable[[int, int, Any], None] | None = None,
@@ -211,13 +236,15 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
     out : path
         Run directory (created). Without ``resume`` it must not hold a run already.
     resume : bool
-        Continue from ``out/evaluations.sqlite`` (nothing finished is re-evaluated).
+        Continue from ``out/evaluations.sqlite`` (nothing finished is re-evaluated). Only
+        the same campaign resumes (:mod:`hypate.scaling.workflow.campaign`): another study,
+        case file, seed or package version is refused before anything is touched.
     workers : int
         Local process pool size (1 = in-process).
     scheduler : str, optional
         Address of a Dask scheduler (``tcp://host:port``).
     seed : int, optional
-        Overrides the study's optimizer seed.
+        Overrides the study's optimizer seed (on resume: the stored seed when omitted).
     progress : callable, optional
         ``progress(done, budget, evaluation)`` after each committed evaluation (the
         :class:`hypate.scaling.engine.store.Evaluation` just stored).
@@ -234,73 +261,50 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
     """
     out = Path(out)
     store_path = out / STORE
-    if store_path.exists() and not resume:
-        raise InputError("out", f"{out} already holds a run; use --resume to continue it "
-                         "or choose another directory")
-    if resume and not store_path.exists():
-        raise InputError("resume", f"{out} holds no run to resume")
     opt = study.optimizer
-    if workers < 1:
-        raise InputError("workers", "must be >= 1")
+    # every check that needs no simulation, before anything is written
+    identity, run_seed = preflight(study, out, resume=resume, seed=seed, workers=workers,
+                                   scheduler=scheduler)
     problem = ScalingProblem(study.spec, prototype_response=prototype_response)
-    coordinates = surrogate_coordinates(study, problem)  # bad settings fail before any work
+    coordinates = surrogate_coordinates(study, problem)
     if seed_runs:
         seeds = list(seeds or ()) + seeds_from_runs(study, problem, seed_runs)
-    proto = problem.prototype_response  # simulated once, before any worker starts
-    out.mkdir(parents=True, exist_ok=True)
-    proto.save(out / PROTOTYPE_NPZ)
-    classical = classical_baseline(study, problem)
-    seed_list = _seed_designs(study, problem, classical, seeds)
-    budget = (opt.initial_samples + opt.iterations * opt.batch_size + opt.polish
-              + len(seed_list))
-    count = [0]
-
-    def callback(evaluation) -> None:
-        count[0] += 1
-        if progress is not None:
-            progress(count[0], budget, evaluation)
-
-    run_seed = opt.seed if seed is None else seed
-    # seeds: iteration -1, committed one by one (crash-safe; skipped when already stored)
-    with EvaluationStore(store_path) as store:
-        stored = {r.batch_index: r for r in store.load() if r.iteration == -1}
-        for i, (x, why) in enumerate(seed_list):
-            if i in stored:
-                ev = stored[i]
-            else:
-                res = evaluate_design(problem, x, timeout=opt.timeout)
-                ev = Evaluation(x=np.asarray(x, float), F=np.asarray(res["F"], float),
-                                G=np.asarray(res["G"], float), status=res["status"],
-                                message=f"{why}; {res['message']}" if res["message"] else why,
-                                seconds=float(res["seconds"]), iteration=-1, batch_index=i,
-                                seed=run_seed)
-                store.append(ev)
-                callback(ev)
-            if i == 0 and why == "seed: classical baseline" and classical is not None:
-                classical["objectives"] = {o: finite_or_none(f) for o, f in
-                                           zip(study.spec.objectives, ev.F)}
-                classical["evaluation_status"] = ev.status
-    write_json(out / CLASSICAL_JSON, classical or {"status": "not available"})
     try:
-        executor, close = make_executor(workers, scheduler)
+        executor, close = make_executor(workers, scheduler)  # reachable before any work
     except ExecutorError as exc:
         raise InputError(exc.field, exc.message) from None
-    settings = OptimizerSettings(
-        acquisition=study.acquisition, n_init=opt.initial_samples, n_iter=opt.iterations,
-        batch_size=opt.batch_size, v=opt.v, weights=opt.weights,
-        cheap_constraints=problem.cheap_constraints(), executor=executor,
-        timeout=opt.timeout, store=store_path, seed=run_seed, callback=callback,
-        output_transform=opt.transform, coordinates=coordinates, polish=opt.polish)
-    optimizer = BayesianOptimizer(problem, settings)
-    t0 = time.perf_counter()
     try:
-        result = optimizer.run()
+        proto = problem.prototype_response  # simulated once, before any worker starts
+        with run_lock(out), EvaluationStore(store_path) as store:
+            record_campaign(store, identity, study)
+            proto.save(out / PROTOTYPE_NPZ)
+            classical = classical_baseline(study, problem)
+            seed_list = _seed_designs(study, problem, classical, seeds)
+            budget = (opt.initial_samples + opt.iterations * opt.batch_size + opt.polish
+                      + len(seed_list))
+            count = [0]
+
+            def callback(evaluation: Evaluation) -> None:
+                count[0] += 1
+                if progress is not None:
+                    progress(count[0], budget, evaluation)
+
+            _evaluate_seeds(problem, study, store, seed_list, classical, run_seed, callback)
+            write_json(out / CLASSICAL_JSON, classical or {"status": "not available"})
+            settings = OptimizerSettings(
+                acquisition=study.acquisition, n_init=opt.initial_samples,
+                n_iter=opt.iterations, batch_size=opt.batch_size, v=opt.v, weights=opt.weights,
+                cheap_constraints=problem.cheap_constraints(), executor=executor,
+                timeout=opt.timeout, store=store, seed=run_seed, callback=callback,
+                output_transform=opt.transform, coordinates=coordinates, polish=opt.polish)
+            t0 = time.perf_counter()
+            result = BayesianOptimizer(problem, settings).run()
+            wall = time.perf_counter() - t0
+            point = write_outputs(study, problem, result, out, wall_seconds=wall)
+            if on_written is not None:
+                on_written(out)
     finally:
         close()
-    wall = time.perf_counter() - t0
-    point = write_outputs(study, problem, result, out, wall_seconds=wall)
-    if on_written is not None:
-        on_written(out)
     return RunOutcome(directory=out, result=result, design_point=point, problem=problem)
 
 

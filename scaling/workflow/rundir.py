@@ -20,6 +20,8 @@ file                        content                                     written 
 ``figures/``
 ``sweep.json``,             a sweep's points and their records          :mod:`.sweep` / laws,
 ``sweep.csv``                                                           report, scripts
+``run.lock``                the pid of the run holding the directory    :mod:`.campaign`
+                            (an exclusive POSIX record lock)
 ==========================  ==========================================  ======================
 
 Writers replace files atomically (write ``NAME.tmp``, then rename), so a killed run never
@@ -53,6 +55,7 @@ REPORT_HTML = "report.html"
 FIGURES_DIR = "figures"
 SWEEP_JSON = "sweep.json"
 SWEEP_CSV = "sweep.csv"
+LOCK_FILE = "run.lock"
 #: The id column of ``evaluations.csv``: the 0-based row number in the store order, the
 #: number every report cites ("evaluation 37").
 ID_COLUMN = "id"

@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 from hypate.scaling.engine.problem import project_cheap
 from hypate.scaling.engine.store import EvaluationStore
+from hypate.scaling.workflow.campaign import check_run_settings
 from hypate.scaling.workflow.laws import (
     ANALYTICAL_EXPONENTS,
     analytical_laws,
@@ -184,6 +185,7 @@ def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: i
     if not points:
         raise InputError("sweep", "the study has no [sweep] table")
     out = Path(out)
+    check_run_settings(out, seed=seed, workers=workers, scheduler=scheduler)
     if (out / SWEEP_JSON).exists() and not resume:
         raise InputError("out", f"{out} already holds a sweep; use --resume to continue it "
                          "or choose another directory")

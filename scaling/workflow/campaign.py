@@ -1,0 +1,247 @@
+"""A run directory belongs to one campaign: its identity, the resume check, the run lock and
+the preflight that runs before any simulation.
+
+A campaign's identity is the content of what decides its results: the parsed study, the
+prototype case file it reads, the ROM archive of a ``rom:PATH`` fluid model (by hash), the
+simulation settings, the seed and the package version. The store keeps the identity itself
+(``meta`` key ``campaign``) and its SHA-256 (``fingerprint``), so that ``--resume`` can say
+which keys changed, old -> new, and refuse before anything in the directory is touched.
+"""
+from __future__ import annotations
+
+import dataclasses
+import errno
+import fcntl
+import hashlib
+import json
+import os
+import sqlite3
+from collections.abc import Iterator
+from contextlib import contextmanager
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import IO, Any
+
+from hypate.scaling.engine.executors import check_scheduler_address
+from hypate.scaling.engine.store import EvaluationStore, StoreError
+from hypate.scaling.workflow.rundir import LOCK_FILE, STORE
+from hypate.scaling.workflow.study import Study, study_data
+from hypate.solvers.aero.factory import ROM_PREFIX
+from hypate.solvers.config import read_toml
+from hypate.solvers.errors import InputError
+
+__all__ = ["MAX_SEED", "campaign_identity", "changed_keys", "check_resume", "fingerprint",
+           "check_run_settings", "package_version", "preflight", "record_campaign", "run_lock", "stored_seed"]
+
+#: Largest accepted seed: the store keeps it as a signed 64-bit SQLite integer.
+MAX_SEED = 2**63 - 1
+#: Changed keys named in a refused resume before "... and N more".
+SHOWN_CHANGES = 6
+
+
+def package_version() -> str:
+    """The installed distribution's version (``pyproject.toml``)."""
+    try:
+        return version("hypate")
+    except PackageNotFoundError:  # pragma: no cover - running from an uninstalled tree
+        return "unknown"
+
+
+def _file_sha256(path: Path) -> str | None:
+    try:
+        return hashlib.sha256(path.read_bytes()).hexdigest()
+    except OSError:
+        return None
+
+
+def campaign_identity(study: Study, seed: int) -> dict[str, Any]:
+    """What decides a campaign's results, as plain JSON data (see the module docstring)."""
+    data = study_data(study)
+    case_path = Path(data["prototype"].pop("case"))
+    data.pop("sweep", None)  # a sweep point's store belongs to the point's own sub-study
+    aero = study.spec.prototype.simulation.aero
+    files: dict[str, Any] = {"case": read_toml(case_path)}
+    if aero.startswith(ROM_PREFIX):
+        files["rom_sha256"] = _file_sha256(Path(aero[len(ROM_PREFIX):]))
+    return {"study": data, "files": files, "seed": int(seed), "version": package_version(),
+            "simulation": dataclasses.asdict(study.spec.prototype.simulation)}
+
+
+def fingerprint(identity: dict[str, Any]) -> str:
+    """SHA-256 of the identity's canonical JSON."""
+    text = json.dumps(identity, sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _flatten(value: Any, prefix: str = "") -> dict[str, Any]:
+    if isinstance(value, dict) and value:
+        out: dict[str, Any] = {}
+        for key, sub in value.items():
+            out.update(_flatten(sub, f"{prefix}.{key}" if prefix else str(key)))
+        return out
+    return {prefix: value}
+
+
+def _text(value: Any) -> str:
+    return json.dumps(value, sort_keys=True, default=str)
+
+
+def changed_keys(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
+    """``"key old -> new"`` for every dotted key whose value differs (missing: ``-``)."""
+    a, b = _flatten(old), _flatten(new)
+    out = []
+    for key in sorted(set(a) | set(b)):
+        if _text(a.get(key)) != _text(b.get(key)):
+            show = [_text(d[key]) if key in d else "-" for d in (a, b)]
+            out.append(f"{key} {show[0]} -> {show[1]}")
+    return out
+
+
+def _read_record(store_path: Path) -> tuple[dict[str, Any] | None, int | None]:
+    """The stored campaign identity and seed, read without writing to the directory."""
+    try:
+        with EvaluationStore(store_path, read_only=True) as store:
+            record, seed = store.get_meta("campaign"), store.get_meta("seed")
+    except StoreError as exc:
+        raise InputError("resume", str(exc)) from None
+    return (record if isinstance(record, dict) else None,
+            seed if isinstance(seed, int) else None)
+
+
+def stored_seed(store_path: Path) -> int | None:
+    """The seed a run directory's campaign was started with (None: not recorded)."""
+    record, seed = _read_record(store_path)
+    if record is not None and isinstance(record.get("seed"), int):
+        return int(record["seed"])
+    return seed
+
+
+def check_resume(store_path: Path, identity: dict[str, Any]) -> None:
+    """Refuse to resume a store that holds another campaign (exit 2 naming the changes).
+
+    Raises
+    ------
+    InputError
+        ``resume``: the store holds no campaign record or a different one.
+    """
+    record, _ = _read_record(store_path)
+    where = store_path.parent
+    if record is None:
+        raise InputError("resume", f"{where} holds no hypate campaign record (not a run "
+                         "directory of this version); start a new run with another --out")
+    changes = changed_keys(record, identity)
+    if changes:
+        shown = "; ".join(changes[:SHOWN_CHANGES])
+        more = f"; and {len(changes) - SHOWN_CHANGES} more" if len(changes) > SHOWN_CHANGES \
+            else ""
+        raise InputError("resume", f"{where} holds a different campaign ({shown}{more}); "
+                         "resume it with its own study, or start a new run with another --out")
+
+
+def check_seed(seed: int | None) -> None:
+    """A seed the store and numpy can keep: ``0 <= seed <= 2**63 - 1``."""
+    if seed is not None and not (0 <= int(seed) <= MAX_SEED):
+        raise InputError("seed", f"must be within [0, 2**63 - 1]; got {seed}")
+
+
+def check_run_settings(out: Path, *, seed: int | None, workers: int,
+                       scheduler: str | None) -> None:
+    """The command-line settings of a run (single or sweep): seed range, worker count,
+    executor address form, and an ``out`` that is (or can become) a directory."""
+    check_seed(seed)
+    if workers < 1:
+        raise InputError("workers", "must be >= 1")
+    if scheduler is not None:
+        try:
+            check_scheduler_address(scheduler)
+        except ValueError as exc:
+            raise InputError("scheduler", getattr(exc, "message", str(exc))) from None
+    if out.exists() and not out.is_dir():
+        raise InputError("out", f"{out} exists and is not a directory")
+    parent = next((p for p in (out, *out.parents) if p.exists()), Path("."))
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise InputError("out", f"cannot write in {parent}")
+
+
+def check_out(out: Path, resume: bool) -> None:
+    """The run directory can hold this run: not another run, or the run to resume."""
+    store = out / STORE
+    if store.exists() and not resume:
+        raise InputError("out", f"{out} already holds a run; use --resume to continue it "
+                         "or choose another directory")
+    if resume and not store.is_file():
+        raise InputError("resume", f"{out} holds no run to resume")
+
+
+def preflight(study: Study, out: Path, *, resume: bool, seed: int | None, workers: int,
+              scheduler: str | None) -> tuple[dict[str, Any], int]:
+    """Every check of a run that needs no simulation, before anything is written.
+
+    Returns the campaign identity and the run's seed (``seed``, else the stored one on
+    resume, else the study's).
+
+    Raises
+    ------
+    InputError
+        Naming the setting: ``out``, ``resume``, ``seed``, ``workers``, ``scheduler``.
+    """
+    check_run_settings(out, seed=seed, workers=workers, scheduler=scheduler)
+    check_out(out, resume)
+    if seed is None and resume:
+        seed = stored_seed(out / STORE)
+    run_seed = study.optimizer.seed if seed is None else int(seed)
+    identity = campaign_identity(study, run_seed)
+    if resume:
+        check_resume(out / STORE, identity)
+    return identity, run_seed
+
+
+def _holder(handle: IO[str]) -> str:
+    handle.seek(0)
+    text = handle.read().strip()
+    return text if text.isdigit() else "unknown"
+
+
+@contextmanager
+def run_lock(out: Path) -> Iterator[None]:
+    """One process at a time per run directory: an exclusive POSIX record lock on
+    ``out/LOCK_FILE``, which holds the owner's pid. The kernel releases it when the owner
+    dies, even by SIGKILL, and -- unlike ``flock`` -- a forked worker does not inherit it, so
+    a worker that outlives a killed run cannot block the resume.
+
+    Raises
+    ------
+    InputError
+        ``out``: another process holds the directory (its pid named).
+    """
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / LOCK_FILE, "a+", encoding="ascii") as handle:
+        try:
+            fcntl.lockf(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            if exc.errno not in (errno.EAGAIN, errno.EACCES):
+                raise
+            raise InputError("out", f"{out} is in use by another hypate run (pid "
+                             f"{_holder(handle)}); wait for it or choose another --out"
+                             ) from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(str(os.getpid()))
+        handle.flush()
+        try:
+            yield
+        finally:
+            fcntl.lockf(handle, fcntl.LOCK_UN)
+
+
+def record_campaign(store: EvaluationStore, identity: dict[str, Any], study: Study) -> None:
+    """Write the identity (once; a resumed store already holds the same) and the report's
+    pointers to the study (``study_path``, ``study``)."""
+    try:
+        store.set_meta("campaign", identity)
+        store.set_meta("fingerprint", fingerprint(identity))
+        if study.path != "<memory>":
+            store.set_meta("study_path", str(Path(study.path).resolve()), replace=True)
+        store.set_meta("study", study.name, replace=True)
+    except (ValueError, sqlite3.Error) as exc:
+        raise InputError("resume", str(exc)) from None
