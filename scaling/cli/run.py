@@ -81,10 +81,21 @@ def register(sub: argparse._SubParsersAction) -> None:
                                           "seed": "--seed", "seed_runs": "--seed-from"})
 
 
-class _Progress:
+class Progress:
     """Progress: evaluations / budget, best max(J), hypervolume, elapsed and ETA -- a live
     bar in a terminal, a line every :data:`LOG_EVERY` seconds (and at the end) otherwise,
-    nothing when quiet."""
+    nothing when quiet.
+
+    Called as the ``progress`` callback of :func:`hypate.scaling.workflow.run.run_study`:
+    ``progress(done, budget, evaluation)`` with the evaluation just stored (or None).
+
+    Parameters
+    ----------
+    quiet : bool
+        No output at all.
+    tty : bool or None
+        Whether stderr is a terminal (``None``: ask it).
+    """
 
     def __init__(self, quiet: bool = False, tty: bool | None = None) -> None:
         tty = sys.stderr.isatty() if tty is None else tty
@@ -226,7 +237,7 @@ def run(args: argparse.Namespace) -> int:
                 print(f"report: {summary['report']}")
         return 0
     say("simulating the prototype ...")
-    bar = _Progress(quiet=args.quiet)
+    bar = Progress(quiet=args.quiet)
     try:
         with collected_warnings(args.verbose) as caught:
             outcome = run_study(study, out, resume=args.resume, workers=args.workers,
@@ -268,14 +279,14 @@ def interrupted(args: argparse.Namespace, out: Path) -> int:
 
 def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
     """``hypate run`` of a sweep study: one optimization per point, then the summary."""
-    bars: list[_Progress] = []
+    bars: list[Progress] = []
 
     def on_point(i: int, n: int, point) -> None:
         if bars:
             bars.pop().close()
         if not args.quiet:
             print(f"[{i + 1}/{n}] {point.label}", file=sys.stderr)
-        bars.append(_Progress(quiet=args.quiet))
+        bars.append(Progress(quiet=args.quiet))
 
     def progress(done: int, budget: int, evaluation) -> None:
         if bars:

@@ -179,8 +179,28 @@ class BayesianOptimizer:
             X = np.array([lo + project_unit((x - lo) / span, cons) * span for x in X])
         return X
 
-    def _fit(self, X: np.ndarray, Y: np.ndarray, rng: np.random.Generator, **kw: Any):
-        """A surrogate of ``Y(X)`` in the optimizer's input coordinates, queried in ``x``."""
+    def surrogate(self, X: np.ndarray, Y: np.ndarray,
+                  rng: np.random.Generator | int | None = None, **kw: Any):
+        """The surrogate the optimizer fits to data ``Y(X)``: kriging in its input
+        coordinates (``settings.coordinates``, e.g. similarity parameters), queried in ``x``.
+
+        Parameters
+        ----------
+        X : ndarray of shape (n, d)
+            Designs.
+        Y : ndarray of shape (n, m)
+            Values (objectives as the surrogates see them, constraints, ...).
+        rng : numpy.random.Generator, int or None
+            Random restarts of the likelihood optimization.
+        **kw
+            Further options of :func:`hypate.scaling.engine.surrogate.fit_surrogate`
+            (``nugget``, ``length_scale_bounds``).
+
+        Returns
+        -------
+        KrigingRegressor or WarpedModel
+            Fitted, with ``predict_moments``, ``predict_with_gradients`` and ``condition``.
+        """
         s, coords = self.settings, self.settings.coordinates
         if coords is None:
             return fit_surrogate(X, Y, self.bounds, kernel=s.kernel, n_restarts=s.n_restarts,
@@ -246,13 +266,13 @@ class BayesianOptimizer:
             # nothing to model: explore with an OLH point far from the samples
             U = latin_hypercube(st.batch_size, self.bounds, rng)
             return U
-        model = self._fit(X[ok], F[ok], rng)
+        model = self.surrogate(X[ok], F[ok], rng)
         model_constraints: list[ProbabilisticConstraint] = []
         if self.n_constr:
-            gm = self._fit(X[ok], G[ok], rng)
+            gm = self.surrogate(X[ok], G[ok], rng)
             model_constraints.append(ProbabilisticConstraint(gm, p_min=st.p_feasible))
         if not np.all(ok):
-            fm = self._fit(X, (~ok).astype(float)[:, None], rng, nugget=FAILURE_NUGGET,
+            fm = self.surrogate(X, (~ok).astype(float)[:, None], rng, nugget=FAILURE_NUGGET,
                            length_scale_bounds=FAILURE_LENGTH_SCALES)
             model_constraints.append(
                 ProbabilisticConstraint(fm, p_min=0.5, threshold=FAILURE_THRESHOLD))

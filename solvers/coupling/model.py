@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -47,13 +48,17 @@ Array = NDArray[np.float64]
 
 @dataclass
 class StepTimer:
-    """Wall time per discipline (s), accumulated over a run (Table 8.6 style)."""
+    """Wall time per discipline (s), accumulated over a run (Table 8.6 style), and the work
+    counts: sparse factorizations (structural and thermal) and Newton iterations of the
+    aeroelastic equilibrium (Eq. 5.31b; every iteration made, those of a discarded
+    prediction or load increment included)."""
 
     fluid: float = 0.0
     structural: float = 0.0
     thermal: float = 0.0
     stability: float = 0.0
     factorizations: int = 0
+    newton_iterations: int = 0
 
     def as_dict(self) -> dict[str, float]:
         return {"fluid": self.fluid, "structural": self.structural, "thermal": self.thermal,
@@ -370,6 +375,7 @@ class PanelModel:
                 KA = load * KA if sp.issparse(KA) else _scaled(KA, load)
                 du[free] = self._solve(K, KA, -R[free])
             self.timer.structural += time.perf_counter() - t0
+            self.timer.newton_iterations += 1
             u = u + du
             R, K, loads = residual(u)
             rnorm = float(np.linalg.norm(R[free]))
@@ -379,21 +385,6 @@ class PanelModel:
             f"aeroelastic equilibrium did not converge in {s.newton_max_iter} Newton "
             f"iterations (residual {rnorm:.3g} N vs scale {ref:.3g} N)")
 
-    def _gmres_precond(self, matvec, b: Array) -> Array | None:
-        """GMRES preconditioned by the kept factor (at most 20 iterations of
-        :func:`hypate.solvers.numerics.sparse.gmres`); None when the factor is missing or too
-        weak."""
-        if self._precond is None or self._precond.shape[0] != b.size:
-            return None
-        # (a hand-rolled GMRES: scipy's costs 0.1 ms per iteration more in Python overhead,
-        # a third of each iteration here)
-        x, _, _ = gmres(matvec, self._precond.solve, b, rtol=1e-11, max_iter=20)
-        # an inexact Newton step is enough: accept 1e-6 relative (GMRES may stagnate near
-        # 1e-8 on these badly scaled shell systems)
-        if np.linalg.norm(matvec(x) - b) <= 1e-6 * np.linalg.norm(b):
-            return x
-        return None
-
     def _solve_free(self, data: Array, b: Array) -> Array:
         """:meth:`_solve` for ``K - K_A`` given as data on the structural pattern (pointwise
         fluid): the free block by index maps, the factor by
@@ -401,7 +392,7 @@ class PanelModel:
         fp = self.free_pattern
         block = data[fp.sel]
         A = sp.csr_matrix((block, fp.indices, fp.indptr), shape=(fp.n, fp.n))
-        x = self._gmres_precond(A.__matmul__, b)
+        x = _gmres_on_factor(A.__matmul__, self._precond, b)
         if x is not None:
             return x
         self.timer.factorizations += 1
@@ -409,42 +400,13 @@ class PanelModel:
         return self._precond.solve(b)
 
     def _solve(self, K: sp.csr_matrix, KA, b: Array) -> Array:
-        """Solve ``(K - K_A)_ff x = b`` on the free DOFs.
+        """:func:`solve_free_block` with the kept preconditioner; a new factor replaces it."""
+        return solve_free_block(K, KA, b, self.structure.free_dofs, self._precond,
+                                on_factor=self._new_precond)
 
-        GMRES preconditioned by the last factorization of a nearby Jacobian (the LSA's
-        factor of the previous step, Eqs. 5.44-5.45 with a better preconditioner than K
-        alone); when GMRES needs many iterations the current matrix is factorized (sparse
-        LU) and becomes the preconditioner. A low-rank/operator K_A (a ROM) is applied
-        matrix-free.
-        """
-        free = self.structure.free_dofs
-        Kff = K[free][:, free]
-        if sp.issparse(KA):
-            A = (Kff - KA[free][:, free]).tocsc()
-            matvec = A.__matmul__
-        else:
-            A = Kff.tocsc()
-            n_all = K.shape[0]
-
-            def matvec(x: Array) -> Array:
-                full = np.zeros(n_all)
-                full[free] = x
-                return Kff @ x - (KA @ full)[free]
-        x = self._gmres_precond(matvec, b)
-        if x is not None:
-            return x
+    def _new_precond(self, lu: spla.SuperLU) -> None:
         self.timer.factorizations += 1
-        self._precond = spla.splu(A)
-        if sp.issparse(KA):
-            return self._precond.solve(b)
-        n = b.size
-        x, info = spla.gmres(spla.LinearOperator((n, n), matvec=matvec, dtype=float), b,
-                             M=spla.LinearOperator((n, n), matvec=self._precond.solve,
-                                                   dtype=float),
-                             rtol=1e-11, atol=0.0, restart=80, maxiter=3)
-        if info != 0:
-            raise EquilibriumError("GMRES for the aeroelastic Newton step did not converge")
-        return x
+        self._precond = lu
 
     # -- stability -----------------------------------------------------------------------------
     def stability(self, u: Array, T: Array, method: str = "gep") -> StabilityResult:
@@ -506,6 +468,88 @@ class PanelModel:
         # the Sec. 9.2 benchmark)
         return shift_invert_gep(lu.solve, Mff, sigma, count=k, rng=0,
                                 v0=self._lsa_start, on_vectors=keep)
+
+
+def solve_free_block(K: sp.csr_matrix, K_A: sp.spmatrix | spla.LinearOperator, b: Array,
+                     free: Array, precond=None,
+                     on_factor: Callable[[spla.SuperLU], None] | None = None) -> Array:
+    """Solve ``(K - K_A)_ff x = b`` on the free DOFs: the Newton step of the aeroelastic
+    equilibrium (Eq. 5.42).
+
+    GMRES preconditioned by ``precond``, the factor of a nearby Jacobian (the LSA's factor
+    of the previous step, Eqs. 5.44-5.45 with a better preconditioner than K alone), when
+    it reaches 1e-6 relative in at most 20 iterations; otherwise the current matrix is
+    factorized (sparse LU) and handed to ``on_factor`` (the caller keeps it as the next
+    preconditioner). A low-rank/operator ``K_A`` (a ROM, Eq. 5.43) is applied matrix-free:
+    the factor is then of ``K_ff`` alone and preconditions GMRES on ``K - K_A``.
+
+    Parameters
+    ----------
+    K : csr_matrix of shape (n_dof, n_dof)
+        Structural tangent (N/m).
+    K_A : sparse matrix or LinearOperator of shape (n_dof, n_dof)
+        Aerodynamic stiffness (N/m), already scaled by the load factor.
+    b : ndarray of shape (n_free,)
+        Right-hand side on the free DOFs (N).
+    free : ndarray of int, shape (n_free,)
+        The free DOFs (``StructuralModel.free_dofs``).
+    precond : object with ``solve(b)`` and ``shape``, optional
+        The factor of a nearby matrix on the same free DOFs; ``None``: factorize.
+    on_factor : callable, optional
+        Receives each new factorization.
+
+    Returns
+    -------
+    ndarray of shape (n_free,)
+
+    Raises
+    ------
+    EquilibriumError
+        GMRES on a matrix-free ``K_A`` did not converge.
+    """
+    Kff = K[free][:, free]
+    if sp.issparse(K_A):
+        A = (Kff - K_A[free][:, free]).tocsc()
+        matvec = A.__matmul__
+    else:
+        A = Kff.tocsc()
+        n_all = K.shape[0]
+
+        def matvec(x: Array) -> Array:
+            full = np.zeros(n_all)
+            full[free] = x
+            return Kff @ x - (K_A @ full)[free]
+    x = _gmres_on_factor(matvec, precond, b)
+    if x is not None:
+        return x
+    lu = spla.splu(A)
+    if on_factor is not None:
+        on_factor(lu)
+    if sp.issparse(K_A):
+        return lu.solve(b)
+    n = b.size
+    x, info = spla.gmres(spla.LinearOperator((n, n), matvec=matvec, dtype=float), b,
+                         M=spla.LinearOperator((n, n), matvec=lu.solve, dtype=float),
+                         rtol=1e-11, atol=0.0, restart=80, maxiter=3)
+    if info != 0:
+        raise EquilibriumError("GMRES for the aeroelastic Newton step did not converge")
+    return x
+
+
+def _gmres_on_factor(matvec, precond, b: Array) -> Array | None:
+    """GMRES preconditioned by the kept factor (at most 20 iterations of
+    :func:`hypate.solvers.numerics.sparse.gmres`); None when the factor is missing or too
+    weak."""
+    if precond is None or precond.shape[0] != b.size:
+        return None
+    # (a hand-rolled GMRES: scipy's costs 0.1 ms per iteration more in Python overhead,
+    # a third of each iteration here)
+    x, _, _ = gmres(matvec, precond.solve, b, rtol=1e-11, max_iter=20)
+    # an inexact Newton step is enough: accept 1e-6 relative (GMRES may stagnate near
+    # 1e-8 on these badly scaled shell systems)
+    if np.linalg.norm(matvec(x) - b) <= 1e-6 * np.linalg.norm(b):
+        return x
+    return None
 
 
 def _scaled(op: spla.LinearOperator, factor: float) -> spla.LinearOperator:

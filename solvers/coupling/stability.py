@@ -96,6 +96,9 @@ class StabilityResult:
         The worst mode's class.
     critical : int
         Index of the mode that decides ``status``.
+    warm_start : bool
+        The Arnoldi iteration started from a given vector (:func:`start_vector` of the
+        modes of a nearby, e.g. the previous step's, problem) instead of a random one.
     """
 
     lambda_p: CArray
@@ -103,6 +106,7 @@ class StabilityResult:
     frequency: Array
     status: str
     critical: int
+    warm_start: bool = False
 
     @property
     def unstable(self) -> bool:
@@ -136,12 +140,12 @@ def _from_lambda_g(lam_g: CArray) -> CArray:
                     1j * np.abs(lam_p.imag), lam_p)
 
 
-def _result(lam_p: CArray) -> StabilityResult:
+def _result(lam_p: CArray, warm_start: bool = False) -> StabilityResult:
     order = np.argsort(np.abs(lam_p.imag) + 1e-9 * np.abs(lam_p.real))
     lam_p = lam_p[order]
     status, crit = classify(lam_p)
     return StabilityResult(lambda_p=lam_p, damping=lam_p.real, frequency=lam_p.imag,
-                           status=status, critical=crit)
+                           status=status, critical=crit, warm_start=warm_start)
 
 
 def gep(K: sp.spmatrix, M: sp.spmatrix, K_A: sp.spmatrix | LowRank | None = None,
@@ -216,7 +220,8 @@ def shift_invert_gep(solve, M: sp.spmatrix, sigma: float, count: int = 6,
     n = M.shape[0]
     op = spla.LinearOperator((n, n), matvec=lambda x: solve(M @ x), dtype=float)
     k = min(count, n - 2)
-    if v0 is None or v0.shape != (n,) or not np.any(v0):
+    warm = v0 is not None and v0.shape == (n,) and bool(np.any(v0))
+    if not warm:
         v0 = np.random.default_rng(rng).standard_normal(n)
     if ncv is not None:
         ncv = min(max(ncv, 2 * k + 1), n)
@@ -231,7 +236,7 @@ def shift_invert_gep(solve, M: sp.spmatrix, sigma: float, count: int = 6,
                                     tol=1e-12, ncv=ncv)
             on_vectors(vectors)
     lam_g = sigma + 1.0 / mu  # spectral transformation, Eq. (5.36)
-    return _result(_from_lambda_g(lam_g))
+    return _result(_from_lambda_g(lam_g), warm_start=warm)
 
 
 def start_vector(vectors: CArray) -> Array:

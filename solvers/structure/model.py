@@ -16,6 +16,10 @@ SI units: m, rad, N, Pa, K):
 * :meth:`StructuralModel.mass` (Eq. 3.38), :meth:`StructuralModel.damping` (Eq. 3.44)
 * :meth:`StructuralModel.pressure_load` (Eq. 3.39) and :attr:`pressure_matrix`
 * :meth:`StructuralModel.thermal_load` (Eq. 3.34d)
+* :meth:`StructuralModel.penalty_stiffness` -- ``K^c`` of the boundary conditions (Eqs. 3.40-3.42)
+* :meth:`StructuralModel.laminate_at_nodes`, :meth:`StructuralModel.laminate_at_quadrature`
+  -- the laminate resultants of a temperature field; :meth:`StructuralModel.element_dofs`
+  -- ``u`` per element, the input of the kernels in :mod:`hypate.solvers.structure.element`
 
 Temperature input ``T`` everywhere: ``None`` (the stress-free initial temperature), a scalar
 (uniform), an array of shape ``(n_levels,)`` (one through-thickness profile for every node),
@@ -155,9 +159,25 @@ class StructuralModel:
         """Assemble element matrices (n_elem, 45, 45) into CSR with the fixed pattern."""
         data = np.bincount(self._map, weights=Ke.ravel(), minlength=self._nnz)
         if penalty:
-            data[self._diag] += self._pen_vec
-            if self._tie_data is not None:
-                data += self._tie_data
+            self._add_penalty(data)
+        return self._csr(data)
+
+    def _add_penalty(self, data: Array) -> None:
+        """Add ``K^c`` (Eqs. 3.40-3.42, with the 2d-strip ties) to CSR data on the pattern."""
+        data[self._diag] += self._pen_vec
+        if self._tie_data is not None:
+            data += self._tie_data
+
+    def penalty_stiffness(self) -> sp.csr_matrix:
+        """Penalty stiffness ``K^c`` of the boundary conditions (Eqs. 3.40-3.42), CSR (N/m).
+
+        :attr:`penalty` on the diagonal of every DOF in :attr:`constrained_dofs`, plus the
+        ties of a "2d" strip. :meth:`internal_force` contains ``K^c u`` and :meth:`tangent`
+        contains ``K^c``: ``tangent(u, T) - penalty_stiffness()`` is the tangent of the
+        unconstrained panel, ``penalty_stiffness() @ u`` the penalty reactions.
+        """
+        data = np.zeros(self._nnz)
+        self._add_penalty(data)
         return self._csr(data)
 
     def assemble_vector(self, fe: Array) -> Array:
@@ -294,9 +314,8 @@ class StructuralModel:
                                I=tuple(np.asarray(x)[None, None] for x in (lam.I1, lam.I2,
                                                                            lam.I3)))
         else:
-            Te = Tn[self.mesh.elements]                                    # (E, 9, L)
-            lam3 = laminate(self.panel, np.einsum("qa,eal->eql", self.q3.N, Te))
-            lam2 = laminate(self.panel, np.einsum("qa,eal->eql", self.q2.N, Te),
+            lam3 = laminate(self.panel, self._at_points(Tn, self.q3))
+            lam2 = laminate(self.panel, self._at_points(Tn, self.q2),
                             parts="shear")  # only S at the reduced shear quadrature
             st = _ThermalState(C=lam3.ABD, R=lam3.thermal_resultants, S=lam2.S,
                                I=(lam3.I1, lam3.I2, lam3.I3))
@@ -310,8 +329,32 @@ class StructuralModel:
         Tn = self.nodal_temperature(T)
         return laminate(self.panel, Tn)
 
+    def laminate_at_quadrature(self, T: TemperatureLike = None) -> LaminateState:
+        """Laminate resultants (A, B, D, S, N_T, M_T, I1..I3; Eqs. 3.34, 3.38) at the 3 x 3
+        Gauss points of every element, where the stiffness, thermal load and mass are
+        integrated: leading shape (n_elem, 9), or () for a temperature without in-plane
+        variation. The nodal profiles are interpolated to the points with the shape
+        functions (module docstring)."""
+        Tn = self.nodal_temperature(T)
+        if isinstance(Tn, float) or Tn.ndim == 1:
+            return laminate(self.panel, Tn)
+        return laminate(self.panel, self._at_points(Tn, self.q3))
+
+    def _at_points(self, Tn: Array, q: Quadrature) -> Array:
+        """Nodal profiles (n_nodes, n_levels) at the points of ``q``, shape (E, n_qp, L)."""
+        return np.einsum("qa,eal->eql", q.N, Tn[self.mesh.elements])
+
     # -- element kernels --------------------------------------------------------------
-    def _element_dofs(self, u: Array | None) -> Array | None:
+    def element_dofs(self, u: Array | None) -> Array | None:
+        """The DOFs of every element, shape (n_elem, 9, 5) (nodes in the element's order,
+        then u, v, w, psi_x, psi_y): the ``ue`` the kernels of
+        :mod:`hypate.solvers.structure.element` take. ``None`` gives ``None``.
+
+        Parameters
+        ----------
+        u : ndarray of shape (n_dof,) or None
+            Nodal DOFs (m, rad).
+        """
         if u is None:
             return None
         u = np.asarray(u, dtype=float)
@@ -341,7 +384,7 @@ class StructuralModel:
         st = self._thermal(T)
         E = self.mesh.n_elem
         q3, q2 = self.q3, self.q2
-        ue = self._element_dofs(u)
+        ue = self.element_dofs(u)
         if ue is None:
             ue = np.zeros((E, NNODE, NDOF))
         nl = nonlinear and u is not None
@@ -414,7 +457,7 @@ class StructuralModel:
         """``(N_E, M_E)`` at the 3 x 3 quadrature points (Eq. 3.7), shape (n_elem, 9, 6)."""
         st = self._thermal(T)
         E = self.mesh.n_elem
-        ue = self._element_dofs(u)
+        ue = self.element_dofs(u)
         if ue is None:
             ue = np.zeros((E, NNODE, NDOF))
         e6 = generalized_strain(self.q3, ue, self.kx, self.ky, nonlinear=nonlinear)
@@ -435,7 +478,7 @@ class StructuralModel:
         """Thermal load vector ``F_T`` (Eq. 3.34d) at ``(u, T)``, shape (n_dof,), N."""
         st = self._thermal(T)
         E = self.mesh.n_elem
-        ue = self._element_dofs(u)
+        ue = self.element_dofs(u)
         B = (self._B0 if ue is None else
              membrane_bending_B(self.q3, ue, self.kx, self.ky).reshape(E, 9, 6, NNODE * NDOF))
         R = np.broadcast_to(st.R, (E, 9, 6))
@@ -455,8 +498,7 @@ class StructuralModel:
             lam = laminate(self.panel, Tn, parts="inertia")
             I1, I2, I3 = (np.asarray(x)[None, None] for x in (lam.I1, lam.I2, lam.I3))
         else:
-            lam = laminate(self.panel, np.einsum("qa,eal->eql", self.q3.N,
-                                                 Tn[self.mesh.elements]), parts="inertia")
+            lam = laminate(self.panel, self._at_points(Tn, self.q3), parts="inertia")
             I1, I2, I3 = lam.I1, lam.I2, lam.I3
         M = self.assemble_matrix(mass_kernel(self.q3, I1, I2, I3))
         if len(self._mass_cache) > 8:

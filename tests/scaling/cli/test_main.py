@@ -1,13 +1,14 @@
 """The installed ``hypate`` console script: help, condition, error handling."""
 from __future__ import annotations
 
+import argparse
 import json
 import shutil
 import subprocess
 import sys
 
 import pytest
-from hypate.scaling.cli.main import build_parser, main
+from hypate.scaling.cli.main import COMMAND_MODULES, main
 
 
 def _hypate(*args: str) -> subprocess.CompletedProcess:
@@ -29,8 +30,10 @@ def test_console_script_help_and_condition_json() -> None:
 
 
 def test_every_subcommand_has_help(capsys: pytest.CaptureFixture) -> None:
-    parser = build_parser()
-    sub = next(a for a in parser._actions if a.dest == "command")
+    # the subcommands as build_parser registers them: every module of the registry
+    sub = argparse.ArgumentParser().add_subparsers(dest="command")
+    for module in COMMAND_MODULES:
+        module.register(sub)
     for name in sub.choices:
         with pytest.raises(SystemExit) as exc:
             main([name, "--help"])

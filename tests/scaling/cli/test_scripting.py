@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
-from hypate.scaling.cli.run import _Progress
+from hypate.scaling.cli.run import Progress
 
 
 def _json(capsys: pytest.CaptureFixture) -> object:
@@ -105,7 +105,7 @@ def test_progress_without_a_terminal_prints_lines(capsys: pytest.CaptureFixture,
                                                   monkeypatch: pytest.MonkeyPatch) -> None:
     clock = iter([0.0, 0.0, 1.0, 12.0, 13.0])  # start, then one reading per call
     monkeypatch.setattr("hypate.scaling.cli.run.time.monotonic", lambda: next(clock))
-    bar = _Progress(tty=False)
+    bar = Progress(tty=False)
     for done in (1, 2, 3, 4):
         bar(done, 4, None)
     bar.close()

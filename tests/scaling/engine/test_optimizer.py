@@ -570,7 +570,7 @@ def test_warped_surrogate_gradients_match_finite_differences():
     opt = BayesianOptimizer(prob, n_init=12, n_iter=0, seed=1,
                             coordinates=LogLinearCoordinates(prob.exponents))
     res = opt.run()
-    model = opt._fit(res.X, res.F, np.random.default_rng(0))
+    model = opt.surrogate(res.X, res.F, np.random.default_rng(0))
     # the surrogate interpolates its data in x
     mu, _ = model.predict_moments(res.X)
     assert np.allclose(mu[:, 0], res.F[:, 0], atol=1e-4)

@@ -154,7 +154,7 @@ def test_eq_9_2_is_exact_similarity_up_to_poisson_ratio() -> None:
 def test_equal_materials_are_exactly_similar_at_any_scale(xi: float) -> None:
     # Scales whose panel size is not a binary fraction of the prototype's: J_u was 1.2 %
     # at xi = 3 and 6 (1e-10 at 2, 4, 5) while fluid points on element edges could fall
-    # into the upstream element (solvers.transfer._locate).
+    # into the upstream element (the point location of hypate.solvers.coupling.transfer).
     from hypate.scaling.workflow.configuration import scaled_panel
 
     spec = load_study(REPO / "studies" / "optimization" / "sec9_1_xi2.toml").spec  # 8 x 8 meshes

@@ -172,8 +172,9 @@ def test_tangent_matches_central_differences_at_general_state():
         e = np.zeros(model.n_dof)
         e[j] = d
         J[:, j] = (model.internal_force(u + e, T) - model.internal_force(u - e, T)) / (2 * d)
-    Kp = K - np.diag(model._pen_vec)
-    Jp = J - np.diag(model._pen_vec)
+    Kc = model.penalty_stiffness().toarray()   # the boundary penalty K^c (Eq. 3.42)
+    Kp = K - Kc
+    Jp = J - Kc
     assert np.abs(Kp - Jp).max() <= 1e-6 * np.abs(Kp).max()
     # symmetric (conservative internal forces)
     np.testing.assert_allclose(Kp, Kp.T, atol=1e-10 * np.abs(Kp).max())
@@ -196,7 +197,7 @@ def test_von_karman_split_of_the_element_tangent_equals_the_full_product():
     rng = np.random.default_rng(3)
     T = 320.0 + 250.0 * rng.random((model.n_nodes, thermal_levels(panel).size))
     u = 1e-3 * rng.standard_normal(model.n_dof)
-    ue = model._element_dofs(u)
+    ue = model.element_dofs(u)
     E = model.mesh.n_elem
     q = model.q3
     full = membrane_bending_B(q, ue, model.kx, model.ky)
@@ -206,10 +207,10 @@ def test_von_karman_split_of_the_element_tangent_equals_the_full_product():
     assert np.array_equal(np.delete(diff, 2, axis=4), np.zeros_like(np.delete(diff, 2, axis=4)))
     assert not np.any(diff[:, :, 3:])
     np.testing.assert_allclose(diff[:, :, :3, :, 2], BL, rtol=0, atol=1e-15 * np.abs(BL).max())
-    st = model._thermal(T)
+    C = model.laminate_at_quadrature(T).ABD                      # (E, 9, 6, 6)
     B0, B = lin.reshape(E, 9, 6, 45), full.reshape(E, 9, 6, 45)
-    ref = btdb(B, st.C, q.wdet)
-    split = btdb_von_karman(btdb(B0, st.C, q.wdet), B0, st.C * q.wdet[..., None, None], BL)
+    ref = btdb(B, C, q.wdet)
+    split = btdb_von_karman(btdb(B0, C, q.wdet), B0, C * q.wdet[..., None, None], BL)
     assert np.abs(split - ref).max() <= 1e-13 * np.abs(ref).max()
 
 
@@ -224,6 +225,52 @@ def test_mass_reuses_the_inertia_of_the_stiffness_evaluation():
     for Ti in (T, 650.0):  # a field and a uniform temperature
         warm.tangent(np.zeros(warm.n_dof), Ti)
         assert np.array_equal(warm.mass(Ti).toarray(), cold.mass(Ti).toarray())
+
+
+def test_penalty_stiffness_is_what_the_constraints_add():
+    # K^c (Eq. 3.42) is the difference of the constrained and unconstrained stiffness (to
+    # the round-off of adding alpha_0 max|K_L| = 1e6 max|K_L|: 1e-9 of K^c); on a 3d panel
+    # it is the penalty on the constrained diagonal, on a "2d" strip it also ties the three
+    # node rows, so a field independent of y meets no tie force
+    mat = library_material("ti6242")
+    for kind, mesh in (("3d", (3, 2)), ("2d", (4, 1))):
+        panel = PanelSpec(layers=(Layer(mat, 2e-3, 0.0, 2),), kind=kind, length=0.5,
+                          width=0.4 if kind == "3d" else 0.05, mesh=mesh)
+        model = StructuralModel(panel)
+        Kc = model.penalty_stiffness()
+        diff = model.linear_stiffness(400.0) - model.linear_stiffness(400.0, constrained=False)
+        assert np.abs((diff - Kc).toarray()).max() <= 1e-9 * model.penalty
+        d = Kc.diagonal()
+        assert np.all(d[model.constrained_dofs] >= model.penalty)
+        if kind == "3d":
+            assert np.array_equal(Kc.toarray(), np.diag(d))
+            assert not np.any(d[model.free_dofs])
+        else:
+            u = np.zeros(model.n_dof)
+            u[model.dofs(2)] = np.sin(np.pi * model.mesh.x / 0.5)   # w(x) only
+            u[model.constrained_dofs] = 0.0
+            assert np.abs(Kc @ u).max() <= 1e-12 * model.penalty
+            assert Kc.nnz > np.count_nonzero(d)                     # the ties couple rows
+
+
+def test_laminate_at_quadrature_is_the_laminate_of_the_interpolated_field():
+    # a temperature without in-plane variation: the nodal resultants; a field: the laminate
+    # at the shape-function interpolation of the nodal profiles (bit for bit)
+    from hypate.solvers.laminate import laminate
+
+    panel = PanelSpec(layers=(Layer(library_material("ti6242"), 2e-3, 0.0, 2),),
+                      length=0.5, width=0.4, mesh=(3, 2))
+    model = StructuralModel(panel)
+    profile = 300.0 + np.linspace(0.0, 200.0, model.n_levels)
+    assert np.array_equal(model.laminate_at_quadrature(profile).thermal_resultants,
+                          model.laminate_at_nodes(profile).thermal_resultants)
+    T = 320.0 + 250.0 * np.random.default_rng(4).random((model.n_nodes, model.n_levels))
+    lam = model.laminate_at_quadrature(T)
+    assert lam.ABD.shape == (model.mesh.n_elem, 9, 6, 6)
+    Tq = np.einsum("qa,eal->eql", model.q3.N, T[model.mesh.elements])
+    ref = laminate(panel, Tq)
+    assert np.array_equal(lam.ABD, ref.ABD)
+    assert np.array_equal(lam.thermal_resultants, ref.thermal_resultants)
 
 
 def test_thermal_load_and_pressure_load_consistency():
