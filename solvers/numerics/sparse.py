@@ -30,6 +30,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from hypate.solvers.numerics.banded import Factorization
 from hypate.solvers.numerics.threads import single_threaded_blas
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import reverse_cuthill_mckee
@@ -41,8 +42,10 @@ DEFAULT_PERMC = "MMD_AT_PLUS_A"
 
 
 @dataclass
-class Factor:
-    """A factorization of one matrix; ``solve(b)`` for b of shape (n,) or (n, k)."""
+class Factor(Factorization):
+    """A factorization of one matrix (the :class:`~hypate.solvers.numerics.banded.Factorization`
+    interface, as the thermal solver's banded factors): ``solve(b)`` for b of shape (n,) or
+    (n, k); ``method`` says which kernel made it."""
 
     method: str
     positive_definite: bool | None
