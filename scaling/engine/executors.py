@@ -1,15 +1,114 @@
-"""Where expensive evaluations run: in-process, a local process pool that survives a dying
-worker, or a ``dask.distributed`` cluster. The optimizer sees a ``concurrent.futures``-style
-executor only (DESIGN.md, "Contracts between parts: Executor")."""
+"""Where expensive evaluations run, and what happens when the machinery under them fails.
+
+Evaluations run in-process, in a local process pool (:class:`ResilientProcessPool`) or on a
+``dask.distributed`` cluster (:class:`DaskExecutor`); :func:`make_executor` builds them from
+the ``--workers`` / ``--scheduler`` settings. The optimizer sees ``concurrent.futures``-style
+executors only (DESIGN.md, "Contracts between parts: Executor") and hands each batch to
+:func:`run_batch`, which tells two kinds of failure apart:
+
+* A design that makes the simulator fail (an exception, NaN, its own time limit) is a
+  result: :func:`hypate.scaling.engine.problem.evaluate_design` returns it as a status and
+  the optimizer stores it.
+* An infrastructure fault (a worker or the scheduler lost, a broken pool, a cancelled
+  future, a closed client or comm) is not. The evaluation is re-submitted: first with the
+  other faulted evaluations of its batch (:data:`SHARED_RETRIES` times), then alone, after a
+  pause of :data:`BACKOFF_FIRST` seconds that doubles with each fault of the same evaluation
+  (at most :data:`BACKOFF_MAX`). When the pool or cluster is gone, :class:`InfrastructureError`
+  ends the run: the evaluations already finished are committed, the unfinished ones are not
+  stored, and a resume evaluates exactly those.
+
+A design that kills the process evaluating it must not be retried forever: once the process
+evaluating it *alone* died :data:`SOLO_DEATHS` times, the design is a failure (status
+``"error"``, "worker died while evaluating this design alone ...").
+
+Time limits end the work: :func:`call_in_child` runs an evaluation in a forked child that is
+killed when its limit passes (SIGTERM, SIGKILL after :data:`TERMINATE_GRACE`). Pool workers
+and these children die with their parent, even on SIGKILL (:func:`die_with_parent`).
+"""
 from __future__ import annotations
 
-import re
-from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
+import asyncio
+import contextlib
+import ctypes
+import logging
+import os
+import pickle
+import select
+import signal
+import socket
+import struct
+import sys
+import time
+import warnings
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import BrokenExecutor, CancelledError, Executor, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Literal, TypeVar
+from urllib.parse import urlsplit
+
+__all__ = [
+    "BACKOFF_FIRST",
+    "BACKOFF_MAX",
+    "DaskExecutor",
+    "ExecutorError",
+    "HEALTH_INTERVAL",
+    "InfrastructureError",
+    "KilledItsWorker",
+    "LOST_AFTER",
+    "MAX_FAULTS",
+    "ResilientProcessPool",
+    "SHARED_RETRIES",
+    "SOLO_DEATHS",
+    "TERMINATE_GRACE",
+    "call_in_child",
+    "check_scheduler_address",
+    "die_with_parent",
+    "fault_kind",
+    "make_executor",
+    "run_batch",
+]
+
+T = TypeVar("T")
+
+# ------------------------------------------------------------------ retry policy
+#: Re-submissions of an evaluation together with the other faulted evaluations of its batch;
+#: after that it is re-submitted alone, so that a worker death can be blamed on it.
+SHARED_RETRIES = 1
+#: Deaths of the process evaluating a design alone after which the design is a failure
+#: (status ``"error"``). Two: one death may be a signal from outside, a second one in a row
+#: is the design's.
+SOLO_DEATHS = 2
+#: Infrastructure faults of one evaluation after which the run stops with
+#: :class:`InfrastructureError` even though the executor answers (a cluster that keeps
+#: losing its work).
+MAX_FAULTS = 6
+#: Pause before the first re-submission of an evaluation (s); it doubles with each further
+#: fault of the same evaluation, up to :data:`BACKOFF_MAX` (time for a restarted worker or
+#: scheduler to come up).
+BACKOFF_FIRST = 0.25
+BACKOFF_MAX = 8.0
+#: Seconds between SIGTERM and SIGKILL of a timed-out evaluation's process.
+TERMINATE_GRACE = 1.0
+#: Default of ``lost_after``: a cluster whose scheduler is unreachable, or which has no
+#: worker, for this many seconds is lost (s).
+LOST_AFTER = 60.0
+#: Interval of the cluster health checks while results are awaited (s).
+HEALTH_INTERVAL = 1.0
+#: Interval at which a parent looks whether its evaluating child died without a result (s);
+#: a result itself is read as soon as it arrives.
+CHILD_POLL = 0.05
+#: Seconds a closer waits for a client or cluster to close.
+CLOSE_TIMEOUT = 10.0
+#: The Dask dashboard's default port, used by ``local:N`` when it is free.
+DASHBOARD_PORT = 8787
+#: Exit code of a forked evaluation child that could not deliver its result.
+_CHILD_FAILED = 70
+
+_PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 
 
+# ------------------------------------------------------------------------ errors
 class ExecutorError(ValueError):
     """An executor could not be made; ``field`` names the setting (``scheduler``)."""
 
@@ -18,82 +117,776 @@ class ExecutorError(ValueError):
         self.field, self.message = field, message
 
 
-def check_scheduler_address(text: str) -> None:
-    """An executor address of a known form: ``tcp://HOST:PORT`` or ``tls://HOST:PORT``."""
-    if not re.fullmatch(r"(tcp|tls)://[\w.\-\[\]:]+:\d+", text):
-        raise ExecutorError("scheduler", f"{text!r} is not an address; expected "
-                            "tcp://HOST:PORT")
+class InfrastructureError(RuntimeError):
+    """The pool or cluster evaluating designs is gone; no row was stored for the designs
+    it left unfinished (a resumed run evaluates them).
+
+    Parameters
+    ----------
+    lost : str
+        What was lost, one line (``"the Dask scheduler at tcp://10.0.0.5:8786 (no answer
+        for 60 s)"``).
+    unfinished : int
+        Evaluations of the batch left without a result.
+    """
+
+    def __init__(self, lost: str, unfinished: int = 0) -> None:
+        self.lost, self.unfinished = lost, int(unfinished)
+        tail = (f"; {self.unfinished} unfinished evaluation(s) not stored, a resume "
+                "evaluates them" if self.unfinished else "")
+        super().__init__(f"lost {lost}{tail}")
 
 
-def make_executor(workers: int, scheduler: str | None) -> tuple[Any, Callable[[], None]]:
-    """A concurrent.futures-style executor and its closer (None: in-process)."""
-    if scheduler:
+class KilledItsWorker(Exception):
+    """The process evaluating a design alone died :data:`SOLO_DEATHS` times: a design
+    failure, not an infrastructure fault."""
+
+    def __init__(self, deaths: int, last: str) -> None:
+        self.deaths, self.last = int(deaths), last
+        super().__init__(f"worker died while evaluating this design alone ({self.deaths} "
+                         f"times; last: {last})")
+
+
+def fault_kind(exc: BaseException) -> Literal["worker", "connection"] | None:
+    """Whether an exception from an executor is an infrastructure fault, and which.
+
+    Parameters
+    ----------
+    exc : BaseException
+        Raised by ``submit`` or by a future's ``result()``.
+
+    Returns
+    -------
+    {"worker", "connection"} or None
+        ``"worker"``: a process evaluating designs died (a broken pool, distributed's
+        ``KilledWorker``); it may be the design's doing. ``"connection"``: the work was lost
+        on the way (a cancelled future, a closed client or comm, a lost scheduler); never
+        the design's doing. ``None``: not an infrastructure fault.
+    """
+    worker, connection = _distributed_faults()
+    if isinstance(exc, (BrokenExecutor, *worker)):
+        return "worker"
+    if isinstance(exc, (CancelledError, asyncio.CancelledError, OSError, EOFError,
+                        *connection)):
+        return "connection"  # OSError covers ConnectionError and distributed's CommClosedError
+    return None
+
+
+def _distributed_faults() -> tuple[tuple[type, ...], tuple[type, ...]]:
+    """distributed's worker-death and connection exceptions (none while it is not loaded:
+    then none of them can have been raised)."""
+    if "distributed" not in sys.modules:
+        return (), ()
+    from distributed import KilledWorker
+    from distributed.client import ClosedClientError
+    return (KilledWorker,), (ClosedClientError,)
+
+
+# ------------------------------------------------------------ processes and parents
+def die_with_parent(parent: int) -> None:
+    """Make the calling process die when its parent dies, even on SIGKILL of the parent.
+
+    Linux: ``prctl(PR_SET_PDEATHSIG, SIGKILL)``. The kernel counts the *thread* that
+    created the process as its parent, so a process must be started by a thread that
+    outlives it (the optimizer's thread for pool workers, the waiting thread for evaluation
+    children). Elsewhere nothing is armed (degrades to the platform's behaviour).
+
+    Parameters
+    ----------
+    parent : int
+        Process id of the parent that started this process: if it is not the parent any
+        more, it died before the death signal was armed, and this process exits at once.
+    """
+    if sys.platform.startswith("linux"):
         try:
-            from distributed import Client  # optional dependency (the cluster extra)
-        except ImportError:
-            raise ExecutorError("scheduler", "needs the cluster extra: pip install -e "
-                                "\".[cluster]\"") from None
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):  # no libc prctl: nothing to arm
+            pass
+    if os.getppid() != parent:
+        os._exit(1)
+
+
+def _describe_death(status: int) -> str:
+    code = os.waitstatus_to_exitcode(status)
+    if code < 0:
         try:
-            client = Client(scheduler, timeout=20)
-        except (OSError, TimeoutError) as exc:
-            raise ExecutorError("scheduler", f"cannot reach {scheduler}: {exc}") from None
-        return client, client.close
-    if workers > 1:
-        pool = ResilientProcessPool(workers)
-        return pool, pool.shutdown
-    return None, lambda: None
+            name = signal.Signals(-code).name
+        except ValueError:
+            name = str(-code)
+        return f"killed by signal {name}"
+    return f"exited with code {code}"
 
 
-class ResilientProcessPool:
-    """A process pool in which a worker that dies costs only its own evaluation.
+def _flush_std_streams() -> None:
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            if stream is not None:
+                stream.flush()
+        except (OSError, ValueError):  # closed or detached stream
+            pass
 
-    ``concurrent.futures.ProcessPoolExecutor`` breaks as a whole when one worker dies: every
-    pending future fails with ``BrokenProcessPool`` and later submissions are refused. Here
-    the pool is restarted, and each future whose pool broke is re-submitted once, alone,
-    when its result is asked for (the optimizer asks in batch order): an innocent evaluation
-    then finishes normally, while the evaluation that kills its worker breaks the pool a
-    second time and is recorded as failed.
+
+@dataclass(frozen=True)
+class _Warning:
+    """A warning raised in an evaluation child, re-issued in its parent."""
+
+    message: str
+    category: type[Warning]
+    filename: str
+    lineno: int
+
+
+#: Registry of re-issued warnings: "default" filters show each one once, as in-process.
+_REISSUED: dict[Any, Any] = {}
+
+
+def _child(fn: Callable[[], Any], write_end: int, parent: int) -> None:
+    """Body of an evaluation child: evaluate, send ``(value, warnings)``, exit. Never
+    returns into the parent's code, whatever happens."""
+    code = _CHILD_FAILED
+    try:
+        die_with_parent(parent)
+        with contextlib.suppress(ValueError, OSError):  # the parent may have a handler
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        with warnings.catch_warnings(record=True) as caught:  # the inherited filters apply
+            value = fn()
+        records = [_Warning(str(w.message), w.category if _picklable(w.category)
+                            else UserWarning, w.filename, w.lineno) for w in caught]
+        data = pickle.dumps((value, records), protocol=pickle.HIGHEST_PROTOCOL)
+        with os.fdopen(write_end, "wb") as out:
+            out.write(struct.pack("!Q", len(data)) + data)
+        code = 0
+    except BaseException:  # noqa: BLE001 - the parent reads a missing result as a death
+        pass
+    finally:
+        _flush_std_streams()
+        os._exit(code)
+
+
+def _picklable(obj: Any) -> bool:
+    try:
+        pickle.dumps(obj)
+    except (pickle.PicklingError, TypeError, AttributeError):
+        return False
+    return True
+
+
+def _terminate(pid: int) -> None:
+    """SIGTERM a child, SIGKILL it after :data:`TERMINATE_GRACE`, and reap it."""
+    with contextlib.suppress(ProcessLookupError):
+        os.kill(pid, signal.SIGTERM)
+    deadline = time.monotonic() + TERMINATE_GRACE
+    while time.monotonic() < deadline:
+        if os.waitpid(pid, os.WNOHANG)[0]:
+            return
+        time.sleep(0.01)
+    with contextlib.suppress(ProcessLookupError):
+        os.kill(pid, signal.SIGKILL)
+    with contextlib.suppress(ChildProcessError):
+        os.waitpid(pid, 0)
+
+
+def _run_child_once(fn: Callable[[], T], limit: float) -> tuple[bool, Any]:
+    """One forked evaluation: ``(True, value)``, or ``(False, why it died)``; raises
+    TimeoutError (the child killed) when ``limit`` seconds pass first."""
+    deadline = time.monotonic() + limit
+    parent = os.getpid()
+    _flush_std_streams()  # or the child would write the parent's buffered output again
+    read_end, write_end = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child
+        os.close(read_end)
+        _child(fn, write_end, parent)
+    os.close(write_end)
+    buf, status, eof = bytearray(), None, False
+    try:
+        # Read until the framed message is complete or the child is gone. A sibling child
+        # forked by another thread may hold a copy of the write end, so end-of-file is not
+        # a reliable sign of death: the child's exit status is looked at too.
+        while not _complete(buf):
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError
+            if eof:
+                time.sleep(min(remaining, CHILD_POLL))
+            elif select.select([read_end], [], [], min(remaining, CHILD_POLL))[0]:
+                chunk = os.read(read_end, 1 << 16)
+                buf += chunk
+                eof = not chunk
+                continue
+            reaped, st = os.waitpid(pid, os.WNOHANG)
+            if reaped:
+                status = st
+                if not eof:
+                    os.set_blocking(read_end, False)
+                    with contextlib.suppress(BlockingIOError):
+                        while chunk := os.read(read_end, 1 << 16):
+                            buf += chunk
+                break
+    except BaseException:
+        if status is None:
+            _terminate(pid)  # the limit passed, or the waiting thread was interrupted
+        raise
+    finally:
+        os.close(read_end)
+    if status is None:
+        _reap(pid)  # the message is complete: the child is exiting
+    if _complete(buf):
+        value, records = pickle.loads(bytes(buf[8:]))
+        for w in records:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno,
+                                   registry=_REISSUED)
+        return True, value
+    return False, _describe_death(status)
+
+
+def _reap(pid: int) -> None:
+    """Reap a child that is exiting; terminate it if it does not within the grace."""
+    deadline = time.monotonic() + TERMINATE_GRACE
+    while time.monotonic() < deadline:
+        if os.waitpid(pid, os.WNOHANG)[0]:
+            return
+        time.sleep(0.001)
+    _terminate(pid)
+
+
+def _complete(buf: bytearray) -> bool:
+    return len(buf) >= 8 and len(buf) - 8 >= struct.unpack("!Q", buf[:8])[0]
+
+
+def call_in_child(fn: Callable[[], T], limit: float) -> T:
+    """``fn()`` evaluated in a forked child process that is killed after ``limit`` seconds.
+
+    A fork, not a ``multiprocessing`` process: it works in-process, inside the (daemonic)
+    workers of a process pool and inside Dask workers alike, and ``fn`` need not be
+    picklable (only its value is sent back). The child dies with its parent
+    (:func:`die_with_parent`); its warnings are re-issued in the parent. A child that dies
+    without a value (a signal from outside, or the work itself) is forked again after a
+    pause, up to :data:`SOLO_DEATHS` deaths.
+
+    Without ``os.fork`` (not POSIX) ``fn`` runs in-process and its value is discarded if it
+    took longer than ``limit``: the limit is reported, the work is not interrupted.
+
+    Parameters
+    ----------
+    fn : callable
+        ``fn() -> value`` (the value must be picklable).
+    limit : float
+        Seconds, counted from the start of each attempt.
+
+    Returns
+    -------
+    value
+        What ``fn()`` returned in the child.
+
+    Raises
+    ------
+    TimeoutError
+        ``limit`` passed; the child was terminated and reaped.
+    KilledItsWorker
+        The child died without a value :data:`SOLO_DEATHS` times.
+    """
+    if not hasattr(os, "fork"):
+        t0 = time.monotonic()
+        value = fn()
+        if time.monotonic() - t0 > limit:
+            raise TimeoutError
+        return value
+    why = ""
+    for death in range(SOLO_DEATHS):
+        if death:
+            time.sleep(_backoff(death))
+        ok, value = _run_child_once(fn, limit)
+        if ok:
+            return value
+        why = value
+    raise KilledItsWorker(SOLO_DEATHS, why)
+
+
+def _backoff(faults: int) -> float:
+    """Pause before re-submitting an evaluation that met ``faults`` faults (s)."""
+    return min(BACKOFF_FIRST * 2.0 ** (max(faults, 1) - 1), BACKOFF_MAX)
+
+
+# ----------------------------------------------------------------- process pool
+class ResilientProcessPool(Executor):
+    """A local process pool that is restarted when a worker dies, whose workers die with
+    the parent.
+
+    ``concurrent.futures.ProcessPoolExecutor`` breaks as a whole when one worker dies:
+    every pending future fails with ``BrokenProcessPool`` and later submissions are
+    refused. Here a submission to a broken pool restarts it; :func:`run_batch` re-submits
+    the evaluations the break cost. Each worker runs :func:`die_with_parent` first, so no
+    worker outlives the process that made the pool (SIGKILL included; Linux).
+
+    Parameters
+    ----------
+    workers : int
+        Number of worker processes.
     """
 
     def __init__(self, workers: int) -> None:
         self.workers = int(workers)
-        self._pool = ProcessPoolExecutor(max_workers=self.workers)
+        self.restarts = 0
+        self._pool = self._new_pool()
 
-    def _restart(self) -> None:
-        self._pool.shutdown(wait=False, cancel_futures=True)
-        self._pool = ProcessPoolExecutor(max_workers=self.workers)
+    def _new_pool(self) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(max_workers=self.workers, initializer=die_with_parent,
+                                   initargs=(os.getpid(),))
 
-    def _submit(self, fn: Callable[..., Any], args: tuple) -> Any:
+    def submit(self, fn: Callable[..., T], /, *args: Any, **kwargs: Any) -> Any:
+        """Schedule ``fn(*args, **kwargs)``; a broken pool is replaced by a new one first.
+
+        Raises
+        ------
+        InfrastructureError
+            No new pool could be started (no processes can be made).
+        """
         try:
-            return self._pool.submit(fn, *args)
+            return self._pool.submit(fn, *args, **kwargs)
         except BrokenProcessPool:
-            self._restart()
-            return self._pool.submit(fn, *args)
+            self._pool.shutdown(wait=False, cancel_futures=True)
+            try:
+                self._pool = self._new_pool()
+                self.restarts += 1
+                return self._pool.submit(fn, *args, **kwargs)
+            except (OSError, BrokenProcessPool) as exc:
+                raise InfrastructureError(f"the process pool: cannot restart it ({exc})"
+                                          ) from None
 
-    def submit(self, fn: Callable[..., Any], *args: Any) -> _RetryFuture:
-        return _RetryFuture(self, fn, args)
+    def wait_result(self, future: Any) -> Any:
+        """The result of a future of this pool (the protocol of :func:`run_batch`)."""
+        return future.result()
 
-    def shutdown(self) -> None:
-        self._pool.shutdown(cancel_futures=True)
+    def check_alive(self) -> None:
+        """A broken pool is restarted at the next submission: nothing to wait for."""
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
 
 
-class _RetryFuture:
-    """Future of :class:`ResilientProcessPool`: one re-submission after a broken pool."""
+# ------------------------------------------------------------------------- dask
+class DaskExecutor(Executor):
+    """A ``dask.distributed`` client as an executor whose losses are noticed.
 
-    def __init__(self, owner: ResilientProcessPool, fn: Callable[..., Any], args: tuple) -> None:
-        self._owner, self._fn, self._args = owner, fn, args
-        self._future = owner._submit(fn, args)
-        self._retried = False
+    Results are awaited in slices of :data:`HEALTH_INTERVAL` seconds; between them the
+    cluster is checked. A scheduler that cannot be reached, or a cluster without a worker,
+    for ``lost_after`` seconds is lost: :class:`InfrastructureError` (never a wait for
+    ever). A worker that dies mid-task is distributed's business (it re-runs the task
+    elsewhere); a scheduler that comes back within ``lost_after`` is reconnected to by the
+    client, and :func:`run_batch` re-submits what was cancelled meanwhile.
 
-    def result(self, timeout: float | None = None) -> Any:
+    Parameters
+    ----------
+    client : distributed.Client
+    lost_after : float
+        Seconds (see above).
+    address : str, optional
+        Scheduler address for messages (default: the client's).
+    """
+
+    def __init__(self, client: Any, *, lost_after: float = LOST_AFTER,
+                 address: str | None = None) -> None:
+        if not lost_after > 0:
+            raise ValueError(f"lost_after must be > 0 s; got {lost_after}")
+        self.client, self.lost_after = client, float(lost_after)
+        self.address = address or str(getattr(client.scheduler, "address", "?"))
+
+    def submit(self, fn: Callable[..., T], /, *args: Any, **kwargs: Any) -> Any:
+        # pure=False: a re-submitted evaluation gets a new key, not the lost one's
+        return self.client.submit(fn, *args, pure=False, **kwargs)
+
+    def lost(self) -> tuple[str, bool] | None:
+        """What of the cluster is lost now: ``(description, recoverable)``, or None."""
+        status = str(getattr(self.client, "status", "closed"))
+        if status in ("closing", "closed"):
+            return f"the Dask scheduler at {self.address} (the client is closed)", False
+        if status != "running":
+            return f"the Dask scheduler at {self.address} (no connection)", True
         try:
-            return self._future.result(timeout)
-        except BrokenProcessPool:
-            if self._retried:
-                raise
-            self._retried = True
-            self._future = self._owner._submit(self._fn, self._args)
-            return self._future.result(timeout)
+            try:
+                info = self.client.scheduler_info(n_workers=0)  # totals only
+            except TypeError:  # distributed < 2025 has no n_workers
+                info = self.client.scheduler_info()
+        except (OSError, RuntimeError):
+            return f"the Dask scheduler at {self.address} (no answer)", True
+        n = int(info.get("n_workers", len(info.get("workers", {}))))
+        if n == 0:
+            return f"every worker of the Dask cluster at {self.address}", True
+        return None
+
+    def wait_result(self, future: Any) -> Any:
+        """The result of ``future``, watching the cluster while it is awaited.
+
+        Raises
+        ------
+        InfrastructureError
+            The cluster was lost for ``lost_after`` seconds (or the client closed).
+        """
+        lost_since: float | None = None
+        while True:
+            try:
+                return future.result(timeout=HEALTH_INTERVAL)
+            except TimeoutError:
+                if future.done():
+                    raise  # the evaluation itself raised TimeoutError: not a wait slice
+            wrong = self.lost()
+            if wrong is None:
+                lost_since = None
+                continue
+            now = time.monotonic()
+            lost_since = now if lost_since is None else lost_since
+            if not wrong[1] or now - lost_since >= self.lost_after:
+                raise InfrastructureError(self._for(wrong[0], now - lost_since))
+
+    def check_alive(self) -> None:
+        """Return once the cluster works (a scheduler and a worker), waiting up to
+        ``lost_after`` seconds for it to come back.
+
+        Raises
+        ------
+        InfrastructureError
+            It did not (or the client is closed).
+        """
+        t0 = time.monotonic()
+        while (wrong := self.lost()) is not None:
+            if not wrong[1] or time.monotonic() - t0 >= self.lost_after:
+                raise InfrastructureError(self._for(wrong[0], time.monotonic() - t0))
+            time.sleep(min(HEALTH_INTERVAL, self.lost_after / 10))
+
+    @staticmethod
+    def _for(what: str, seconds: float) -> str:
+        return f"{what} for {seconds:.0f} s" if seconds >= 1 else what
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        """Close the client quietly (see :func:`make_executor`'s closer)."""
+        _close_quietly(self.client)
 
 
-__all__ = ["ExecutorError", "ResilientProcessPool", "make_executor"]
+@contextlib.contextmanager
+def _quiet_distributed() -> Iterator[None]:
+    """Mute distributed's loggers: closing a client whose scheduler died logs the
+    cancelled reconnection as an error with a traceback, which says nothing to the user."""
+    # the parent logger and the children that dask's logging config gives their own level
+    loggers = [logging.getLogger(name) for name in (
+        "distributed", "distributed.client", "distributed.gc", "tornado",
+        "tornado.application")]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for lg, level in zip(loggers, levels):
+            lg.setLevel(level)
+
+
+def _close_quietly(*closables: Any) -> None:
+    """Close clients/clusters, whatever state their scheduler is in: no raise, no log."""
+    with _quiet_distributed():
+        for obj in closables:
+            try:
+                obj.close(timeout=CLOSE_TIMEOUT)
+            except Exception:  # noqa: BLE001 - a dead scheduler fails in many ways; all moot
+                pass
+
+
+def check_scheduler_address(text: str) -> str:
+    """Check the form of a scheduler address before anything connects to it.
+
+    Parameters
+    ----------
+    text : str
+        ``tcp://HOST:PORT``, ``tls://HOST:PORT`` or ``local:N`` (a local cluster of ``N >= 1``
+        single-threaded worker processes).
+
+    Returns
+    -------
+    str
+        ``text`` without surrounding blanks.
+
+    Raises
+    ------
+    ExecutorError
+        ``field == "scheduler"``: any other form.
+    """
+    address = str(text).strip()
+    expected = "expected tcp://HOST:PORT or local:N"
+    if address.startswith("local:"):
+        n = address[len("local:"):]
+        if not (n.isdigit() and int(n) >= 1):
+            raise ExecutorError("scheduler", f"{text!r}: local:N needs a whole number N >= 1 "
+                                f"of workers; {expected}")
+        return address
+    try:
+        parts = urlsplit(address)
+        port = parts.port
+    except ValueError:
+        port, parts = None, None
+    if parts is None or parts.scheme not in ("tcp", "tls") or not parts.hostname \
+            or port is None or not 0 < port < 65536 or parts.path or parts.query \
+            or parts.fragment or parts.username or parts.password:
+        raise ExecutorError("scheduler", f"{text!r} is not a scheduler address; {expected} "
+                            "(tls://HOST:PORT with TLS)")
+    return address
+
+
+def _dashboard_address() -> str:
+    """The dashboard's default port on loopback if it is free, else any free port (a
+    taken default port makes distributed warn on the terminal)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        try:
+            s.bind(("127.0.0.1", DASHBOARD_PORT))
+        except OSError:
+            return "127.0.0.1:0"
+    return f"127.0.0.1:{DASHBOARD_PORT}"
+
+
+def make_executor(workers: int, scheduler: str | None, *, lost_after: float = LOST_AFTER
+                  ) -> tuple[Any, Callable[[], None]]:
+    """The executor of a run and its closer.
+
+    Parameters
+    ----------
+    workers : int
+        Local process-pool size when there is no ``scheduler`` (1: in-process).
+    scheduler : str or None
+        ``tcp://HOST:PORT`` / ``tls://HOST:PORT`` of a running Dask scheduler, or
+        ``local:N``: a ``distributed.LocalCluster`` on loopback (127.0.0.1) with ``N``
+        single-threaded worker processes, silent logs, and its dashboard on the default
+        port 8787 if that is free (on a free port otherwise).
+    lost_after : float, keyword-only
+        Seconds after which a cluster whose scheduler is unreachable, or which has no
+        worker, is lost (:class:`InfrastructureError`). The client tries to connect, and
+        to reconnect, a little longer (:data:`BACKOFF_MAX` more), so that the run declares
+        the loss. Default :data:`LOST_AFTER` (60 s).
+
+    Returns
+    -------
+    executor : ResilientProcessPool, DaskExecutor or None
+        ``None``: evaluate in-process.
+    close : callable
+        ``close()`` releases the pool or cluster. It never raises and prints nothing, also
+        after the scheduler died.
+
+    Raises
+    ------
+    ExecutorError
+        A malformed address, the cluster extra missing, or an unreachable scheduler.
+    """
+    if not scheduler:
+        if workers > 1:
+            pool = ResilientProcessPool(workers)
+            return pool, lambda: pool.shutdown(cancel_futures=True)
+        return None, lambda: None
+    address = check_scheduler_address(scheduler)
+    if not lost_after > 0:
+        raise ExecutorError("lost_after", f"must be > 0 s; got {lost_after}")
+    try:
+        from distributed import Client, LocalCluster  # optional dependency (cluster extra)
+    except ImportError:
+        raise ExecutorError("scheduler", "needs the cluster extra: pip install -e "
+                            "\".[cluster]\"") from None
+    if address.startswith("local:"):
+        try:
+            cluster = LocalCluster(n_workers=int(address[len("local:"):]),
+                                   threads_per_worker=1, processes=True, host="127.0.0.1",
+                                   dashboard_address=_dashboard_address(),
+                                   silence_logs=logging.CRITICAL)
+        except (OSError, RuntimeError) as exc:  # e.g. no worker process could start
+            raise ExecutorError("scheduler", f"cannot start {address}: {exc}") from None
+        client = Client(cluster)
+        executor = DaskExecutor(client, lost_after=lost_after,
+                                address=cluster.scheduler_address)
+        return executor, lambda: _close_quietly(client, cluster)
+    try:
+        # the client's own reconnection window is a little longer than lost_after, so that
+        # the run, not the client, declares the loss (and closes the client quietly)
+        client = Client(address, timeout=lost_after + BACKOFF_MAX)
+    except (OSError, TimeoutError) as exc:
+        raise ExecutorError("scheduler", f"cannot reach {address}: {exc}") from None
+    executor = DaskExecutor(client, lost_after=lost_after, address=address)
+    return executor, lambda: _close_quietly(client)
+
+
+# ------------------------------------------------------------------------ batches
+class _Plain:
+    """Any other ``concurrent.futures``-style executor: no restart, no health check."""
+
+    def __init__(self, executor: Any) -> None:
+        self.executor = executor
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> Any:
+        return self.executor.submit(fn, *args)
+
+    @staticmethod
+    def wait_result(future: Any) -> Any:
+        return future.result()
+
+    def check_alive(self) -> None:
+        pass
+
+
+def _fault_tolerant(executor: Any) -> Any:
+    """``executor`` with the protocol of :func:`run_batch` (``submit``, ``wait_result``,
+    ``check_alive``): ours as they are, a bare ``distributed.Client`` watched by a
+    :class:`DaskExecutor`, anything else as it is."""
+    if callable(getattr(executor, "wait_result", None)) and \
+            callable(getattr(executor, "check_alive", None)):
+        return executor
+    if "distributed" in sys.modules:
+        from distributed import Client
+        if isinstance(executor, Client):
+            return DaskExecutor(executor)
+    return _Plain(executor)
+
+
+@dataclass
+class _Slot:
+    """One evaluation of a batch and what befell it."""
+
+    index: int
+    args: tuple
+    future: Any = None
+    started: float = 0.0
+    faults: int = 0
+    worker_faults: int = 0
+    solo_deaths: int = 0
+    done: bool = False
+    value: Any = None
+
+
+def run_batch(executor: Any, fn: Callable[..., T], calls: Sequence[tuple], *,
+              on_failure: Callable[[str, float], T]) -> Iterator[tuple[int, T]]:
+    """Evaluate ``fn(*args)`` for each ``args`` of ``calls``; yield ``(position, value)``
+    in batch order, each as soon as it and all before it are finished.
+
+    Infrastructure faults (:func:`fault_kind`) are not results. The faulted evaluations
+    are re-submitted together (:data:`SHARED_RETRIES` times after a worker death), then
+    one at a time, alone, so that a death can be blamed: a design whose process died while
+    evaluating it alone :data:`SOLO_DEATHS` times gets ``on_failure(message, seconds)``.
+    Each re-submission waits :data:`BACKOFF_FIRST` seconds, doubled per fault of that
+    evaluation (at most :data:`BACKOFF_MAX`), and the executor's ``check_alive()`` first.
+
+    Parameters
+    ----------
+    executor : executor or None
+        ``None``: in-process, in order. :class:`ResilientProcessPool` and
+        :class:`DaskExecutor` restart or watch their machinery; a bare
+        ``distributed.Client`` is watched as a :class:`DaskExecutor` with the default
+        ``lost_after``; any other ``submit(fn, *args)`` executor is used as it is (a broken
+        one ends the run).
+    fn : callable
+        Module-level (picklable) function.
+    calls : sequence of tuple
+        Positional arguments of each evaluation.
+    on_failure : callable
+        ``on_failure(message, seconds) -> value`` for an evaluation that is a failure for
+        a reason the executor reported rather than ``fn`` (it killed its worker, or the
+        executor raised an exception that is not an infrastructure fault).
+
+    Yields
+    ------
+    (int, value)
+        Position in ``calls`` and ``fn``'s value (or ``on_failure``'s).
+
+    Raises
+    ------
+    InfrastructureError
+        The pool or cluster is gone (or one evaluation met :data:`MAX_FAULTS` faults).
+        Everything finished before is yielded first, in batch order; nothing is yielded for
+        the unfinished evaluations.
+    """
+    if executor is None:
+        for k, args in enumerate(calls):
+            yield k, fn(*args)
+        return
+    ex = _fault_tolerant(executor)
+    slots = [_Slot(k, tuple(args)) for k, args in enumerate(calls)]
+    pending = list(slots)
+    emitted = 0
+    try:
+        while pending:
+            # a slot that lost its worker more than SHARED_RETRIES times goes alone
+            solo = [s for s in pending if s.worker_faults > SHARED_RETRIES]
+            group = solo[:1] if solo else pending
+            alone = len(group) == 1
+            pause = max((_backoff(s.faults) for s in group if s.faults), default=0.0)
+            if pause:
+                ex.check_alive()
+                time.sleep(pause)
+            for s in group:
+                s.started = s.started or time.perf_counter()
+                try:
+                    s.future = ex.submit(fn, *s.args)
+                except InfrastructureError:
+                    raise
+                except Exception as exc:  # noqa: BLE001 - classified right here
+                    if fault_kind(exc) is None:
+                        raise
+                    raise InfrastructureError(f"the executor {type(executor).__name__} "
+                                              f"({type(exc).__name__}: {exc})") from None
+            for s in group:
+                _settle(ex, s, alone, on_failure)
+                if not s.done:
+                    continue
+                while emitted < len(slots) and slots[emitted].done:
+                    yield emitted, slots[emitted].value
+                    emitted += 1
+            pending = [s for s in pending if not s.done]
+    except InfrastructureError as exc:
+        finished = _harvest(slots[emitted:])
+        for s in finished:
+            yield s.index, s.value
+        unfinished = len(slots) - emitted - len(finished)
+        raise InfrastructureError(exc.lost, unfinished) from None
+    finally:
+        for s in slots:
+            if not s.done and s.future is not None:
+                with contextlib.suppress(Exception):
+                    s.future.cancel()
+
+
+def _settle(ex: Any, s: _Slot, alone: bool, on_failure: Callable[[str, float], Any]) -> None:
+    """Wait for one slot's future; record its value, its failure, or the fault it met."""
+    try:
+        s.value, s.done = ex.wait_result(s.future), True
+        return
+    except InfrastructureError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - classified right here
+        kind = fault_kind(exc)
+        text = f"{type(exc).__name__}: {exc}".strip().rstrip(":")
+        if kind is None:  # e.g. an unpicklable result: the evaluation's failure
+            s.value, s.done = on_failure(text, time.perf_counter() - s.started), True
+            return
+    s.faults += 1
+    if kind == "worker":
+        s.worker_faults += 1
+        if alone:
+            s.solo_deaths += 1
+            if s.solo_deaths >= SOLO_DEATHS:
+                s.value = on_failure(str(KilledItsWorker(s.solo_deaths, text)),
+                                     time.perf_counter() - s.started)
+                s.done = True
+                return
+    if s.faults >= MAX_FAULTS:
+        raise InfrastructureError(f"the work of the executor: one evaluation was lost "
+                                  f"{s.faults} times (last: {text})")
+
+
+def _harvest(slots: Sequence[_Slot]) -> list[_Slot]:
+    """The slots whose evaluation finished, in batch order (their futures may hold a value
+    that was not awaited yet)."""
+    out = []
+    for s in slots:
+        if not s.done and s.future is not None:
+            try:
+                if s.future.done() and s.future.exception(timeout=0) is None:
+                    s.value, s.done = s.future.result(timeout=0), True
+            except Exception:  # noqa: BLE001 - a lost future has no value: leave it unfinished
+                pass
+        if s.done:
+            out.append(s)
+    return out

@@ -20,7 +20,10 @@ Each iteration (Sec. 6.3.1 step 4):
 4. evaluate the batch through a ``concurrent.futures``-style executor (anything with
    ``submit(fn, *args)`` returning futures with ``.result(timeout)``: a
    ``ProcessPoolExecutor`` or a ``dask.distributed.Client``) or in-process, and commit
-   each finished evaluation to the store before the next proposal.
+   each finished evaluation to the store before the next proposal. Infrastructure faults
+   are re-submitted, not stored (:func:`hypate.scaling.engine.executors.run_batch`); a lost
+   pool or cluster ends the run with
+   :class:`~hypate.scaling.engine.executors.InfrastructureError`.
 
 The options are one frozen :class:`hypate.scaling.engine.settings.OptimizerSettings`; the
 acquisition is built by name from :data:`hypate.scaling.engine.acquisition.ACQUISITIONS`;
@@ -50,6 +53,7 @@ from hypate.scaling.engine.acquisition import (
     AcquisitionFactory,
 )
 from hypate.scaling.engine.coordinates import WarpedModel
+from hypate.scaling.engine.executors import run_batch
 from hypate.scaling.engine.inner import optimize_acquisition
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
 from hypate.scaling.engine.problem import (
@@ -330,24 +334,29 @@ class BayesianOptimizer:
     # ----------------------------------------------------------- evaluation
     def _evaluate(self, X: np.ndarray, iteration: int, indices: Sequence[int],
                   store: EvaluationStore, records: list[Evaluation]) -> None:
-        """Evaluate designs, committing each result (in batch order) before going on."""
-        executor, timeout = self.settings.executor, self.settings.timeout
-        if executor is None:
-            for x, i in zip(X, indices):
-                self._record(x, evaluate_design(self.problem, x, timeout), iteration, i,
-                             store, records)
-            return
-        futures = [(x, i, time.perf_counter(),
-                    executor.submit(evaluate_design, self.problem, x, timeout))
-                   for x, i in zip(X, indices)]
-        for x, i, t_submit, fut in futures:
-            try:
-                outcome = fut.result()
-            except Exception as exc:  # worker died, result not picklable, cancelled, ...
-                outcome = Outcome.failure(self.n_obj, self.n_constr, "error",
-                                          f"{type(exc).__name__}: {exc}",
-                                          time.perf_counter() - t_submit)
-            self._record(x, outcome, iteration, i, store, records)
+        """Evaluate designs, committing each result (in batch order) before going on.
+
+        Through :func:`hypate.scaling.engine.executors.run_batch`: an infrastructure fault
+        (a lost worker or scheduler, a broken pool) is not a result, the evaluation is
+        re-submitted; a design that killed its worker alone
+        :data:`~hypate.scaling.engine.executors.SOLO_DEATHS` times is stored as a failure.
+
+        Raises
+        ------
+        InfrastructureError
+            The pool or cluster is gone. The results finished before are committed; no row
+            is stored for the unfinished designs, so that a resumed run evaluates exactly
+            those and ends with the campaign of an uninterrupted one.
+        """
+        timeout = self.settings.timeout
+        calls = [(self.problem, x, timeout) for x in X]
+
+        def failure(message: str, seconds: float) -> Outcome:
+            return Outcome.failure(self.n_obj, self.n_constr, "error", message, seconds)
+
+        for k, outcome in run_batch(self.settings.executor, evaluate_design, calls,
+                                    on_failure=failure):
+            self._record(X[k], outcome, iteration, indices[k], store, records)
 
     def _record(self, x: np.ndarray, outcome: Outcome, iteration: int, index: int,
                 store: EvaluationStore, records: list[Evaluation]) -> None:

@@ -8,13 +8,14 @@ handed to the inner SLSQP exactly; expensive ones come from evaluations
 """
 from __future__ import annotations
 
-import threading
+import functools
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
+from hypate.scaling.engine.executors import KilledItsWorker, call_in_child
 from scipy.optimize import Bounds, minimize
 
 __all__ = [
@@ -168,9 +169,14 @@ def evaluate_design(problem: Any, x: np.ndarray, timeout: float | None = None,
     problem : pymoo Problem
     x : ndarray of shape (d,)
     timeout : float or None
-        Seconds; the evaluation runs in a daemon thread of the evaluating process and is
-        abandoned (status ``"timeout"``) when it takes longer. The time limit thus counts
-        from the start of the evaluation, not from its submission to a busy executor.
+        Seconds. With a limit the evaluation runs in a forked child of the evaluating
+        process (in-process, in a pool worker or in a Dask worker alike) that is killed when
+        the limit passes (status ``"timeout"``): nothing keeps computing afterwards. The
+        limit counts from the start of the evaluation, not from its submission to a busy
+        executor. A child that dies without a result (a signal from outside, or the design
+        itself) is forked again; a design whose child died
+        :data:`~hypate.scaling.engine.executors.SOLO_DEATHS` times is a failure (status
+        ``"error"``, "worker died while evaluating this design alone ...").
     eq_tol : float
         Tolerance turning equality constraints ``H = 0`` into ``|H| - eq_tol <= 0``.
 
@@ -179,31 +185,31 @@ def evaluate_design(problem: Any, x: np.ndarray, timeout: float | None = None,
     Outcome
         ``G`` holds the inequalities ``G <= 0``, then ``|H| - eq_tol`` for the equalities.
     """
+    if timeout is None:
+        return _evaluate_here(problem, x, eq_tol)
     m = int(problem.n_obj)
     k = int(problem.n_ieq_constr) + int(problem.n_eq_constr)
     t0 = time.perf_counter()
-    box: dict[str, Any] = {}
+    try:
+        return call_in_child(functools.partial(_evaluate_here, problem, x, eq_tol), timeout)
+    except TimeoutError:
+        return Outcome.failure(m, k, "timeout", f"exceeded {timeout} s",
+                               time.perf_counter() - t0)
+    except KilledItsWorker as exc:
+        return Outcome.failure(m, k, "error", str(exc), time.perf_counter() - t0)
 
-    def work() -> None:
-        try:
-            box["out"] = problem.evaluate(np.asarray(x, dtype=float)[None, :],
-                                          return_as_dictionary=True)
-        except Exception as exc:  # any failure of the user's model is recorded, not raised
-            box["error"] = f"{type(exc).__name__}: {exc}"
 
-    if timeout is None:
-        work()
-    else:
-        thread = threading.Thread(target=work, daemon=True)
-        thread.start()
-        thread.join(timeout)
-        if thread.is_alive():
-            return Outcome.failure(m, k, "timeout", f"exceeded {timeout} s",
-                                   time.perf_counter() - t0)
+def _evaluate_here(problem: Any, x: np.ndarray, eq_tol: float) -> Outcome:
+    """:func:`evaluate_design` in the calling process, without a time limit."""
+    m = int(problem.n_obj)
+    k = int(problem.n_ieq_constr) + int(problem.n_eq_constr)
+    t0 = time.perf_counter()
+    try:
+        out = problem.evaluate(np.asarray(x, dtype=float)[None, :], return_as_dictionary=True)
+    except Exception as exc:  # any failure of the user's model is recorded, not raised
+        return Outcome.failure(m, k, "error", f"{type(exc).__name__}: {exc}",
+                               time.perf_counter() - t0)
     seconds = time.perf_counter() - t0
-    if "error" in box:
-        return Outcome.failure(m, k, "error", box["error"], seconds)
-    out = box["out"]
     try:
         F = np.asarray(out["F"], dtype=float).reshape(-1)
         parts = []

@@ -136,8 +136,9 @@ class OptimizerSettings:
         ``submit(fn, *args)`` -> future with ``.result(timeout)``; ``None`` evaluates
         in-process.
     timeout : float > 0 or None
-        Seconds per evaluation, counted from its start in the evaluating process (the late
-        evaluation is abandoned, status ``"timeout"``).
+        Seconds per evaluation, counted from its start in the evaluating process; the
+        evaluation runs in a forked child that is killed at the limit (status
+        ``"timeout"``; :func:`hypate.scaling.engine.problem.evaluate_design`).
     store : str, Path, EvaluationStore or None
         SQLite store; an existing one is resumed. ``None``: in memory.
     seed : int >= 0

@@ -103,5 +103,7 @@ def test_a_dying_worker_costs_only_its_evaluation() -> None:
     assert killers.any() and (~killers).any()
     # every evaluation that killed its worker is recorded as failed, every other one succeeded
     assert (data.loc[killers, "status"] == "error").all()
+    assert data.loc[killers, "message"].str.startswith(
+        "worker died while evaluating this design alone").all()
     assert (data.loc[~killers, "status"] == "ok").all()
     assert len(data) == 8 + 3 * 2
