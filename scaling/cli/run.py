@@ -14,6 +14,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from hypate.scaling.engine.executors import LOST_AFTER
+from hypate.scaling.engine.faults import InfrastructureError
 from hypate.scaling.engine.pareto import hypervolume
 from hypate.scaling.engine.store import EvaluationStore, StoreError
 from hypate.scaling.report.html import write_report_safely
@@ -34,9 +36,10 @@ from tqdm import tqdm
 
 #: Reference point of the progress-bar hypervolume (relative errors of 100 %).
 PROGRESS_REF = np.array([1.0, 1.0])
-#: Exit codes beyond 0 and 2 (README, "Exit codes"): a finished campaign without a single
-#: successful evaluation; Ctrl-C (128 + SIGINT).
+#: Exit codes beyond 0 and 2 (README, "What a run guarantees"): a finished campaign without
+#: a single successful evaluation; the pool or cluster lost; Ctrl-C (128 + SIGINT).
 EXIT_NO_RESULT = 1
+EXIT_INFRASTRUCTURE = 3
 EXIT_INTERRUPTED = 130
 #: Seconds between progress lines when stderr is not a terminal (a log file, CI, nohup).
 LOG_EVERY = 10.0
@@ -64,7 +67,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "-3 ... when it exists)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out")
     p.add_argument("--workers", type=int, default=1, help="local worker processes (default 1)")
-    p.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT")
+    p.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT (tls://HOST:PORT "
+                   "for a secured cluster), or local:N to start a cluster of N workers on "
+                   "this machine (with Dask's dashboard)")
+    p.add_argument("--cluster-timeout", type=float, default=LOST_AFTER, metavar="SECONDS",
+                   help="a cluster whose scheduler is unreachable, or which has no worker, "
+                   "for this long is lost: the run stops with exit code 3")
     p.add_argument("--seed", type=int, help="override the study's optimizer seed")
     p.add_argument("--json", action="store_true", help="print one JSON object at the end "
                    '{"directory", "report", "evaluations", "new_evaluations", "seconds", '
@@ -78,7 +86,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "take the model template's values")
     p.set_defaults(func=run, field_flags={"out": "--out", "resume": "--resume",
                                           "workers": "--workers", "scheduler": "--scheduler",
-                                          "seed": "--seed", "seed_runs": "--seed-from"})
+                                          "seed": "--seed", "seed_runs": "--seed-from",
+                                          "lost_after": "--cluster-timeout"})
 
 
 class Progress:
@@ -242,10 +251,14 @@ def run(args: argparse.Namespace) -> int:
         with collected_warnings(args.verbose) as caught:
             outcome = run_study(study, out, resume=args.resume, workers=args.workers,
                                 scheduler=args.scheduler, seed=args.seed, progress=bar,
-                                seed_runs=args.seed_from, on_written=write_report_safely)
+                                seed_runs=args.seed_from, on_written=write_report_safely,
+                                lost_after=args.cluster_timeout)
     except KeyboardInterrupt:
         bar.close()
         return interrupted(args, out)
+    except InfrastructureError as exc:
+        bar.close()
+        return infrastructure_lost(args, out, exc)
     finally:
         bar.close()
     if not args.quiet:
@@ -266,6 +279,14 @@ def run(args: argparse.Namespace) -> int:
     if not math.isfinite(point["statistics"].get("wall_seconds") or 0.0):
         return EXIT_NO_RESULT
     return 0
+
+
+def infrastructure_lost(args: argparse.Namespace, out: Path, exc: InfrastructureError) -> int:
+    """The pool or cluster is gone: one line with what was lost and how to continue; exit 3
+    (the finished evaluations are stored, the unfinished ones are not)."""
+    print(f"hypate: error: {exc}; continue with `{resume_command(args, out)}` once the "
+          "cluster is back", file=sys.stderr)
+    return EXIT_INFRASTRUCTURE
 
 
 def interrupted(args: argparse.Namespace, out: Path) -> int:
@@ -296,11 +317,16 @@ def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
         with collected_warnings(args.verbose) as caught:
             outcome = run_sweep(study, out, resume=args.resume, workers=args.workers,
                                 scheduler=args.scheduler, seed=args.seed, progress=progress,
-                                on_point=on_point, on_written=write_report_safely)
+                                on_point=on_point, on_written=write_report_safely,
+                                lost_after=args.cluster_timeout)
     except KeyboardInterrupt:
         for bar in bars:
             bar.close()
         return interrupted(args, out)
+    except InfrastructureError as exc:
+        for bar in bars:
+            bar.close()
+        return infrastructure_lost(args, out, exc)
     finally:
         for bar in bars:
             bar.close()

@@ -1,413 +1,58 @@
-"""Where expensive evaluations run, and what happens when the machinery under them fails.
-
-Evaluations run in-process, in a local process pool (:class:`ResilientProcessPool`) or on a
-``dask.distributed`` cluster (:class:`DaskExecutor`); :func:`make_executor` builds them from
-the ``--workers`` / ``--scheduler`` settings. The optimizer sees ``concurrent.futures``-style
-executors only (DESIGN.md, "Contracts between parts: Executor") and hands each batch to
-:func:`run_batch`, which tells two kinds of failure apart:
-
-* A design that makes the simulator fail (an exception, NaN, its own time limit) is a
-  result: :func:`hypate.scaling.engine.problem.evaluate_design` returns it as a status and
-  the optimizer stores it.
-* An infrastructure fault (a worker or the scheduler lost, a broken pool, a cancelled
-  future, a closed client or comm) is not. The evaluation is re-submitted: first with the
-  other faulted evaluations of its batch (:data:`SHARED_RETRIES` times), then alone, after a
-  pause of :data:`BACKOFF_FIRST` seconds that doubles with each fault of the same evaluation
-  (at most :data:`BACKOFF_MAX`). When the pool or cluster is gone, :class:`InfrastructureError`
-  ends the run: the evaluations already finished are committed, the unfinished ones are not
-  stored, and a resume evaluates exactly those.
-
-A design that kills the process evaluating it must not be retried forever: once the process
-evaluating it *alone* died :data:`SOLO_DEATHS` times, the design is a failure (status
-``"error"``, "worker died while evaluating this design alone ...").
-
-Time limits end the work: :func:`call_in_child` runs an evaluation in a forked child that is
-killed when its limit passes (SIGTERM, SIGKILL after :data:`TERMINATE_GRACE`). Pool workers
-and these children die with their parent, even on SIGKILL (:func:`die_with_parent`).
+"""Where expensive evaluations run: in-process, in a local process pool
+(:class:`ResilientProcessPool`) or on a ``dask.distributed`` cluster (:class:`DaskExecutor`);
+:func:`make_executor` builds them from the ``--workers`` / ``--scheduler`` settings. The
+optimizer sees ``concurrent.futures``-style executors only (DESIGN.md, "Contracts between
+parts: Executor") and hands each batch to :func:`run_batch`, which tells a design's failure
+from an infrastructure fault (:mod:`hypate.scaling.engine.faults`): the evaluations a fault
+cost are re-submitted, and when the pool or cluster is gone :class:`InfrastructureError`
+ends the run -- the evaluations already finished are committed, the unfinished ones are not
+stored, and a resume evaluates exactly those.
 """
 from __future__ import annotations
 
-import asyncio
 import contextlib
-import ctypes
 import logging
 import os
-import pickle
-import select
-import signal
 import socket
-import struct
 import sys
 import time
-import warnings
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import BrokenExecutor, CancelledError, Executor, ProcessPoolExecutor
+from concurrent.futures import Executor, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
-from typing import Any, Literal, TypeVar
+from typing import Any, TypeVar
 from urllib.parse import urlsplit
 
-__all__ = [
-    "BACKOFF_FIRST",
-    "BACKOFF_MAX",
-    "DaskExecutor",
-    "ExecutorError",
-    "HEALTH_INTERVAL",
-    "InfrastructureError",
-    "KilledItsWorker",
-    "LOST_AFTER",
-    "MAX_FAULTS",
-    "ResilientProcessPool",
-    "SHARED_RETRIES",
-    "SOLO_DEATHS",
-    "TERMINATE_GRACE",
-    "call_in_child",
-    "check_scheduler_address",
-    "die_with_parent",
-    "fault_kind",
-    "make_executor",
-    "run_batch",
-]
+from hypate.scaling.engine.child import die_with_parent
+from hypate.scaling.engine.faults import (
+    BACKOFF_MAX,
+    MAX_FAULTS,
+    SHARED_RETRIES,
+    SOLO_DEATHS,
+    ExecutorError,
+    InfrastructureError,
+    KilledItsWorker,
+    backoff,
+    fault_kind,
+)
+
+__all__ = ["CLOSE_TIMEOUT", "DASHBOARD_PORT", "DaskExecutor", "HEALTH_INTERVAL", "LOST_AFTER",
+           "REACH_TIMEOUT", "ResilientProcessPool", "check_scheduler_address", "make_executor",
+           "run_batch"]
 
 T = TypeVar("T")
 
-# ------------------------------------------------------------------ retry policy
-#: Re-submissions of an evaluation together with the other faulted evaluations of its batch;
-#: after that it is re-submitted alone, so that a worker death can be blamed on it.
-SHARED_RETRIES = 1
-#: Deaths of the process evaluating a design alone after which the design is a failure
-#: (status ``"error"``). Two: one death may be a signal from outside, a second one in a row
-#: is the design's.
-SOLO_DEATHS = 2
-#: Infrastructure faults of one evaluation after which the run stops with
-#: :class:`InfrastructureError` even though the executor answers (a cluster that keeps
-#: losing its work).
-MAX_FAULTS = 6
-#: Pause before the first re-submission of an evaluation (s); it doubles with each further
-#: fault of the same evaluation, up to :data:`BACKOFF_MAX` (time for a restarted worker or
-#: scheduler to come up).
-BACKOFF_FIRST = 0.25
-BACKOFF_MAX = 8.0
-#: Seconds between SIGTERM and SIGKILL of a timed-out evaluation's process.
-TERMINATE_GRACE = 1.0
 #: Default of ``lost_after``: a cluster whose scheduler is unreachable, or which has no
 #: worker, for this many seconds is lost (s).
 LOST_AFTER = 60.0
 #: Interval of the cluster health checks while results are awaited (s).
 HEALTH_INTERVAL = 1.0
-#: Interval at which a parent looks whether its evaluating child died without a result (s);
-#: a result itself is read as soon as it arrives.
-CHILD_POLL = 0.05
+#: Seconds a scheduler's port must answer within (the preflight probe of :func:`make_executor`).
+REACH_TIMEOUT = 10.0
 #: Seconds a closer waits for a client or cluster to close.
 CLOSE_TIMEOUT = 10.0
 #: The Dask dashboard's default port, used by ``local:N`` when it is free.
 DASHBOARD_PORT = 8787
-#: Exit code of a forked evaluation child that could not deliver its result.
-_CHILD_FAILED = 70
-
-_PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
-
-
-# ------------------------------------------------------------------------ errors
-class ExecutorError(ValueError):
-    """An executor could not be made; ``field`` names the setting (``scheduler``)."""
-
-    def __init__(self, field: str, message: str) -> None:
-        super().__init__(f"{field}: {message}")
-        self.field, self.message = field, message
-
-
-class InfrastructureError(RuntimeError):
-    """The pool or cluster evaluating designs is gone; no row was stored for the designs
-    it left unfinished (a resumed run evaluates them).
-
-    Parameters
-    ----------
-    lost : str
-        What was lost, one line (``"the Dask scheduler at tcp://10.0.0.5:8786 (no answer
-        for 60 s)"``).
-    unfinished : int
-        Evaluations of the batch left without a result.
-    """
-
-    def __init__(self, lost: str, unfinished: int = 0) -> None:
-        self.lost, self.unfinished = lost, int(unfinished)
-        tail = (f"; {self.unfinished} unfinished evaluation(s) not stored, a resume "
-                "evaluates them" if self.unfinished else "")
-        super().__init__(f"lost {lost}{tail}")
-
-
-class KilledItsWorker(Exception):
-    """The process evaluating a design alone died :data:`SOLO_DEATHS` times: a design
-    failure, not an infrastructure fault."""
-
-    def __init__(self, deaths: int, last: str) -> None:
-        self.deaths, self.last = int(deaths), last
-        super().__init__(f"worker died while evaluating this design alone ({self.deaths} "
-                         f"times; last: {last})")
-
-
-def fault_kind(exc: BaseException) -> Literal["worker", "connection"] | None:
-    """Whether an exception from an executor is an infrastructure fault, and which.
-
-    Parameters
-    ----------
-    exc : BaseException
-        Raised by ``submit`` or by a future's ``result()``.
-
-    Returns
-    -------
-    {"worker", "connection"} or None
-        ``"worker"``: a process evaluating designs died (a broken pool, distributed's
-        ``KilledWorker``); it may be the design's doing. ``"connection"``: the work was lost
-        on the way (a cancelled future, a closed client or comm, a lost scheduler); never
-        the design's doing. ``None``: not an infrastructure fault.
-    """
-    worker, connection = _distributed_faults()
-    if isinstance(exc, (BrokenExecutor, *worker)):
-        return "worker"
-    if isinstance(exc, (CancelledError, asyncio.CancelledError, OSError, EOFError,
-                        *connection)):
-        return "connection"  # OSError covers ConnectionError and distributed's CommClosedError
-    return None
-
-
-def _distributed_faults() -> tuple[tuple[type, ...], tuple[type, ...]]:
-    """distributed's worker-death and connection exceptions (none while it is not loaded:
-    then none of them can have been raised)."""
-    if "distributed" not in sys.modules:
-        return (), ()
-    from distributed import KilledWorker
-    from distributed.client import ClosedClientError
-    return (KilledWorker,), (ClosedClientError,)
-
-
-# ------------------------------------------------------------ processes and parents
-def die_with_parent(parent: int) -> None:
-    """Make the calling process die when its parent dies, even on SIGKILL of the parent.
-
-    Linux: ``prctl(PR_SET_PDEATHSIG, SIGKILL)``. The kernel counts the *thread* that
-    created the process as its parent, so a process must be started by a thread that
-    outlives it (the optimizer's thread for pool workers, the waiting thread for evaluation
-    children). Elsewhere nothing is armed (degrades to the platform's behaviour).
-
-    Parameters
-    ----------
-    parent : int
-        Process id of the parent that started this process: if it is not the parent any
-        more, it died before the death signal was armed, and this process exits at once.
-    """
-    if sys.platform.startswith("linux"):
-        try:
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
-        except (OSError, AttributeError):  # no libc prctl: nothing to arm
-            pass
-    if os.getppid() != parent:
-        os._exit(1)
-
-
-def _describe_death(status: int) -> str:
-    code = os.waitstatus_to_exitcode(status)
-    if code < 0:
-        try:
-            name = signal.Signals(-code).name
-        except ValueError:
-            name = str(-code)
-        return f"killed by signal {name}"
-    return f"exited with code {code}"
-
-
-def _flush_std_streams() -> None:
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            if stream is not None:
-                stream.flush()
-        except (OSError, ValueError):  # closed or detached stream
-            pass
-
-
-@dataclass(frozen=True)
-class _Warning:
-    """A warning raised in an evaluation child, re-issued in its parent."""
-
-    message: str
-    category: type[Warning]
-    filename: str
-    lineno: int
-
-
-#: Registry of re-issued warnings: "default" filters show each one once, as in-process.
-_REISSUED: dict[Any, Any] = {}
-
-
-def _child(fn: Callable[[], Any], write_end: int, parent: int) -> None:
-    """Body of an evaluation child: evaluate, send ``(value, warnings)``, exit. Never
-    returns into the parent's code, whatever happens."""
-    code = _CHILD_FAILED
-    try:
-        die_with_parent(parent)
-        with contextlib.suppress(ValueError, OSError):  # the parent may have a handler
-            signal.signal(signal.SIGTERM, signal.SIG_DFL)
-        with warnings.catch_warnings(record=True) as caught:  # the inherited filters apply
-            value = fn()
-        records = [_Warning(str(w.message), w.category if _picklable(w.category)
-                            else UserWarning, w.filename, w.lineno) for w in caught]
-        data = pickle.dumps((value, records), protocol=pickle.HIGHEST_PROTOCOL)
-        with os.fdopen(write_end, "wb") as out:
-            out.write(struct.pack("!Q", len(data)) + data)
-        code = 0
-    except BaseException:  # noqa: BLE001 - the parent reads a missing result as a death
-        pass
-    finally:
-        _flush_std_streams()
-        os._exit(code)
-
-
-def _picklable(obj: Any) -> bool:
-    try:
-        pickle.dumps(obj)
-    except (pickle.PicklingError, TypeError, AttributeError):
-        return False
-    return True
-
-
-def _terminate(pid: int) -> None:
-    """SIGTERM a child, SIGKILL it after :data:`TERMINATE_GRACE`, and reap it."""
-    with contextlib.suppress(ProcessLookupError):
-        os.kill(pid, signal.SIGTERM)
-    deadline = time.monotonic() + TERMINATE_GRACE
-    while time.monotonic() < deadline:
-        if os.waitpid(pid, os.WNOHANG)[0]:
-            return
-        time.sleep(0.01)
-    with contextlib.suppress(ProcessLookupError):
-        os.kill(pid, signal.SIGKILL)
-    with contextlib.suppress(ChildProcessError):
-        os.waitpid(pid, 0)
-
-
-def _run_child_once(fn: Callable[[], T], limit: float) -> tuple[bool, Any]:
-    """One forked evaluation: ``(True, value)``, or ``(False, why it died)``; raises
-    TimeoutError (the child killed) when ``limit`` seconds pass first."""
-    deadline = time.monotonic() + limit
-    parent = os.getpid()
-    _flush_std_streams()  # or the child would write the parent's buffered output again
-    read_end, write_end = os.pipe()
-    pid = os.fork()
-    if pid == 0:  # the child
-        os.close(read_end)
-        _child(fn, write_end, parent)
-    os.close(write_end)
-    buf, status, eof = bytearray(), None, False
-    try:
-        # Read until the framed message is complete or the child is gone. A sibling child
-        # forked by another thread may hold a copy of the write end, so end-of-file is not
-        # a reliable sign of death: the child's exit status is looked at too.
-        while not _complete(buf):
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                raise TimeoutError
-            if eof:
-                time.sleep(min(remaining, CHILD_POLL))
-            elif select.select([read_end], [], [], min(remaining, CHILD_POLL))[0]:
-                chunk = os.read(read_end, 1 << 16)
-                buf += chunk
-                eof = not chunk
-                continue
-            reaped, st = os.waitpid(pid, os.WNOHANG)
-            if reaped:
-                status = st
-                if not eof:
-                    os.set_blocking(read_end, False)
-                    with contextlib.suppress(BlockingIOError):
-                        while chunk := os.read(read_end, 1 << 16):
-                            buf += chunk
-                break
-    except BaseException:
-        if status is None:
-            _terminate(pid)  # the limit passed, or the waiting thread was interrupted
-        raise
-    finally:
-        os.close(read_end)
-    if status is None:
-        _reap(pid)  # the message is complete: the child is exiting
-    if _complete(buf):
-        value, records = pickle.loads(bytes(buf[8:]))
-        for w in records:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno,
-                                   registry=_REISSUED)
-        return True, value
-    return False, _describe_death(status)
-
-
-def _reap(pid: int) -> None:
-    """Reap a child that is exiting; terminate it if it does not within the grace."""
-    deadline = time.monotonic() + TERMINATE_GRACE
-    while time.monotonic() < deadline:
-        if os.waitpid(pid, os.WNOHANG)[0]:
-            return
-        time.sleep(0.001)
-    _terminate(pid)
-
-
-def _complete(buf: bytearray) -> bool:
-    return len(buf) >= 8 and len(buf) - 8 >= struct.unpack("!Q", buf[:8])[0]
-
-
-def call_in_child(fn: Callable[[], T], limit: float) -> T:
-    """``fn()`` evaluated in a forked child process that is killed after ``limit`` seconds.
-
-    A fork, not a ``multiprocessing`` process: it works in-process, inside the (daemonic)
-    workers of a process pool and inside Dask workers alike, and ``fn`` need not be
-    picklable (only its value is sent back). The child dies with its parent
-    (:func:`die_with_parent`); its warnings are re-issued in the parent. A child that dies
-    without a value (a signal from outside, or the work itself) is forked again after a
-    pause, up to :data:`SOLO_DEATHS` deaths.
-
-    Without ``os.fork`` (not POSIX) ``fn`` runs in-process and its value is discarded if it
-    took longer than ``limit``: the limit is reported, the work is not interrupted.
-
-    Parameters
-    ----------
-    fn : callable
-        ``fn() -> value`` (the value must be picklable).
-    limit : float
-        Seconds, counted from the start of each attempt.
-
-    Returns
-    -------
-    value
-        What ``fn()`` returned in the child.
-
-    Raises
-    ------
-    TimeoutError
-        ``limit`` passed; the child was terminated and reaped.
-    KilledItsWorker
-        The child died without a value :data:`SOLO_DEATHS` times.
-    """
-    if not hasattr(os, "fork"):
-        t0 = time.monotonic()
-        value = fn()
-        if time.monotonic() - t0 > limit:
-            raise TimeoutError
-        return value
-    why = ""
-    for death in range(SOLO_DEATHS):
-        if death:
-            time.sleep(_backoff(death))
-        ok, value = _run_child_once(fn, limit)
-        if ok:
-            return value
-        why = value
-    raise KilledItsWorker(SOLO_DEATHS, why)
-
-
-def _backoff(faults: int) -> float:
-    """Pause before re-submitting an evaluation that met ``faults`` faults (s)."""
-    return min(BACKOFF_FIRST * 2.0 ** (max(faults, 1) - 1), BACKOFF_MAX)
-
 
 # ----------------------------------------------------------------- process pool
 class ResilientProcessPool(Executor):
@@ -643,6 +288,17 @@ def _dashboard_address() -> str:
     return f"127.0.0.1:{DASHBOARD_PORT}"
 
 
+def _probe(address: str, seconds: float) -> None:
+    """Fail fast on a scheduler nobody listens at (the client itself would keep trying for
+    ``lost_after`` seconds): one TCP connection, closed at once."""
+    parts = urlsplit(address)
+    try:
+        with socket.create_connection((parts.hostname, parts.port), timeout=seconds):
+            pass
+    except OSError as exc:
+        raise ExecutorError("scheduler", f"cannot reach {address}: {exc}") from None
+
+
 def make_executor(workers: int, scheduler: str | None, *, lost_after: float = LOST_AFTER
                   ) -> tuple[Any, Callable[[], None]]:
     """The executor of a run and its closer.
@@ -684,7 +340,10 @@ def make_executor(workers: int, scheduler: str | None, *, lost_after: float = LO
     if not lost_after > 0:
         raise ExecutorError("lost_after", f"must be > 0 s; got {lost_after}")
     try:
-        from distributed import Client, LocalCluster  # optional dependency (cluster extra)
+        from distributed import (  # optional dependency (cluster extra)
+            Client,
+            LocalCluster,
+        )
     except ImportError:
         raise ExecutorError("scheduler", "needs the cluster extra: pip install -e "
                             "\".[cluster]\"") from None
@@ -700,6 +359,7 @@ def make_executor(workers: int, scheduler: str | None, *, lost_after: float = LO
         executor = DaskExecutor(client, lost_after=lost_after,
                                 address=cluster.scheduler_address)
         return executor, lambda: _close_quietly(client, cluster)
+    _probe(address, min(REACH_TIMEOUT, lost_after))
     try:
         # the client's own reconnection window is a little longer than lost_after, so that
         # the run, not the client, declares the loss (and closes the client quietly)
@@ -812,7 +472,7 @@ def run_batch(executor: Any, fn: Callable[..., T], calls: Sequence[tuple], *,
             solo = [s for s in pending if s.worker_faults > SHARED_RETRIES]
             group = solo[:1] if solo else pending
             alone = len(group) == 1
-            pause = max((_backoff(s.faults) for s in group if s.faults), default=0.0)
+            pause = max((backoff(s.faults) for s in group if s.faults), default=0.0)
             if pause:
                 ex.check_alive()
                 time.sleep(pause)

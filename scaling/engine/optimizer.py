@@ -23,7 +23,7 @@ Each iteration (Sec. 6.3.1 step 4):
    each finished evaluation to the store before the next proposal. Infrastructure faults
    are re-submitted, not stored (:func:`hypate.scaling.engine.executors.run_batch`); a lost
    pool or cluster ends the run with
-   :class:`~hypate.scaling.engine.executors.InfrastructureError`.
+   :class:`~hypate.scaling.engine.faults.InfrastructureError`.
 
 The options are one frozen :class:`hypate.scaling.engine.settings.OptimizerSettings`; the
 acquisition is built by name from :data:`hypate.scaling.engine.acquisition.ACQUISITIONS`;
@@ -339,7 +339,7 @@ class BayesianOptimizer:
         Through :func:`hypate.scaling.engine.executors.run_batch`: an infrastructure fault
         (a lost worker or scheduler, a broken pool) is not a result, the evaluation is
         re-submitted; a design that killed its worker alone
-        :data:`~hypate.scaling.engine.executors.SOLO_DEATHS` times is stored as a failure.
+        :data:`~hypate.scaling.engine.faults.SOLO_DEATHS` times is stored as a failure.
 
         Raises
         ------

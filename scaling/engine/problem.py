@@ -15,7 +15,8 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
-from hypate.scaling.engine.executors import KilledItsWorker, call_in_child
+from hypate.scaling.engine.child import call_in_child
+from hypate.scaling.engine.faults import KilledItsWorker
 from scipy.optimize import Bounds, minimize
 
 __all__ = [
@@ -175,7 +176,7 @@ def evaluate_design(problem: Any, x: np.ndarray, timeout: float | None = None,
         limit counts from the start of the evaluation, not from its submission to a busy
         executor. A child that dies without a result (a signal from outside, or the design
         itself) is forked again; a design whose child died
-        :data:`~hypate.scaling.engine.executors.SOLO_DEATHS` times is a failure (status
+        :data:`~hypate.scaling.engine.faults.SOLO_DEATHS` times is a failure (status
         ``"error"``, "worker died while evaluating this design alone ...").
     eq_tol : float
         Tolerance turning equality constraints ``H = 0`` into ``|H| - eq_tol <= 0``.

@@ -29,7 +29,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from hypate.scaling.engine.coordinates import LogLinearCoordinates
-from hypate.scaling.engine.executors import ExecutorError, make_executor
+from hypate.scaling.engine.executors import LOST_AFTER, make_executor
+from hypate.scaling.engine.faults import ExecutorError
 from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.problem import evaluate_design, project_cheap
 from hypate.scaling.engine.result import OptimizationResult
@@ -224,7 +225,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
               seeds: Sequence[tuple[Sequence[float], str]] | None = None,
               prototype_response: Response | None = None,
               seed_runs: Sequence[str | Path] = (),
-              on_written: Callable[[Path], object] | None = None) -> RunOutcome:
+              on_written: Callable[[Path], object] | None = None,
+              lost_after: float = LOST_AFTER) -> RunOutcome:
     """Run (or resume) a study into ``out``.
 
     ``on_written(out)`` is called once the outputs are written: the CLI and ``hypate.run_study``
@@ -242,7 +244,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
     workers : int
         Local process pool size (1 = in-process).
     scheduler : str, optional
-        Address of a Dask scheduler (``tcp://host:port``).
+        Address of a Dask scheduler (``tcp://host:port``, ``tls://host:port``), or
+        ``local:N`` for a cluster of N workers on this machine.
     seed : int, optional
         Overrides the study's optimizer seed (on resume: the stored seed when omitted).
     progress : callable, optional
@@ -258,6 +261,10 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
     seed_runs : sequence of paths
         Earlier run directories whose best designs seed this run
         (:func:`seeds_from_runs`), after ``seeds``.
+    lost_after : float
+        Seconds after which a cluster without a reachable scheduler or without a worker is
+        lost (:class:`~hypate.scaling.engine.faults.InfrastructureError`; the finished
+        evaluations are stored and a resume evaluates the rest).
     """
     out = Path(out)
     store_path = out / STORE
@@ -270,7 +277,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
     if seed_runs:
         seeds = list(seeds or ()) + seeds_from_runs(study, problem, seed_runs)
     try:
-        executor, close = make_executor(workers, scheduler)  # reachable before any work
+        # connected (and its scheduler reachable) before any work
+        executor, close = make_executor(workers, scheduler, lost_after=lost_after)
     except ExecutorError as exc:
         raise InputError(exc.field, exc.message) from None
     try:

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from hypate.scaling.engine.executors import LOST_AFTER
 from hypate.scaling.engine.problem import project_cheap
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.workflow.campaign import check_run_settings
@@ -159,7 +160,8 @@ def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: i
               scheduler: str | None = None, seed: int | None = None,
               progress: Callable[[int, int, Any], None] | None = None,
               on_point: Callable[[int, int, Any], None] | None = None,
-              on_written: Callable[[Path], object] | None = None) -> SweepOutcome:
+              on_written: Callable[[Path], object] | None = None,
+              lost_after: float = LOST_AFTER) -> SweepOutcome:
     """Run (or resume) a sweep study: one optimization per sweep point (``on_written`` as in
     :func:`run_study`, called for each point and again for all once the sweep is done).
 
@@ -175,7 +177,7 @@ def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: i
     study : Study
         A study with a ``[sweep]`` table.
     out : path
-    resume, workers, scheduler, seed, progress
+    resume, workers, scheduler, seed, progress, lost_after
         As :func:`run_study` (``progress`` restarts with each point).
     on_point : callable, optional
         ``on_point(index, n_points, point)`` before each point starts or is skipped.
@@ -222,7 +224,7 @@ def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: i
                             workers=workers, scheduler=scheduler, seed=seed,
                             progress=progress, seeds=seeds,
                             prototype_response=problem.prototype_response,
-                            on_written=on_written)
+                            on_written=on_written, lost_after=lost_after)
         prototypes[key] = outcome.problem.prototype_response
         records[i] = _point_record(point, sub, sub_dir, "done", outcome.design_point)
         write_sweep_summary(study, out, records)

@@ -29,15 +29,17 @@ import numpy as np
 import pytest
 from conftest import REPO
 from fault_injection import alive, campaign, children, descendants, log_lines, problem
+from hypate.scaling.engine.child import TERMINATE_GRACE
 from hypate.scaling.engine.executors import (
     HEALTH_INTERVAL,
-    SHARED_RETRIES,
-    SOLO_DEATHS,
-    TERMINATE_GRACE,
-    InfrastructureError,
     ResilientProcessPool,
     make_executor,
     run_batch,
+)
+from hypate.scaling.engine.faults import (
+    SHARED_RETRIES,
+    SOLO_DEATHS,
+    InfrastructureError,
 )
 from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.problem import Outcome, evaluate_design

@@ -11,17 +11,18 @@ from concurrent.futures import CancelledError, Future, ThreadPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
 import pytest
+from hypate.scaling.engine.child import call_in_child, die_with_parent
 from hypate.scaling.engine.executors import (
+    check_scheduler_address,
+    make_executor,
+    run_batch,
+)
+from hypate.scaling.engine.faults import (
     SOLO_DEATHS,
     ExecutorError,
     InfrastructureError,
     KilledItsWorker,
-    call_in_child,
-    check_scheduler_address,
-    die_with_parent,
     fault_kind,
-    make_executor,
-    run_batch,
 )
 
 
