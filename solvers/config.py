@@ -25,6 +25,7 @@ from __future__ import annotations
 import difflib
 import math
 import tomllib
+import types
 import typing
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,34 +38,48 @@ from hypate.solvers.flow import FlowCondition
 from hypate.solvers.panel import Layer, PanelSpec
 from hypate.solvers.settings import DEFAULTS, SimulationSettings
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
-
-PropertySpec = float | list[tuple[float, float]]
-Positive = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
+from pydantic.fields import FieldInfo
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+class InputModel(BaseModel):
+    """Base of every input-file schema (case, study and ROM build files).
+
+    Unknown keys are errors, and values are taken as written: no string-to-number,
+    number-to-string or bool-to-number coercion (``"16"`` is not 16, ``true`` is not 1, ``2.0``
+    is not an integer), and a float must be finite (no ``inf``/``nan``). An integer is still
+    accepted where a float is meant (``length = 1``). Pairs are lists of two, not tuples:
+    strict validation takes a tuple only as a tuple, and TOML has none.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
 
 
-class LayerConfig(_Strict):
+#: ``[lower, upper]``, ``[T, value]`` ...: a list of two finite numbers.
+Pair = Annotated[list[float], Field(min_length=2, max_length=2)]
+#: A material property: a constant or a table ``[[T, value], ...]``.
+PropertySpec = float | list[Pair]
+Positive = Annotated[float, Field(gt=0.0)]
+
+
+class LayerConfig(InputModel):
     material: str
-    thickness: Annotated[float, Field(gt=0.0, le=1.0, allow_inf_nan=False)]
+    thickness: Annotated[float, Field(gt=0.0, le=1.0)]
     angle: Annotated[float, Field(ge=-180.0, le=180.0)] = 0.0
     sublayers: Annotated[int, Field(ge=1, le=50)] = 1
 
 
-class PanelConfig(_Strict):
+class PanelConfig(InputModel):
     kind: Literal["3d", "2d"] = "3d"
-    length: Annotated[float, Field(gt=0.0, le=100.0, allow_inf_nan=False)] = 1.0
-    width: Annotated[float, Field(gt=0.0, le=100.0, allow_inf_nan=False)] = 1.0
+    length: Annotated[float, Field(gt=0.0, le=100.0)] = 1.0
+    width: Annotated[float, Field(gt=0.0, le=100.0)] = 1.0
     boundary: Literal["simply_supported", "clamped"] = "simply_supported"
-    leading_edge_length: Annotated[float, Field(ge=0.0, le=100.0, allow_inf_nan=False)] = 1.0
+    leading_edge_length: Annotated[float, Field(ge=0.0, le=100.0)] = 1.0
     flow_angle: Annotated[float, Field(ge=-90.0, le=90.0)] = 0.0
     mesh: Annotated[list[Annotated[int, Field(ge=1, le=200)]],
                     Field(min_length=1, max_length=2)] = [8, 8]
-    initial_temperature: Annotated[float, Field(gt=0.0, le=5000.0, allow_inf_nan=False)] = 300.0
+    initial_temperature: Annotated[float, Field(gt=0.0, le=5000.0)] = 300.0
     emissivity: Annotated[float, Field(ge=0.0, le=1.0)] = 0.85
-    damping: Annotated[list[Annotated[float, Field(ge=0.0, allow_inf_nan=False)]],
+    damping: Annotated[list[Annotated[float, Field(ge=0.0)]],
                        Field(min_length=2, max_length=2)] = [0.0, 0.0]
     radius_x: Annotated[float, Field(gt=0.0)] = math.inf
     radius_y: Annotated[float, Field(gt=0.0)] = math.inf
@@ -79,7 +94,7 @@ class PanelConfig(_Strict):
         return self
 
 
-class MaterialConfig(_Strict):
+class MaterialConfig(InputModel):
     kind: Literal["isotropic", "orthotropic", "honeycomb", "stiffener"] | None = None
     reference_temperature: Annotated[float, Field(gt=0.0)] = 300.0
     # isotropic
@@ -113,7 +128,7 @@ class MaterialConfig(_Strict):
     l2: float | None = None
 
 
-class FlowConfig(_Strict):
+class FlowConfig(InputModel):
     mach: float
     altitude: float | None = None
     p0: float | None = None
@@ -137,7 +152,7 @@ class FlowConfig(_Strict):
         return self
 
 
-class SimulationConfig(_Strict):
+class SimulationConfig(InputModel):
     """``[simulation]`` of a case file: the keys of :class:`SimulationSettings`, with its
     defaults (one set, :data:`hypate.solvers.settings.DEFAULTS`)."""
 
@@ -150,7 +165,7 @@ class SimulationConfig(_Strict):
     radiation_temperature: Annotated[float, Field(gt=0.0, le=5000.0)] | None = \
         DEFAULTS.radiation_temperature
     external_pressure: Annotated[float, Field(ge=-1e7, le=1e7)] = DEFAULTS.external_pressure
-    external_heat_flux: Annotated[float, Field(ge=-1e7, le=1e7, allow_inf_nan=False)] = \
+    external_heat_flux: Annotated[float, Field(ge=-1e7, le=1e7)] = \
         DEFAULTS.external_heat_flux
     lsa_modes: Annotated[int, Field(ge=1, le=50)] = DEFAULTS.lsa_modes
     unstable_steps: Annotated[int, Field(ge=1, le=1000)] = DEFAULTS.unstable_steps
@@ -173,7 +188,7 @@ def settings_from_config(sim: SimulationConfig) -> SimulationSettings:
     return SimulationSettings(**sim.model_dump())
 
 
-class CaseConfig(_Strict):
+class CaseConfig(InputModel):
     panel: PanelConfig
     materials: dict[str, MaterialConfig] = {}
     flow: FlowConfig | None = None
@@ -201,29 +216,91 @@ def _loc(loc: tuple[Any, ...]) -> str:
     return out
 
 
-def _model_of(annotation: Any) -> type[BaseModel] | None:
-    """The pydantic model inside an annotation (``Model | None``, ``dict[str, Model]``,
-    ``list[Model]``), or None."""
-    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-        return annotation
-    for arg in typing.get_args(annotation):
-        found = _model_of(arg)
-        if found is not None:
-            return found
-    return None
+#: Tags pydantic puts into an error location to say which member of a union failed (they
+#: are not keys of the file): ``float``, ``list[list[float]]``, ``str`` ...
+_UNION_TAGS = ("float", "int", "str", "list[float]", "list[list[float]]")
+
+
+def _is_tag(part: Any) -> bool:
+    return isinstance(part, str) and (part.startswith("function-") or part in _UNION_TAGS)
+
+
+def _unwrap(annotation: Any) -> tuple[Any, list[Any]]:
+    """``annotation`` without ``Annotated[...]`` and ``| None``, and the constraints
+    (``annotated_types.Gt`` ...) the stripped ``Annotated`` carried."""
+    metadata: list[Any] = []
+    while True:
+        if typing.get_origin(annotation) is Annotated:
+            annotation, *extra = typing.get_args(annotation)
+            for item in extra:
+                metadata.extend(item.metadata if isinstance(item, FieldInfo) else [item])
+        elif typing.get_origin(annotation) in (typing.Union, types.UnionType) and len(
+                members := [a for a in typing.get_args(annotation) if a is not type(None)]) == 1:
+            annotation = members[0]
+        else:
+            return annotation, metadata
+
+
+def _schema_at(model: type[BaseModel] | None, loc: tuple[Any, ...]) -> tuple[Any, list[Any]]:
+    """The annotation at ``loc`` (key path, union tags removed) of ``model``'s schema and
+    its constraints; ``(None, [])`` where the schema does not tell (unknown key, a union of
+    several types)."""
+    annotation: Any = model
+    metadata: list[Any] = []
+    for part in loc:
+        if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+            field = annotation.model_fields.get(part) if isinstance(part, str) else None
+            if field is None:
+                return None, []
+            annotation, metadata = _unwrap(field.annotation)
+            metadata = list(field.metadata) + metadata
+            continue
+        origin, args = typing.get_origin(annotation), typing.get_args(annotation)
+        if origin is list and isinstance(part, int):
+            annotation, metadata = _unwrap(args[0])
+        elif origin is dict and isinstance(part, str):
+            annotation, metadata = _unwrap(args[1])
+        else:
+            return None, []
+    return annotation, metadata
 
 
 def allowed_keys(model: type[BaseModel] | None, loc: tuple[Any, ...]) -> list[str]:
     """The keys the schema allows where ``loc`` (a pydantic error location) points: the
     fields of the model that holds ``loc[-1]`` (empty when unknown)."""
-    for part in loc[:-1]:
-        if model is None:
-            return []
-        field = model.model_fields.get(part) if isinstance(part, str) else None
-        if field is None:
-            continue  # a dict key or a list index: the model stays the container's
-        model = _model_of(field.annotation)
-    return list(model.model_fields) if model is not None else []
+    holder, _ = _schema_at(model, tuple(p for p in loc[:-1] if not _is_tag(p)))
+    if isinstance(holder, type) and issubclass(holder, BaseModel):
+        return list(holder.model_fields)
+    return []
+
+
+#: What a scalar annotation asks for, in words.
+_EXPECTED = {int: "an integer", float: "a finite number", bool: "true or false",
+             str: "a string"}
+#: pydantic error types of a scalar of the wrong type or out of its range.
+_SCALAR_ERRORS = ("int_type", "int_from_float", "int_parsing", "float_type", "float_parsing",
+                  "finite_number", "bool_type", "bool_parsing", "string_type", "greater_than",
+                  "greater_than_equal", "less_than", "less_than_equal")
+
+
+def _allowed_range(metadata: list[Any]) -> str:
+    """``"in (0, 1]"``, ``">= 1"`` ... from ``annotated_types`` constraints (``""``: none)."""
+    bound = {type(m).__name__: getattr(m, type(m).__name__.lower()) for m in metadata
+             if type(m).__name__ in ("Gt", "Ge", "Lt", "Le")}  # annotated_types bounds
+    low = ("(", bound["Gt"]) if "Gt" in bound else ("[", bound["Ge"]) if "Ge" in bound else None
+    high = (")", bound["Lt"]) if "Lt" in bound else ("]", bound["Le"]) if "Le" in bound else None
+    if low and high:
+        return f"in {low[0]}{low[1]:g}, {high[1]:g}{high[0]}"
+    if low:
+        return f"{'>' if low[0] == '(' else '>='} {low[1]:g}"
+    if high:
+        return f"{'<' if high[0] == ')' else '<='} {high[1]:g}"
+    return ""
+
+
+def _got(value: Any) -> str:
+    kind = {str: " (a string)", bool: " (a boolean)"}.get(type(value), "")
+    return f"got {value!r}{kind}"
 
 
 def did_you_mean(name: str, choices: list[str]) -> str:
@@ -234,20 +311,30 @@ def did_you_mean(name: str, choices: list[str]) -> str:
 
 def pydantic_input_error(exc: ValidationError, prefix: str = "",
                          model: type[BaseModel] | None = None) -> InputError:
-    """The first pydantic error as an :class:`InputError` naming the key path; an unknown
-    key of ``model``'s schema gets the closest allowed key suggested."""
-    err = exc.errors()[0]
-    loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and (
-        p.startswith("function-") or p in ("float", "list[tuple[float, float]]", "tuple"))))
+    """The most telling pydantic error as an :class:`InputError` naming the key path.
+
+    With the schema ``model``, a scalar of the wrong type or range is reported as what the
+    key takes (``must be an integer in [1, 10000]; got '16' (a string)``) and an unknown key
+    gets the closest allowed key suggested. Of the errors of a union (one per member) the
+    one deepest into the value is taken: it is the member the value was meant to be.
+    """
+    errors = exc.errors()
+    # a misspelt key also makes the meant one "missing": report the unknown key
+    err = max(errors, key=lambda e: (e["type"] == "extra_forbidden", len(e["loc"])))
+    loc = tuple(p for p in err["loc"] if not _is_tag(p))
     path = ".".join(p for p in (prefix, _loc(loc)) if p)
     msg = err["msg"].removeprefix("Value error, ")
+    annotation, metadata = _schema_at(model, loc)
     if err["type"] == "extra_forbidden":
         msg = "unknown key (not part of the schema)" + did_you_mean(
             err["loc"][-1], allowed_keys(model, tuple(err["loc"])))
     elif err["type"] == "missing":
         msg = "required key is missing"
+    elif err["type"] in _SCALAR_ERRORS and annotation in _EXPECTED:
+        msg = " ".join(filter(None, ("must be", _EXPECTED[annotation],
+                                     _allowed_range(metadata)))) + f"; {_got(err['input'])}"
     elif "input" in err and not isinstance(err["input"], dict | list):
-        msg += f" (got {err['input']!r})"
+        msg += f" ({_got(err['input'])})"
     # model-level validators name their key at the start of the message ("mesh: ...")
     if ": " in msg and msg.split(": ", 1)[0].replace(".", "_").isidentifier() \
             and err["type"] == "value_error":
@@ -348,8 +435,11 @@ def build_flow(cfg: FlowConfig) -> FlowCondition:
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
-    """Parse a TOML file; syntax errors and missing files become :class:`InputError`."""
+    """Parse a TOML file; syntax errors, missing or unreadable files and directories become
+    :class:`InputError`."""
     path = Path(path)
+    if path.is_dir():
+        raise InputError(str(path), "is a directory, not a TOML file")
     if not path.is_file():
         raise InputError(str(path), "file not found")
     try:
@@ -358,6 +448,8 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         raise InputError(str(path), f"TOML syntax error: {exc}") from None
     except UnicodeDecodeError:
         raise InputError(str(path), "not a UTF-8 text file") from None
+    except OSError as exc:  # no permission, a device ...
+        raise InputError(str(path), f"cannot be read ({exc.strerror or exc})") from None
 
 
 def parse_case(data: dict[str, Any], source: str = "<memory>") -> Case:

@@ -11,11 +11,11 @@ the cost of one step in factorization-equivalents. Medians and ratios; never pas
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from dataclasses import replace
 
 import numpy as np
+from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.timing import median_seconds
 from hypate.scaling.workflow.shipped import shipped
 from hypate.solvers.aero.factory import make_fluid_model
@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
            "final_mean_temperature": resp.mean_temperature[-1]}
     del u
     if args.json:
-        print(json.dumps(out))
+        print(dumps(out))
         return 0
     print(f"Sec. 9.2 prototype, TC + LSA, dt = {args.time_step:g} s, {resp.times[-1]:g} s "
           f"simulated ({resp.status})")

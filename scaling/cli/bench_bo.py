@@ -8,9 +8,9 @@ prints the issue's public JSON instead. ``--baseline nsga2|random`` runs pymoo's
 from __future__ import annotations
 
 import argparse
-import json
 
 import numpy as np
+from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.engine.acquisition import (
     MULTI_OBJECTIVE_ACQUISITIONS,
     SINGLE_OBJECTIVE_ACQUISITIONS,
@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
         out = {"best": history[-1] if history else float("inf"), "history": history,
                "evaluations": len(history), "seconds_per_iteration_median": seconds}
     if args.json:
-        print(json.dumps(out))
+        print(dumps(out))
         return 0
     label = args.baseline or acq
     if bench.multi_objective:

@@ -8,13 +8,14 @@ time of each ROM. A benchmark: it prints numbers, it never fails.
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
+from hypate.scaling.cli.arguments import integer_in
+from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.aero.rom.build import build_rom_from_config, check_rom
-from hypate.solvers.aero.rom.config import load_rom_config
+from hypate.solvers.aero.rom.config import MAX_SAMPLES, MIN_SAMPLES, load_rom_config
 
 #: The shipped ROM build file, by name (:mod:`hypate.scaling.workflow.shipped`).
 DEFAULT_CONFIG = "rom_2d_panel"
@@ -35,6 +36,9 @@ def register_bench(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    for n in args.counts:
+        integer_in(n, "--counts", MIN_SAMPLES, MAX_SAMPLES)
+    integer_in(args.test_samples, "--test-samples", 1, MAX_SAMPLES)
     cfg, base = load_rom_config(resolve(args.config, "rom"))
     if not args.json:
         print(f"ROM convergence ({Path(args.config).name}; {args.test_samples} held-out "
@@ -56,5 +60,5 @@ def run(args: argparse.Namespace) -> int:
                   f"{100 * res['heat_flux_nrmse']:10.3f} {rom.pressure_model.n_modes:8d} "
                   f"{rom.heat_model.n_modes:8d} {dt:8.1f}", flush=True)
     if args.json:
-        print(json.dumps(rows, indent=2))
+        print(dumps(rows, indent=2))
     return 0

@@ -9,9 +9,9 @@ Medians and ratios only; never pass/fail.
 from __future__ import annotations
 
 import argparse
-import json
 
 import numpy as np
+from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.timing import median_seconds
 from hypate.solvers.errors import InputError
 from hypate.solvers.materials import library_material
@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
            "fastest_factorization": best, "solve_s": t_solve,
            "ratio_assembly_to_factorization": t_asm / fact[best]}
     if args.json:
-        print(json.dumps(out))
+        print(dumps(out))
         return 0
     print(f"DCS9 {n} x {n} mesh: {model.n_dof} DOFs, banded bandwidth {solver.bandwidth}")
     print(f"  internal force + tangent assembly  {1e3 * t_asm:9.2f} ms (median of {args.repeat})")

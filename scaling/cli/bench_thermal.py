@@ -16,10 +16,10 @@ and the ratios step / factorization. Medians and ratios only; never pass/fail.
 from __future__ import annotations
 
 import argparse
-import json
 
 import numpy as np
 import scipy.sparse.linalg as spla
+from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.timing import median_seconds
 from hypate.solvers.errors import InputError
 from hypate.solvers.materials import honeycomb_core, isotropic, library_material
@@ -121,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
             "factorizations_per_nonlinear_full_step": fact_per_step,
             "constant_step_reused_factorization": reused}
     if args.json:
-        print(json.dumps({"info": info, "median_s": results, "ratios": ratios}))
+        print(dumps({"info": info, "median_s": results, "ratios": ratios}))
         return 0
     print(f"thermal bench: {args.cells} x {args.cells} x {3 * s} hexahedra, "
           f"{full.n_nodes} nodes, nnz {full.nnz}, half bandwidth {full._banded.bw}, "

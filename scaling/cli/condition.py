@@ -2,10 +2,13 @@
 from __future__ import annotations
 
 import argparse
-import json
 
+from hypate.scaling.cli.jsonout import dumps
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
+
+#: The FlowCondition arguments, each given by the flag of its name.
+FLOW_ARGUMENTS = ("mach", "altitude", "p0", "T0", "pressure", "temperature")
 
 _LABELS = (("mach", "Mach number", "-"), ("pressure", "static pressure", "Pa"),
            ("temperature", "static temperature", "K"), ("density", "density", "kg/m^3"),
@@ -29,7 +32,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--pressure", type=float, help="static pressure (Pa), with --temperature")
     p.add_argument("--temperature", type=float, help="static temperature (K), with --pressure")
     p.add_argument("--json", action="store_true", help="print JSON")
-    p.set_defaults(func=run)
+    # FlowCondition names its arguments; the user typed flags
+    p.set_defaults(func=run, field_flags={name: f"--{name}" for name in FLOW_ARGUMENTS})
 
 
 def flow_from_args(args: argparse.Namespace) -> FlowCondition:
@@ -56,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     flow = flow_from_args(args)
     data = flow.to_dict()
     if args.json:
-        print(json.dumps(data, indent=2))
+        print(dumps(data, indent=2))
     else:
         for key, label, unit in _LABELS:
             print(f"{label:>24s}: {data[key]:.6g} {unit}")

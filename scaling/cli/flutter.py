@@ -2,12 +2,19 @@
 from __future__ import annotations
 
 import argparse
-import json
 
+from hypate.scaling.cli.arguments import finite, integer_in, positive
+from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.config import load_panel
 from hypate.solvers.coupling.flutter import FlutterAnalysis
 from hypate.solvers.errors import InputError
+
+#: Guards against typos that would run for days: points of the lambda sweep, S2 runs of the
+#: LCO curve and their length in first-mode periods.
+MAX_SWEEP_POINTS = 100_000
+MAX_LCO_POINTS = 100
+MAX_LCO_PERIODS = 10_000.0
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,18 +45,23 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if not (args.lambda_max > 0 and args.step > 0):
-        raise InputError("--lambda-max/--step", "must be > 0")
-    if args.mach <= 1.0:
-        raise InputError("--mach", "must be > 1")
+    if positive(args.lambda_max, "--lambda-max") / positive(args.step, "--step") \
+            > MAX_SWEEP_POINTS:
+        raise InputError("--step", f"gives more than {MAX_SWEEP_POINTS} sweep points up to "
+                         f"--lambda-max {args.lambda_max:g}; use a larger step")
+    if not finite(args.mach, "--mach") > 1.0:
+        raise InputError("--mach", f"must be > 1; got {args.mach:g}")
+    if args.time_domain:  # checked before the sweep, which takes a while
+        integer_in(args.lco_points, "--lco-points", 2, MAX_LCO_POINTS)
+        positive(args.lco_span, "--lco-span")
+        if positive(args.lco_periods, "--lco-periods") > MAX_LCO_PERIODS:
+            raise InputError("--lco-periods", f"must be <= {MAX_LCO_PERIODS:g} (each S2 run "
+                             "lasts that many first-mode periods)")
     panel = load_panel(resolve(args.panel, "case"))
     fa = FlutterAnalysis(panel, args.ratio, args.aero, mach=args.mach)
     res = fa.sweep(lam_max=args.lambda_max, step=args.step)
     data = res.to_dict()
     if args.time_domain:
-        if args.lco_points < 2 or not args.lco_span > 0 or not args.lco_periods > 0:
-            raise InputError("--lco-points/--lco-span/--lco-periods",
-                             "need >= 2 points, span > 0 and periods > 0")
         if res.lambda_cr is None:
             data["lco_onset"], data["lco_curve"] = None, []
         else:
@@ -59,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
             data["lco_onset"] = lco.lambda_onset
             data["lco_curve"] = [[lam, amp] for lam, amp in lco.curve]
     if args.json:
-        print(json.dumps(data))
+        print(dumps(data))
         return 0
     if res.lambda_cr is None:
         print(f"no flutter up to lambda = {args.lambda_max:g}")

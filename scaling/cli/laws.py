@@ -9,10 +9,10 @@ refined laws predict at a new scale and its similarity table, ``--evaluate`` sim
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from pathlib import Path
 
+from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.laws import (
     laws_json,
     laws_of_run,
@@ -38,19 +38,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _clean(obj):
-    """JSON-safe copy (NaN/inf -> null)."""
-    if isinstance(obj, dict):
-        return {k: _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if hasattr(obj, "item") and not isinstance(obj, (str, bytes)):
-        return _clean(obj.item())
-    return obj
-
-
 def _g(v: float | None) -> str:
     return "-" if v is None else f"{v:.5g}"
 
@@ -66,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     if args.predict is not None:
         prediction = predict(run_, args.predict, evaluate=args.evaluate, laws=laws)
     if args.json:
-        print(json.dumps(_clean(laws_json(laws, prediction)), indent=2, allow_nan=False))
+        print(dumps(laws_json(laws, prediction), indent=2))
         return 0
     scales = sorted({p.xi for p in run_.points})
     print(f"{run_.directory}: {len(run_.points)} design points at xi = "

@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 import argparse
-import json
 
+from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.report.html import write_report
 from hypate.scaling.workflow.rundir import FIGURES_DIR
 
@@ -28,7 +28,7 @@ def run(args: argparse.Namespace) -> int:
     path = write_report(args.run_dir, study_path=args.study, simulate=args.simulate)
     if args.json:
         figures = sorted(str(p) for p in (path.parent / FIGURES_DIR).glob("*.png"))
-        print(json.dumps({"report": str(path), "figures": figures}))
+        print(dumps({"report": str(path), "figures": figures}))
     else:
         print(path)
     return 0

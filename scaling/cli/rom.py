@@ -11,19 +11,21 @@
 from __future__ import annotations
 
 import argparse
-import json
-import math
 from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
 
 import numpy as np
+from hypate.scaling.cli.arguments import integer_in, output_file, positive
+from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.aero.rom.build import build_rom_from_config, check_rom
-from hypate.solvers.aero.rom.config import load_rom_config
+from hypate.solvers.aero.rom.config import MAX_SAMPLES, MIN_SAMPLES, load_rom_config
 from hypate.solvers.aero.rom.io import load_rom, save_rom
 from hypate.solvers.aero.rom.plan import olh_plan, smart_order, write_plan_csv
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
+
+#: Most sample-generating processes of ``rom build`` (a typo must not start thousands).
+MAX_WORKERS = 256
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -60,7 +62,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "non-uniform Eq. (7.6) form (data set 3)")
     c.add_argument("--seed", type=int, default=12345, help="seed of the fresh samples")
     c.add_argument("--json", action="store_true", help="print JSON")
-    c.set_defaults(func=run_check)
+    # FlowCondition.from_altitude names its arguments; the user typed flags
+    c.set_defaults(func=run_check, field_flags={"mach": "--mach", "altitude": "--altitude"})
 
     p = cmds.add_parser("plan", help="smart-ordered OLH sample plan as CSV (App. B)",
                         description="An OLH plan of the build file's inputs, ordered by the "
@@ -75,19 +78,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=lambda args: (parser.print_help(), 2)[1])
 
 
-def _positive_int(value: int | None, name: str) -> None:
-    if value is not None and value < 1:
-        raise InputError(name, f"must be a positive integer; got {value}")
+def _samples(value: int | None) -> None:
+    """``--samples`` of build and plan: the range of ``[training] samples``."""
+    if value is not None:
+        integer_in(value, "--samples", MIN_SAMPLES, MAX_SAMPLES)
 
 
 def run_build(args: argparse.Namespace) -> int:
 
-    _positive_int(args.samples, "--samples")
-    _positive_int(args.workers, "--workers")
+    _samples(args.samples)
+    integer_in(args.workers, "--workers", 1, MAX_WORKERS)
     cfg, base = load_rom_config(resolve(args.config, "rom"))
-    out = Path(args.out)
-    if not out.parent.is_dir():
-        raise InputError("--out", f"directory {out.parent} does not exist")
+    out = output_file(args.out, "--out")
     if args.workers > 1:
         with ProcessPoolExecutor(args.workers) as pool:
             rom = build_rom_from_config(cfg, base, executor=pool, samples=args.samples)
@@ -98,7 +100,7 @@ def run_build(args: argparse.Namespace) -> int:
                "pressure_pod_modes": rom.pressure_model.n_modes,
                "heat_flux_pod_modes": rom.heat_model.n_modes}
     if args.json:
-        print(json.dumps(summary, indent=2))
+        print(dumps(summary, indent=2))
     else:
         print(f"ROM ({rom.kind}) from {summary['samples']} samples: "
               f"{summary['pressure_pod_modes']} pressure and {summary['heat_flux_pod_modes']} "
@@ -108,9 +110,9 @@ def run_build(args: argparse.Namespace) -> int:
 
 def run_check(args: argparse.Namespace) -> int:
 
-    _positive_int(args.samples, "--samples")
-    if not (math.isfinite(args.scale) and args.scale > 0.0):
-        raise InputError("--scale", f"must be a positive number; got {args.scale:g}")
+    integer_in(args.samples, "--samples", 1, MAX_SAMPLES)
+    positive(args.scale, "--scale")
+    integer_in(args.seed, "--seed", 0)
     rom = load_rom(args.rom, correction=args.correction)
     ref = rom.reference
     if args.mach is None and args.altitude is None:
@@ -123,7 +125,7 @@ def run_check(args: argparse.Namespace) -> int:
                                            altitude)
     result = check_rom(rom, args.samples, flow, args.scale, args.temperature, rng=args.seed)
     if args.json:
-        print(json.dumps(result))
+        print(dumps(result))
     else:
         print(f"mean NRMSE on {result['samples']} fresh samples (M = {flow.mach:g}, "
               f"scale {args.scale:g}): pressure {100 * result['pressure_nrmse']:.3f} %, "
@@ -133,9 +135,10 @@ def run_check(args: argparse.Namespace) -> int:
 
 def run_plan(args: argparse.Namespace) -> int:
 
-    _positive_int(args.samples, "--samples")
-    _positive_int(args.groups, "--groups")
+    _samples(args.samples)
+    integer_in(args.groups, "--groups", 1)
     cfg, _ = load_rom_config(resolve(args.config, "rom"))
+    out = output_file(args.out, "--out")
     bounds = np.vstack([[m.range for m in cfg.modes], [cfg.wall_temperature.range]])
     names = [f"a{k + 1}" for k in range(len(cfg.modes))] + ["T_w"]
     if cfg.conventional is not None:
@@ -149,12 +152,12 @@ def run_plan(args: argparse.Namespace) -> int:
     if cfg.conventional is not None:
         naive[:2] = bounds[:2].mean(axis=1)
     order = smart_order(X, naive, args.groups, rng=cfg.training.seed)
-    write_plan_csv(args.out, X, order, names)
+    write_plan_csv(out, X, order, names)
     summary = {"out": args.out, "samples": n, "groups": args.groups,
                "total_restart_distance": order.total_distance,
                "naive_restart_distance": order.naive_distance, "ratio": order.ratio}
     if args.json:
-        print(json.dumps(summary, indent=2))
+        print(dumps(summary, indent=2))
     else:
         print(f"{n} samples in {args.groups} group(s) -> {args.out}; total restart distance "
               f"(Eq. 2.82) {order.total_distance:.4g} vs {order.naive_distance:.4g} from the "

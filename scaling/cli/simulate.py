@@ -2,10 +2,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-from pathlib import Path
 
+from hypate.scaling.cli.arguments import output_directory
+from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.config import load_case
 from hypate.solvers.coupling.run import simulate
@@ -29,7 +29,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("flow", "a case for simulate needs a [flow] table")
     if case.simulation is None:
         raise InputError("simulation", "a case for simulate needs a [simulation] table")
-    out = Path(args.out) if args.out else None
+    out = output_directory(args.out, "--out") if args.out else None
     bar = tqdm(total=1, desc="simulate", unit="step", disable=args.json or not sys.stderr.isatty())
 
     def progress(n: int, total: int) -> None:
@@ -43,10 +43,10 @@ def run(args: argparse.Namespace) -> int:
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         resp.save(out / "response.npz")
-        (out / "summary.json").write_text(json.dumps(
+        (out / "summary.json").write_text(dumps(
             {**summary, "wall_seconds": resp.wall_seconds, "timing": resp.timing}, indent=2))
     if args.json:
-        print(json.dumps(summary))
+        print(dumps(summary))
     else:
         simulated = resp.times[-1] if resp.times else 0.0
         print(f"{args.case}: {resp.status} after {simulated:g} s simulated "

@@ -13,11 +13,11 @@ public JSON:
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import warnings
 
+from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.config import load_panel
 from hypate.solvers.errors import InputError
@@ -87,7 +87,7 @@ def run_modes(args: argparse.Namespace) -> int:
     _report_warnings(caught)
     freqs = [float(f) for f in res.frequencies_hz]
     if args.json:
-        print(json.dumps({"frequencies_hz": freqs}))
+        print(dumps({"frequencies_hz": freqs}))
     else:
         print(f"{args.panel}: {len(freqs)} natural frequencies (Hz)")
         for i, f in enumerate(freqs, 1):
@@ -107,7 +107,7 @@ def run_buckling(args: argparse.Namespace) -> int:
             return 1
     _report_warnings(caught)
     if args.json:
-        print(json.dumps({"critical_delta_T": float(res.critical_delta_T)}))
+        print(dumps({"critical_delta_T": float(res.critical_delta_T)}))
     else:
         print(f"{args.panel}: critical uniform temperature rise {res.critical_delta_T:.6g} K")
     return 0
@@ -129,7 +129,7 @@ def run_static(args: argparse.Namespace) -> int:
     out = {"center_deflection": res.center_deflection(model),
            "max_deflection": res.max_deflection(model)}
     if args.json:
-        print(json.dumps(out))
+        print(dumps(out))
     else:
         print(f"{args.panel}: centre deflection {out['center_deflection']:.6g} m, "
               f"max deflection {out['max_deflection']:.6g} m"

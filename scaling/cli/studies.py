@@ -3,8 +3,8 @@ duration (run one with ``hypate run NAME``, start your own with ``hypate init``)
 from __future__ import annotations
 
 import argparse
-import json
 
+from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import shipped
 from hypate.scaling.workflow.study import load_study, sweep_points
 
@@ -36,7 +36,7 @@ def catalog() -> list[dict[str, object]]:
 def run(args: argparse.Namespace) -> int:
     rows = catalog()
     if args.json:
-        print(json.dumps(rows, indent=2))
+        print(dumps(rows, indent=2))
         return 0
     width = max(len(str(r["name"])) for r in rows)
     for r in rows:

@@ -21,11 +21,11 @@ with the area-averaged upper/lower surface and volume-mean temperatures (K) at e
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import warnings
 
+from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.config import load_panel
 from hypate.solvers.errors import InputError
@@ -108,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
     for message in dict.fromkeys(str(w.message) for w in caught):
         print(f"hypate: warning: {message}", file=sys.stderr)
     if args.json:
-        print(json.dumps({"times": times, "top_temperature": top,
+        print(dumps({"times": times, "top_temperature": top,
                           "bottom_temperature": bottom, "mean_temperature": mean}))
         return 0
     print(f"{args.panel}: flux {q:g} W/m^2 on top, radiation eps = {panel.emissivity:g} to "

@@ -4,13 +4,16 @@ it; the schema is chosen by the file's tables (``[study]``: a study; ``[[modes]]
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Any
 
+from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.study import parse_study
+from hypate.solvers.aero.factory import check_fluid_model
+from hypate.solvers.aero.rom.build import geometry_from_config, snapshots_path
 from hypate.solvers.aero.rom.config import parse_rom_config
+from hypate.solvers.aero.rom.snapshots import read_snapshots
 from hypate.solvers.config import parse_case, read_toml, summary
 from hypate.solvers.errors import InputError
 
@@ -27,7 +30,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "file's tables)")
     p.add_argument("--json", action="store_true", help="print one JSON object "
                    '{"file", "schema", "valid", "summary"} or, when invalid, '
-                   '{"file", "schema", "valid": false, "field", "message"}')
+                   '{"file", "schema", "valid": false, "field", "message"} (and the '
+                   'one-line error on stderr, exit code 2)')
     p.set_defaults(func=run)
 
 
@@ -49,32 +53,41 @@ def _path(arg: str) -> Path:
 
 
 def validate(path: Path, schema: str | None = None) -> tuple[str, list[str]]:
-    """Validate ``path`` under ``schema`` (None: detected); the schema and summary lines."""
+    """Validate ``path`` under ``schema`` (None: detected) and the files it refers to (the
+    prototype case, materials, the tunnel, an ``aero = "rom:PATH"`` ROM file, a ROM build's
+    snapshots); the schema and summary lines."""
     data = read_toml(path)
     schema = schema or schema_of(data)
     if schema == "study":
-        return schema, parse_study(data, path).summary()
+        study = parse_study(data, path)  # loads the prototype case, materials and tunnel
+        check_fluid_model(study.raw.simulation.aero)
+        return schema, study.summary()
     if schema == "rom":
         cfg = parse_rom_config(data)
+        if cfg.source.kind == "snapshots":
+            read_snapshots(snapshots_path(cfg, path.resolve().parent), geometry_from_config(cfg))
         return schema, [f"ROM build: {len(cfg.modes)} modes, {cfg.training.samples} training "
                         f"samples, reference M = {cfg.reference.mach:g}"]
-    return schema, summary(parse_case(data, source=str(path)))
+    case = parse_case(data, source=str(path))
+    if case.simulation is not None:
+        check_fluid_model(case.simulation.aero)
+    return schema, summary(case)
 
 
 def run(args: argparse.Namespace) -> int:
     path = _path(args.file)
-    if not args.json:
-        schema, lines = validate(path, args.schema)
-        print(f"{args.file}: valid ({schema} file)")
-        for line in lines:
-            print(f"  {line}")
-        return 0
     try:
         schema, lines = validate(path, args.schema)
     except InputError as exc:
-        print(json.dumps({"file": str(args.file), "schema": args.schema, "valid": False,
-                          "field": exc.field, "message": exc.message}))
-        return 2
-    print(json.dumps({"file": str(args.file), "schema": schema, "valid": True,
-                      "summary": lines}))
+        if args.json:
+            print(dumps({"file": str(args.file), "schema": args.schema, "valid": False,
+                         "field": exc.field, "message": exc.message}))
+        raise  # and the one error line on stderr, exit code 2 (hypate.scaling.cli.main)
+    if args.json:
+        print(dumps({"file": str(args.file), "schema": schema, "valid": True,
+                     "summary": lines}))
+        return 0
+    print(f"{args.file}: valid ({schema} file)")
+    for line in lines:
+        print(f"  {line}")
     return 0

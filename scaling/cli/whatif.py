@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import sys
 import warnings
 from collections.abc import Sequence
 from typing import Any
 
-import numpy as np
+from hypate.scaling.cli.arguments import output_directory
+from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.report.figures import plot_sweep
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.study import load_study
@@ -136,20 +135,6 @@ def _print_sweep(sw: dict[str, Any]) -> None:
     print(f"wrote {sw['csv']}")
 
 
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, (np.floating, float)):
-        return float(obj) if math.isfinite(float(obj)) else None
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    return obj
-
-
 def run(args: argparse.Namespace) -> int:
     values = parse_set(args.set_values)
     sweep = parse_sweep(args.sweep) if args.sweep else None
@@ -157,6 +142,7 @@ def run(args: argparse.Namespace) -> int:
     base = load_base(args.base) if args.base else None
     if args.out and not sweep:
         raise InputError("--out", "only used with --sweep")
+    out = output_directory(args.out or ".", "--out")
     with warnings.catch_warnings():
         # material tables clamped outside their range etc.: noise for a what-if answer
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -164,13 +150,12 @@ def run(args: argparse.Namespace) -> int:
             name, lo, hi, n = sweep
             result: dict[str, Any] = {"study": study.name,
                                       "sweep": sweep_whatif(study, values, name, lo, hi, n,
-                                                            args.out or ".", base=base,
+                                                            out, base=base,
                                                             plot=plot_sweep)}
         else:
             result = evaluate_whatif(study, values, base=base)
     if args.json:
-        json.dump(_jsonable(result), sys.stdout, indent=2, allow_nan=False)
-        sys.stdout.write("\n")
+        print(dumps(result, indent=2))
     elif sweep is not None:
         _print_sweep(result["sweep"])
     else:

@@ -72,7 +72,9 @@ from hypate.scaling.workflow.variables import HARD_LIMITS, OPTIMIZABLE
 from hypate.solvers import materials as mat
 from hypate.solvers.aero.factory import AERO_NAMES, is_aero_name
 from hypate.solvers.config import (
+    InputModel,
     MaterialConfig,
+    Pair,
     load_case,
     pydantic_input_error,
     read_toml,
@@ -82,16 +84,12 @@ from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.panel import Layer, PanelSpec
 from hypate.solvers.settings import DEFAULTS, SimulationSettings
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import Field, ValidationError, model_validator
 
-PosFloat = Annotated[float, Field(gt=0.0, allow_inf_nan=False)]
-
-
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+PosFloat = Annotated[float, Field(gt=0.0)]
 
 
-class StudySection(_Strict):
+class StudySection(InputModel):
     name: str = "study"
     description: str = ""
     #: measured wall time of a whole run (free text, e.g. "4.5 min on 2 cores"), for
@@ -105,7 +103,7 @@ class StudySection(_Strict):
     projection: Literal["center", "modal", "fields"] = "center"
 
 
-class PrototypeSection(_Strict):
+class PrototypeSection(InputModel):
     case: str
     delta_T: Annotated[float, Field(gt=0.0, le=2000.0)] | None = None
     temperature_independent: bool = False
@@ -118,12 +116,11 @@ Mach = Annotated[float, Field(gt=1.0, le=30.0)]
 Altitude = Annotated[float, Field(ge=0.0, le=86000.0)]
 
 
-class SweepSection(_Strict):
+class SweepSection(InputModel):
     xi: Annotated[list[Scale], Field(min_length=1)] | None = None
     mach: Annotated[list[Mach], Field(min_length=1)] | None = None
     altitude: Annotated[list[Altitude], Field(min_length=1)] | None = None
-    conditions: Annotated[list[Annotated[list[float], Field(min_length=2, max_length=2)]],
-                          Field(min_length=1)] | None = None
+    conditions: Annotated[list[Pair], Field(min_length=1)] | None = None
     recycle: Annotated[int, Field(ge=0, le=1000)] = 10
     predict: bool = True
     initial_samples: Annotated[int, Field(ge=0, le=10000)] | None = None
@@ -147,9 +144,9 @@ class SweepSection(_Strict):
         return self
 
 
-class LawsSection(_Strict):
+class LawsSection(InputModel):
     analytical: dict[str, float] = {}
-    exponent_bounds: dict[str, Annotated[list[float], Field(min_length=2, max_length=2)]] = {}
+    exponent_bounds: dict[str, Pair] = {}
     monotone: dict[str, Literal["increasing", "decreasing"]] = {}
 
     @model_validator(mode="after")
@@ -161,7 +158,7 @@ class LawsSection(_Strict):
         return self
 
 
-class SimulationSection(_Strict):
+class SimulationSection(InputModel):
     """``[simulation]`` of a study: the keys of :class:`SimulationSettings` a study sets,
     with its defaults, plus ``steps`` (of the prototype time step) and a ``mesh`` override."""
 
@@ -178,7 +175,7 @@ class SimulationSection(_Strict):
                                                                       max_length=2)] | None = None
 
 
-class ModelSection(_Strict):
+class ModelSection(InputModel):
     material: str = "ti6242"
     thickness: Annotated[float, Field(gt=0.0, le=0.1)] | None = None
     sublayers: Annotated[int, Field(ge=1, le=50)] = 1
@@ -188,7 +185,7 @@ class ModelSection(_Strict):
     temperature_independent: bool = False
 
 
-class ConstraintsSection(_Strict):
+class ConstraintsSection(InputModel):
     equality: list[str] = []
 
     @model_validator(mode="after")
@@ -200,7 +197,7 @@ class ConstraintsSection(_Strict):
         return self
 
 
-class OptimizerSection(_Strict):
+class OptimizerSection(InputModel):
     approach: Literal["indirect", "direct"] = "indirect"
     acquisition: Literal["hvlcb", "hvei", "hvpoi", "ws", "cheb", "lcb", "ei", "poi"] | None = None
     v: Annotated[float, Field(ge=0.0, le=100.0)] | None = None
@@ -219,7 +216,7 @@ class OptimizerSection(_Strict):
     design_point: Literal["minmax", "weighted", "knee"] = "minmax"
 
 
-class StudyFile(_Strict):
+class StudyFile(InputModel):
     study: StudySection = StudySection()
     prototype: PrototypeSection
     simulation: SimulationSection = SimulationSection()

@@ -5,6 +5,8 @@ The one list of aero-model names (case files, study files and the CLI validate a
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 from hypate.solvers.aero.analytic import AnalyticFluid
 from hypate.solvers.aero.base import FluidModel
 from hypate.solvers.aero.rom.io import load_rom
@@ -38,3 +40,18 @@ def make_fluid_model(aero: str, heating: str = "eckert", regime: str = "turbulen
         return load_rom(aero[len(ROM_PREFIX):], regime=regime)
     raise InputError("simulation.aero", f"must be one of {', '.join(AERO_NAMES)} or "
                      f"'rom:PATH'; got {aero!r}")
+
+
+def check_fluid_model(aero: str, field: str = "simulation.aero") -> None:
+    """Check the file an ``aero = "rom:PATH"`` names exists and loads (the path taken as
+    :func:`make_fluid_model` takes it, relative to the working directory); fixed names need
+    no file. Problems raise :class:`InputError` naming ``field``."""
+    if not aero.startswith(ROM_PREFIX):
+        return
+    path = Path(aero[len(ROM_PREFIX):])
+    if not path.exists():
+        raise InputError(field, f"ROM file {path} not found")
+    try:
+        load_rom(path)
+    except InputError as exc:
+        raise InputError(field, f"ROM file {path}: {exc.message}") from None

@@ -19,6 +19,7 @@ from hypate.solvers.aero.base import SurfacePoints
 from hypate.solvers.coupling.stability import StabilityResult
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
+from hypate.solvers.npz import float_member, read_npz, require_finite
 from hypate.solvers.panel import PanelSpec
 from numpy.typing import NDArray
 
@@ -43,6 +44,13 @@ class RecordedModel(Protocol):
     def wall_temperature(self, T: Array) -> Array: ...
 
 FORMAT_VERSION = 1
+#: Members of a saved response that every file has (``u``, ``T``, ``pressure``, ``heat_flux``
+#: and ``artificial_energy`` only when recorded), and the keys of its ``meta`` header.
+_ARRAYS = ("times", "center_deflection", "mean_temperature", "top_temperature",
+           "max_wall_temperature", "modal", "lsa")
+_META = ("scheme", "thickness", "length", "stagnation_temperature", "initial_temperature",
+         "status", "message", "instability_time", "instability_type", "wall_seconds", "timing",
+         "mode_indices", "lsa_status")
 #: Sinusoidal modes (i, j) on which the deflection is projected.
 MODE_INDICES = tuple((i, j) for j in (1, 2, 3) for i in (1, 2, 3))
 
@@ -180,15 +188,36 @@ class Response:
 
     @classmethod
     def load(cls, path: str | Path) -> Response:
+        """Read a file written by :meth:`save`.
+
+        The archive is checked before it is read (:func:`hypate.solvers.npz.read_npz`); the
+        scales (thickness, length, temperatures) and the times must be finite numbers, the
+        histories may hold NaN (a failed run, LSA eigenvalues not computed). Every problem
+        raises :class:`InputError` naming the file and the member.
+        """
         path = Path(path)
+        field = str(path)
+        arrays = read_npz(path, field, required=_ARRAYS + ("meta",))
         try:
-            with np.load(path, allow_pickle=False) as data:
-                meta = json.loads(bytes(data["meta"]).decode())
-                arrays = {k: data[k] for k in data.files if k != "meta"}
-        except (OSError, ValueError, KeyError) as exc:
-            raise InputError(str(path), f"not a hypate response file ({exc})") from None
-        if meta.get("format_version") != FORMAT_VERSION:
-            raise InputError(str(path), f"unsupported response format {meta.get('format_version')}")
+            meta = json.loads(bytes(arrays.pop("meta")).decode())
+        except ValueError as exc:  # not UTF-8, not JSON
+            raise InputError(field, f"member 'meta': not a hypate response header ({exc})") \
+                from None
+        if not isinstance(meta, dict) or meta.get("format_version") != FORMAT_VERSION:
+            version = meta.get("format_version") if isinstance(meta, dict) else None
+            raise InputError(field, f"unsupported response format {version}")
+        missing = [key for key in _META if key not in meta]
+        if missing:
+            raise InputError(field, f"member 'meta': missing {', '.join(missing)}")
+        for key in ("thickness", "length", "stagnation_temperature", "initial_temperature"):
+            value = meta[key]
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise InputError(field, f"member 'meta': {key} must be a number > 0; "
+                                 f"got {value!r}")
+        for name in _ARRAYS:
+            if name not in ("modal", "lsa"):
+                arrays[name] = float_member(arrays, name, field)
+        require_finite(arrays, field, ["times"])
         r = cls(scheme=meta["scheme"], thickness=meta["thickness"], length=meta["length"],
                 stagnation_temperature=meta["stagnation_temperature"],
                 initial_temperature=meta["initial_temperature"])

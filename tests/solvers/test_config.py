@@ -143,3 +143,54 @@ def test_validate_prints_summary(tmp_path: Path, capsys: pytest.CaptureFixture) 
 def test_missing_file(capsys: pytest.CaptureFixture, tmp_path: Path) -> None:
     assert main(["validate", str(tmp_path / "nope.toml")]) == 2
     assert "file not found" in capsys.readouterr().err
+
+
+def _schemas() -> list[type]:
+    """Every pydantic model of the input-file schemas (case, study, ROM build)."""
+    from hypate.scaling.workflow import study
+    from hypate.solvers import config
+    from hypate.solvers.aero.rom import config as rom_config
+    from pydantic import BaseModel
+
+    return [obj for module in (config, study, rom_config) for obj in vars(module).values()
+            if isinstance(obj, type) and issubclass(obj, BaseModel)
+            and obj.__module__ == module.__name__]
+
+
+def test_every_schema_is_strict_and_takes_toml_lists() -> None:
+    """Strict and finite by the one base class; no tuple field, which strict validation
+    would take only as a Python tuple (TOML gives lists)."""
+    from hypate.solvers.config import InputModel
+
+    schemas = _schemas()
+    assert len(schemas) >= 20
+    for model in schemas:
+        assert model is InputModel or issubclass(model, InputModel), model
+        assert model.model_config["strict"] and not model.model_config["allow_inf_nan"]
+        for name, field in model.model_fields.items():
+            assert "tuple" not in repr(field.annotation), f"{model.__name__}.{name}"
+
+
+@pytest.mark.parametrize("key, value, field, says", [
+    ("length", '"1"', "panel.length", "must be a finite number in (0, 100]; got '1' (a string)"),
+    ("length", "true", "panel.length", "got True (a boolean)"),
+    ("length", "nan", "panel.length", "must be a finite number in (0, 100]; got nan"),
+    ("length", "1", None, None),  # an integer is a number
+    ("mesh", "[6.0, 4]", "panel.mesh[0]", "must be an integer in [1, 200]; got 6.0"),
+    ("emissivity", "-inf", "panel.emissivity", "must be a finite number in [0, 1]"),
+])
+def test_values_are_taken_as_written(tmp_path: Path, key: str, value: str, field: str | None,
+                                     says: str | None) -> None:
+    from hypate.solvers.errors import InputError
+
+    lines = [f"{key} = {value}" if line.split(" =")[0] == key else line
+             for line in VALID.splitlines()]
+    assert f"{key} = {value}" in lines  # the key is in the base file
+    path = tmp_path / "case.toml"
+    path.write_text("\n".join(lines))
+    if field is None:
+        assert load_case(path).panel.length == 1.0
+        return
+    with pytest.raises(InputError) as info:
+        load_case(path)
+    assert (info.value.field, says in info.value.message) == (field, True), info.value

@@ -26,7 +26,7 @@ from hypate.solvers.flow import FlowCondition
 from hypate.solvers.numerics.random import as_rng
 
 __all__ = ["build_rom", "build_rom_from_config", "check_rom", "check_samples",
-           "geometry_from_config", "nrmse"]
+           "geometry_from_config", "nrmse", "snapshots_path"]
 
 
 def nrmse(reference: Array, predicted: Array, weights: Array) -> Array:
@@ -62,6 +62,13 @@ def geometry_from_config(cfg: RomBuildConfig) -> RomGeometry:
     modes = np.array([[m.m, m.n] for m in cfg.modes], np.int64)
     return RomGeometry(p.kind, p.length, p.width, p.leading_edge_length, p.thickness,
                        math.radians(p.flow_angle), cfg.grid.n_x, cfg.grid.n_y, modes)
+
+
+def snapshots_path(cfg: RomBuildConfig, base_dir: str | Path | None = None) -> Path:
+    """The external snapshots file of ``[source] path``: relative to ``base_dir`` (the
+    build file's folder) unless absolute."""
+    path = Path(cfg.source.path)
+    return Path(base_dir) / path if base_dir is not None and not path.is_absolute() else path
 
 
 def build_rom_from_config(cfg: RomBuildConfig, base_dir: str | Path | None = None,
@@ -103,10 +110,7 @@ def build_rom_from_config(cfg: RomBuildConfig, base_dir: str | Path | None = Non
                      optimized_modes=tr.optimized_modes)
     bounds = np.vstack([a_bounds, t_bounds])
     if cfg.source.kind == "snapshots":
-        path = Path(cfg.source.path)
-        if base_dir is not None and not path.is_absolute():
-            path = Path(base_dir) / path
-        D, P, Q = read_snapshots(path, geometry)
+        D, P, Q = read_snapshots(snapshots_path(cfg, base_dir), geometry)
         bounds = np.stack([np.minimum(bounds[:, 0], D.min(axis=0)),
                            np.maximum(bounds[:, 1], D.max(axis=0))], axis=1)
     else:

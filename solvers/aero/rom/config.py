@@ -52,20 +52,21 @@ import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from hypate.solvers.config import pydantic_input_error, read_toml
+from hypate.solvers.aero.rom.geometry import MAX_N_X, MAX_N_Y
+from hypate.solvers.config import InputModel, Pair, pydantic_input_error, read_toml
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import Field, ValidationError, model_validator
 
-__all__ = ["RomBuildConfig", "load_rom_config", "parse_rom_config"]
+__all__ = ["MAX_SAMPLES", "MIN_SAMPLES", "RomBuildConfig", "load_rom_config",
+           "parse_rom_config"]
 
-Length = Annotated[float, Field(gt=0.0, le=100.0, allow_inf_nan=False)]
-Range = Annotated[list[Annotated[float, Field(allow_inf_nan=False)]],
-                  Field(min_length=2, max_length=2)]
+#: Training samples of a ROM (``[training] samples``, ``hypate rom build --samples``): the
+#: kriging fit needs a handful; the cap bounds the sample generation and the O(N^3) fit.
+MIN_SAMPLES, MAX_SAMPLES = 5, 20000
 
-
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+Length = Annotated[float, Field(gt=0.0, le=100.0)]
+Range = Pair
 
 
 def _ordered(r: list[float], name: str) -> None:
@@ -73,21 +74,21 @@ def _ordered(r: list[float], name: str) -> None:
         raise ValueError(f"{name}: range must be [low, high] with low < high")
 
 
-class RomPanel(_Strict):
+class RomPanel(InputModel):
     kind: Literal["2d", "3d"] = "2d"
     length: Length = 1.0
     width: Length = 1.0
-    leading_edge_length: Annotated[float, Field(gt=0.0, le=100.0, allow_inf_nan=False)] = 1.0
-    thickness: Annotated[float, Field(gt=0.0, le=1.0, allow_inf_nan=False)] = 0.0025
+    leading_edge_length: Annotated[float, Field(gt=0.0, le=100.0)] = 1.0
+    thickness: Annotated[float, Field(gt=0.0, le=1.0)] = 0.0025
     flow_angle: Annotated[float, Field(ge=-60.0, le=60.0)] = 0.0
 
 
-class RomGrid(_Strict):
-    n_x: Annotated[int, Field(ge=3, le=1000)] = 65
-    n_y: Annotated[int, Field(ge=1, le=200)] = 1
+class RomGrid(InputModel):
+    n_x: Annotated[int, Field(ge=3, le=MAX_N_X)] = 65
+    n_y: Annotated[int, Field(ge=1, le=MAX_N_Y)] = 1
 
 
-class RomReference(_Strict):
+class RomReference(InputModel):
     mach: Annotated[float, Field(gt=1.0, le=30.0)]
     altitude: float | None = None
     pressure: Annotated[float, Field(gt=0.0)] | None = None
@@ -109,7 +110,7 @@ class RomReference(_Strict):
         return FlowCondition.from_static(self.mach, self.pressure, self.temperature)
 
 
-class RomMode(_Strict):
+class RomMode(InputModel):
     m: Annotated[int, Field(ge=1, le=100)]
     n: Annotated[int, Field(ge=0, le=100)] = 0
     range: Range
@@ -120,7 +121,7 @@ class RomMode(_Strict):
         return self
 
 
-class RomWallTemperature(_Strict):
+class RomWallTemperature(InputModel):
     range: Range = [200.0, 900.0]
 
     @model_validator(mode="after")
@@ -131,7 +132,7 @@ class RomWallTemperature(_Strict):
         return self
 
 
-class RomSource(_Strict):
+class RomSource(InputModel):
     kind: Literal["shock-expansion", "snapshots"] = "shock-expansion"
     path: str = ""
     boundary_layer: bool = True
@@ -144,8 +145,8 @@ class RomSource(_Strict):
         return self
 
 
-class RomTraining(_Strict):
-    samples: Annotated[int, Field(ge=5, le=20000)] = 200
+class RomTraining(InputModel):
+    samples: Annotated[int, Field(ge=MIN_SAMPLES, le=MAX_SAMPLES)] = 200
     seed: int = 0
     pod_tolerance: Annotated[float, Field(gt=0.0, lt=1.0)] = 0.005
     kernel: Literal["rbf", "matern52"] = "rbf"
@@ -154,7 +155,7 @@ class RomTraining(_Strict):
     optimized_modes: Annotated[int, Field(ge=1, le=1000)] = 3
 
 
-class RomConventional(_Strict):
+class RomConventional(InputModel):
     mach: Range
     altitude: Range
 
@@ -167,7 +168,7 @@ class RomConventional(_Strict):
         return self
 
 
-class RomBuildConfig(_Strict):
+class RomBuildConfig(InputModel):
     """A validated ROM build file (see the module docstring for the keys)."""
 
     panel: RomPanel = RomPanel()
@@ -203,7 +204,7 @@ def parse_rom_config(data: dict[str, Any]) -> RomBuildConfig:
     try:
         cfg = RomBuildConfig.model_validate(data)
     except ValidationError as exc:
-        raise pydantic_input_error(exc) from None
+        raise pydantic_input_error(exc, model=RomBuildConfig) from None
     try:
         cfg.reference.flow()
     except InputError as exc:

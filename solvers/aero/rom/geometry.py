@@ -17,7 +17,12 @@ import numpy as np
 import scipy.sparse as sp
 from hypate.solvers.aero.base import Array, SurfacePoints
 
-__all__ = ["RomGeometry", "eq76_wall_temperature", "interpolation_matrix"]
+__all__ = ["MAX_N_X", "MAX_N_Y", "RomGeometry", "eq76_wall_temperature",
+           "interpolation_matrix"]
+
+#: Largest reference grid (points streamwise, spanwise) of a ROM: the ``[grid]`` limits of a
+#: build file, checked again when a ROM file is loaded.
+MAX_N_X, MAX_N_Y = 1000, 200
 
 
 @dataclass(frozen=True)

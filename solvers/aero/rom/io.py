@@ -2,28 +2,41 @@
 
 :func:`save_rom` writes the ROM (``FORMAT_VERSION``, kind, reference condition, panel
 geometry, grid, modes, training ranges, POD bases and kriging data; a SHA-256 digest of the
-content). :func:`load_rom` validates version, digest, shapes and finiteness and raises
-:class:`~hypate.solvers.errors.InputError` otherwise. Loading refits the kriging Cholesky
-factors with the stored hyperparameters (no optimization).
+content). :func:`load_rom` validates the archive (member sizes capped before anything is
+read, :func:`hypate.solvers.npz.read_npz`), version, digest, shapes, grid size and
+finiteness and raises :class:`~hypate.solvers.errors.InputError` otherwise. Loading refits
+the kriging Cholesky factors with the stored hyperparameters (no optimization).
 """
 from __future__ import annotations
 
 import hashlib
-import zipfile
-import zlib
 from pathlib import Path
 
 import numpy as np
-from hypate.solvers.aero.rom.geometry import RomGeometry
+from hypate.solvers.aero.rom.geometry import MAX_N_X, MAX_N_Y, RomGeometry
 from hypate.solvers.aero.rom.model import RomFluid
 from hypate.solvers.aero.rom.pod import PodKriging
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
+from hypate.solvers.npz import read_npz, require_finite
 
 __all__ = ["FORMAT_VERSION", "load_rom", "save_rom"]
 
 #: Version of the NPZ layout written by :func:`save_rom`.
 FORMAT_VERSION = 1
+
+
+#: Members every ROM file has besides the ``pressure_*`` / ``heat_flux_*`` POD-kriging arrays.
+_MEMBERS = ("format_version", "digest", "kind", "correction", "regime", "reference",
+            "geometry", "panel_kind", "modes", "input_names", "input_bounds", "source")
+
+
+def _check_grid(n_x: float, n_y: float, field: str) -> None:
+    """The stored grid must be one a build file may ask for (its points are allocated)."""
+    if not (n_x == int(n_x) and n_y == int(n_y) and 3 <= n_x <= MAX_N_X
+            and 1 <= n_y <= MAX_N_Y):
+        raise InputError(field, f"member 'geometry': grid {n_x:g} x {n_y:g} outside "
+                         f"[3, {MAX_N_X}] x [1, {MAX_N_Y}] points")
 
 
 def _digest(arrays: dict[str, np.ndarray]) -> str:
@@ -84,16 +97,7 @@ def load_rom(path: str | Path, correction: str | None = None, unsteady: bool = T
     """
     path = Path(path)
     field = f"rom:{path}"
-    if not path.is_file():
-        raise InputError(field, "file not found")
-    try:
-        with np.load(path, allow_pickle=False) as npz:
-            data = {k: npz[k] for k in npz.files}
-    except (zipfile.BadZipFile, zlib.error, EOFError) as exc:
-        raise InputError(field, f"corrupted ROM file ({exc})") from None
-    except (OSError, ValueError, KeyError) as exc:
-        raise InputError(field, f"not a readable ROM file ({type(exc).__name__}: {exc})") \
-            from None
+    data = read_npz(path, field, required=_MEMBERS)
     try:
         version = int(data["format_version"])
         if version != FORMAT_VERSION:
@@ -106,6 +110,9 @@ def load_rom(path: str | Path, correction: str | None = None, unsteady: bool = T
         geo = data["geometry"].astype(float)
         if ref.shape != (7,) or geo.shape != (7,):
             raise InputError(field, "reference/geometry arrays have the wrong shape")
+        # every number must be finite, but for the reference altitude: NaN = not given
+        require_finite(dict(data, reference=ref[:6]), field)
+        _check_grid(geo[5], geo[6], field)
         reference = FlowCondition(mach=ref[0], pressure=ref[1], temperature=ref[2],
                                   gamma=ref[3], gas_constant=ref[4], prandtl=ref[5],
                                   altitude=None if np.isnan(ref[6]) else float(ref[6]))
@@ -123,9 +130,11 @@ def load_rom(path: str | Path, correction: str | None = None, unsteady: bool = T
     except KeyError as exc:
         raise InputError(field, f"missing key {exc.args[0]!r} (not a hypate ROM file?)") \
             from None
-    except (TypeError, ValueError) as exc:
-        if isinstance(exc, InputError):
+    except InputError as exc:
+        if exc.field == field:
             raise
+        raise InputError(field, exc.message) from None  # a part's check, e.g. kriging data
+    except (TypeError, ValueError) as exc:
         raise InputError(field, f"malformed ROM file ({exc})") from None
     n = geometry.n_x * geometry.n_y
     n_d = geometry.n_modes + (4 if kind == "conventional" else 1)
@@ -136,9 +145,6 @@ def load_rom(path: str | Path, correction: str | None = None, unsteady: bool = T
         if model.D_.shape[1] != n_d:
             raise InputError(field, f"{name} inputs have {model.D_.shape[1]} columns; a "
                              f"{kind} ROM with {geometry.n_modes} modes needs {n_d}")
-        for arr in (model.pod_.mean_, model.pod_.modes_, model.D_, model.C_, model.beta_f_):
-            if not np.all(np.isfinite(arr)):
-                raise InputError(field, f"{name} arrays contain non-finite values")
     source = {"kind": src[0], "boundary_layer": src[1] == "True", "regime": src[2]}
     return RomFluid(geometry, reference, p_model, q_model, kind,
                     correction or str(data["correction"]), unsteady,

@@ -25,8 +25,6 @@ Every sample must give every grid point exactly once.
 from __future__ import annotations
 
 import csv
-import zipfile
-import zlib
 from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
@@ -37,6 +35,7 @@ from hypate.solvers.aero.rom.geometry import RomGeometry
 from hypate.solvers.aero.shock_expansion import ShockExpansionFluid
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
+from hypate.solvers.npz import float_member, read_npz
 
 __all__ = ["generate_samples", "read_snapshots"]
 
@@ -102,20 +101,11 @@ def read_snapshots(path: str | Path, geometry: RomGeometry) -> tuple[Array, Arra
     n, n_s = pts.n, geometry.n_modes
     tol = 1e-6 * geometry.length
     if path.suffix.lower() == ".npz":
-        try:
-            with np.load(path, allow_pickle=False) as npz:
-                data = {k: npz[k] for k in npz.files}
-        except (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError) as exc:
-            raise InputError(field, f"not a readable NPZ file ({type(exc).__name__})") from None
-        missing = [k for k in ("inputs", "pressure", "heat_flux") if k not in data]
-        if missing:
-            raise InputError(field, f"missing arrays {', '.join(missing)}")
-        D = np.asarray(data["inputs"], float)
-        P = np.asarray(data["pressure"], float)
-        Q = np.asarray(data["heat_flux"], float)
+        data = read_npz(path, field, required=("inputs", "pressure", "heat_flux"))
+        D, P, Q = (float_member(data, k, field) for k in ("inputs", "pressure", "heat_flux"))
         for key, ref in (("x", pts.x), ("y", pts.y)):
             if key in data:
-                v = np.asarray(data[key], float)
+                v = float_member(data, key, field)
                 if v.shape != (n,) or (key == "x" or geometry.kind == "3d") and np.max(
                         np.abs(v - ref)) > tol:
                     raise InputError(field, f"{key} does not match the build file's grid "
