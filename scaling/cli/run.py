@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from hypate.scaling.cli import jsonout
 from hypate.scaling.engine.executors import LOST_AFTER
 from hypate.scaling.engine.faults import InfrastructureError
 from hypate.scaling.engine.pareto import hypervolume
@@ -239,7 +240,7 @@ def run(args: argparse.Namespace) -> int:
         point = json.loads((out / DESIGN_POINT_JSON).read_text())
         summary = _summary(out, point, before, 0.0)
         if args.json:
-            print(json.dumps(summary, indent=2))
+            print(jsonout.dumps(summary, indent=2))
         else:
             print(f"{out}: already complete ({before} evaluations); nothing to do")
             if summary["report"]:
@@ -267,7 +268,7 @@ def run(args: argparse.Namespace) -> int:
     point = outcome.design_point
     summary = _summary(out, point, before, time.perf_counter() - t0)
     if args.json:
-        print(json.dumps(summary, indent=2))
+        print(jsonout.dumps(summary, indent=2))
     else:
         _print_summary(summary, before)
     if not point["statistics"]["successful"]:
@@ -334,9 +335,9 @@ def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
         for line in warning_summary(caught):
             print(line, file=sys.stderr)
     if args.json:
-        print(json.dumps({"directory": str(out), "summary": str(out / SWEEP_CSV),
-                          "seconds": time.perf_counter() - t0, "points": outcome.points},
-                         indent=2, default=str))
+        print(jsonout.dumps({"directory": str(out), "summary": str(out / SWEEP_CSV),
+                             "seconds": time.perf_counter() - t0, "points": outcome.points},
+                            indent=2, default=str))
         return 1 if any(rec["status"] != "done" for rec in outcome.points) else 0
     print(f"{out}: {len(outcome.points)} sweep points in {time.perf_counter() - t0:.1f} s "
           f"(summary: {out / SWEEP_CSV})")
