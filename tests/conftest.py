@@ -157,3 +157,12 @@ def fd4(f, x: np.ndarray, h: float) -> np.ndarray:
         cols.append((8 * (f(x + h * e) - f(x - h * e)) - (f(x + 2 * h * e) - f(x - 2 * h * e)))
                     / (12 * h))
     return np.stack(cols, axis=1)
+
+
+def forget_study_file(run_dir: Path) -> None:
+    """Make a copied run directory's study file unknown, as when the study was moved since:
+    the store records the study file's path (for the report of an interrupted run)."""
+    from hypate.scaling.engine.store import EvaluationStore
+
+    with EvaluationStore(run_dir / "evaluations.sqlite") as store:
+        store.set_meta("study_path", str(run_dir / "moved-away.toml"), replace=True)

@@ -3,8 +3,13 @@ fault classification, forked evaluations with time limits, batches with re-submi
 The end-to-end fault injection is tests/reliability/test_faults.py."""
 from __future__ import annotations
 
+import contextlib
 import os
+import shutil
 import signal
+import socket
+import subprocess
+import sys
 import time
 import warnings
 from concurrent.futures import CancelledError, Future, ThreadPoolExecutor
@@ -143,3 +148,57 @@ def test_run_batch_gives_up_on_a_broken_foreign_pool():
     with Broken(1) as ex, pytest.raises(InfrastructureError, match="Broken") as err:
         list(run_batch(ex, _square, [(1,), (2,)], on_failure=lambda m, s: None))
     assert err.value.unfinished == 2
+
+
+def _certificates(folder):
+    """A CA and a certificate for 127.0.0.1 signed by it (openssl), as the README's TLS set-up."""
+    def openssl(*args):
+        subprocess.run(["openssl", *args], cwd=folder, check=True, capture_output=True)
+
+    openssl("req", "-x509", "-nodes", "-newkey", "rsa:2048", "-days", "2", "-keyout",
+            "ca-key.pem", "-out", "ca.pem", "-subj", "/CN=hypate-test-ca")
+    openssl("req", "-nodes", "-newkey", "rsa:2048", "-keyout", "key.pem", "-out", "req.pem",
+            "-subj", "/CN=127.0.0.1")
+    (folder / "ext.cnf").write_text("subjectAltName=IP:127.0.0.1\n")
+    openssl("x509", "-req", "-in", "req.pem", "-CA", "ca.pem", "-CAkey", "ca-key.pem",
+            "-CAcreateserial", "-out", "cert.pem", "-days", "2", "-extfile", "ext.cnf")
+    return folder / "ca.pem", folder / "cert.pem", folder / "key.pem"
+
+
+def test_a_tls_scheduler_needs_the_clients_certificates(tmp_path):
+    """The README's secured cluster: without client certificates in Dask's configuration a
+    tls:// scheduler is a one-line ExecutorError; with them the client connects."""
+    pytest.importorskip("distributed")
+    dask = pytest.importorskip("dask")
+    if shutil.which("openssl") is None:
+        pytest.skip("needs the openssl command to make certificates")
+    ca, cert, key = _certificates(tmp_path)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    scheduler = subprocess.Popen(
+        [sys.executable, "-m", "distributed.cli.dask_scheduler", "--protocol", "tls",
+         "--host", "127.0.0.1", "--port", str(port), "--no-dashboard", "--tls-ca-file",
+         str(ca), "--tls-cert", str(cert), "--tls-key", str(key)],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    address = f"tls://127.0.0.1:{port}"
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            with contextlib.suppress(OSError), socket.create_connection(("127.0.0.1", port), 1):
+                break
+            time.sleep(0.2)
+        with pytest.raises(ExecutorError, match="no TLS certificates configured"):
+            make_executor(1, address, lost_after=10.0)
+        tls = {"distributed.comm.tls.ca-file": str(ca),
+               "distributed.comm.tls.client.cert": str(cert),
+               "distributed.comm.tls.client.key": str(key)}
+        with dask.config.set(tls):
+            executor, close = make_executor(1, address, lost_after=10.0)
+            try:
+                assert executor.client.scheduler_info()["address"] == address
+            finally:
+                close()
+    finally:
+        scheduler.kill()
+        scheduler.wait()

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from conftest import forget_study_file
 from hypate.scaling.cli.main import main
 from hypate.scaling.report.figures import MISMATCH_THRESHOLD
 from hypate.scaling.report.html import (
@@ -120,7 +121,8 @@ def test_report_of_interrupted_run(tiny_run: tuple[Path, Path], tmp_path: Path) 
                  "report.html"):
         (run / name).unlink(missing_ok=True)
     shutil.rmtree(run / "figures", ignore_errors=True)
-    # without the study file: degrade gracefully, from the store alone
+    # without the study file (moved since): degrade gracefully, from the store alone
+    forget_study_file(run)
     assert main(["report", str(run)]) == 0
     page = (run / "report.html").read_text()
     _check_self_contained(page)

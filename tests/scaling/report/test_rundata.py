@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import forget_study_file
 from hypate.scaling.report.rundata import RunData, load_run
 from hypate.solvers.errors import InputError
 
@@ -45,7 +46,10 @@ def test_interrupted_run_rebuilds_the_design_point(tiny_run: tuple[Path, Path],
     out, study = tiny_run
     run_dir = _copy_without(out, tmp_path, "design_point.json", "design_point.npz",
                             "evaluations.csv", "pareto.csv")
-    # without the study: the store's numbered columns, a design point without similarity
+    # the store names the study file: found again
+    assert load_run(run_dir).study is not None
+    # without the study (moved since): the store's numbered columns, no similarity
+    forget_study_file(run_dir)
     bare = load_run(run_dir)
     assert bare.interrupted and bare.point_rebuilt and bare.study is None
     assert bare.variables == ["x0", "x1", "x2", "x3"] and bare.objectives == ["f0", "f1"]
@@ -65,6 +69,7 @@ def test_names_from_the_csv_header(tiny_run: tuple[Path, Path], tmp_path: Path) 
     """No study found: the variable names come from evaluations.csv next to the store."""
     out, _ = tiny_run
     run_dir = _copy_without(out, tmp_path, "design_point.json")
+    forget_study_file(run_dir)
     run = load_run(run_dir)
     assert run.study is None
     assert run.variables == VARIABLES and run.objectives == OBJECTIVES
