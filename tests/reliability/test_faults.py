@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import REPO
+from conftest import REPO, stored_evaluations, tiny_study_text
 from fault_injection import alive, campaign, children, descendants, log_lines, problem
 from hypate.scaling.engine.child import TERMINATE_GRACE
 from hypate.scaling.engine.executors import (
@@ -43,6 +43,7 @@ from hypate.scaling.engine.faults import (
 )
 from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.problem import Outcome, evaluate_design
+from hypate.scaling.engine.store import EvaluationStore
 
 TESTS = REPO / "tests"
 #: Small inner optimizations: the proposals take milliseconds, the faults are the subject.
@@ -401,6 +402,48 @@ def test_killed_scheduler_ends_the_run_and_a_resume_completes_it(
     finally:
         close()
     assert campaign(store) == ref
+
+
+@needs_dask
+def test_hypate_run_exits_3_when_the_scheduler_dies_and_resumes_to_the_same_campaign(
+        tmp_path: Path, cluster: _Cluster) -> None:
+    """The command line end to end: exit code 3 with one line naming what was lost and the
+    resume command; no infrastructure row stored; after a restart on the same address,
+    ``--resume`` gives the campaign of an uninterrupted run."""
+    study = tmp_path / "study.toml"
+    study.write_text(tiny_study_text(initial=6, iterations=6, seed=4))
+    whole, out = tmp_path / "whole", tmp_path / "run"
+    cli = [sys.executable, "-m", "hypate.scaling.cli.main", "run", str(study), "-q"]
+    subprocess.run([*cli, "--out", str(whole)], check=True, capture_output=True, timeout=600)
+    flags = ["--scheduler", cluster.address, "--cluster-timeout", "5"]
+    proc = subprocess.Popen([*cli, "--out", str(out), *flags], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True, env=cluster.env)
+    deadline = time.monotonic() + 300
+    while stored_evaluations(out / "evaluations.sqlite") < 4 and proc.poll() is None \
+            and time.monotonic() < deadline:
+        time.sleep(0.02)
+    cluster.kill("scheduler")
+    err = proc.communicate(timeout=120)[1]
+    assert proc.returncode == 3, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("hypate: ")]
+    assert "Traceback" not in err and len(lines) == 1
+    assert lines[0].startswith("hypate: error: lost the Dask scheduler")
+    assert "--resume" in lines[0]
+    rows = campaign(out / "evaluations.sqlite")
+    assert {row[4] for row in rows} <= {"ok", "error", "invalid", "timeout"}
+    assert not any("Cancelled" in msg or "Closed" in msg
+                   for msg in _messages(out / "evaluations.sqlite"))
+    cluster.stop()
+    cluster.start()
+    subprocess.run([*cli, "--out", str(out), "--resume", *flags], check=True,
+                   capture_output=True, timeout=600, env=cluster.env)
+    resumed, uninterrupted = (sorted(campaign(d / "evaluations.sqlite")) for d in (out, whole))
+    assert resumed == uninterrupted
+
+
+def _messages(store: Path) -> list[str]:
+    with EvaluationStore(store, read_only=True) as s:
+        return [r.message for r in s.load()]
 
 
 @needs_dask
