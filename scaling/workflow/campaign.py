@@ -31,7 +31,8 @@ from hypate.solvers.config import read_toml
 from hypate.solvers.errors import InputError
 
 __all__ = ["MAX_SEED", "campaign_identity", "changed_keys", "check_resume", "fingerprint",
-           "check_run_settings", "package_version", "preflight", "record_campaign", "run_lock", "stored_seed"]
+           "check_run_settings", "package_version", "preflight", "record_campaign", "refuse_changes", "run_lock", "stored_seed",
+           "sweep_identity"]
 
 #: Largest accepted seed: the store keeps it as a signed 64-bit SQLite integer.
 MAX_SEED = 2**63 - 1
@@ -129,13 +130,24 @@ def check_resume(store_path: Path, identity: dict[str, Any]) -> None:
     if record is None:
         raise InputError("resume", f"{where} holds no hypate campaign record (not a run "
                          "directory of this version); start a new run with another --out")
-    changes = changed_keys(record, identity)
+    refuse_changes(where, changed_keys(record, identity))
+
+
+def refuse_changes(where: Path, changes: list[str]) -> None:
+    """Exit 2 (``resume``) naming the changed keys, if any (the first :data:`SHOWN_CHANGES`)."""
     if changes:
         shown = "; ".join(changes[:SHOWN_CHANGES])
         more = f"; and {len(changes) - SHOWN_CHANGES} more" if len(changes) > SHOWN_CHANGES \
             else ""
         raise InputError("resume", f"{where} holds a different campaign ({shown}{more}); "
                          "resume it with its own study, or start a new run with another --out")
+
+
+def sweep_identity(study: Study) -> dict[str, Any]:
+    """What a sweep's resume must find unchanged: the study with its ``[sweep]`` table and
+    the prototype case file's content (each point's store checks the rest)."""
+    data = study_data(study)
+    return {"study": data, "case": read_toml(Path(data["prototype"]["case"]))}
 
 
 def check_seed(seed: int | None) -> None:

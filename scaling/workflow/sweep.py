@@ -17,7 +17,12 @@ import pandas as pd
 from hypate.scaling.engine.executors import LOST_AFTER
 from hypate.scaling.engine.problem import project_cheap
 from hypate.scaling.engine.store import EvaluationStore
-from hypate.scaling.workflow.campaign import check_run_settings
+from hypate.scaling.workflow.campaign import (
+    changed_keys,
+    check_run_settings,
+    refuse_changes,
+    sweep_identity,
+)
 from hypate.scaling.workflow.laws import (
     ANALYTICAL_EXPONENTS,
     analytical_laws,
@@ -35,7 +40,7 @@ from hypate.scaling.workflow.rundir import (
     rank_designs,
     write_json,
 )
-from hypate.scaling.workflow.study import Study, study_at, study_data, sweep_points
+from hypate.scaling.workflow.study import Study, study_at, sweep_points
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
@@ -141,8 +146,10 @@ def write_sweep_summary(study: Study, out: Path, records: Sequence[dict[str, Any
     """``sweep.json`` (study data + one record per point) and ``sweep.csv`` (one row per
     point: label, xi, mach, altitude, status, design variables, objectives)."""
 
+    identity = sweep_identity(study)
     write_json(out / SWEEP_JSON, {"study": study.name, "study_path": study.path,
-                                   "study_data": study_data(study), "points": list(records)})
+                                   "study_data": identity["study"], "case": identity["case"],
+                                   "points": list(records)})
     rows = []
     for r in records:
         row = {k: r.get(k) for k in ("label", "xi", "mach", "altitude", "status")}
@@ -193,6 +200,13 @@ def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: i
                          "or choose another directory")
     if resume and not (out / SWEEP_JSON).exists():
         raise InputError("resume", f"{out} holds no sweep to resume")
+    if resume:  # the same sweep, or nothing in the directory is touched
+        stored = json.loads((out / SWEEP_JSON).read_text())
+        old = {"study": stored.get("study_data"), "case": stored.get("case")}
+        new = sweep_identity(study)
+        if old["case"] is None:  # written before the case was recorded
+            old.pop("case"), new.pop("case")
+        refuse_changes(out, changed_keys(old, new))
     out.mkdir(parents=True, exist_ok=True)
     subs = [study_at(study, p, first=(i == 0)) for i, p in enumerate(points)]
     records = [_point_record(p, sub, out / p.label, "pending", None)

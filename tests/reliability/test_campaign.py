@@ -297,3 +297,25 @@ def test_changed_keys_names_each_dotted_key_old_to_new() -> None:
     new = {"a": {"b": 2, "c": [1, 2]}, "e": True}
     assert changed_keys(old, new) == ["a.b 1 -> 2", 'd "x" -> -', "e - -> true"]
     assert changed_keys(old, old) == []
+
+
+def test_resume_of_a_sweep_with_a_changed_sweep_table_is_refused(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    text = tiny_study_text(name="sweep", initial=2, iterations=0, tail="""
+[sweep]
+xi = [3, 4]
+recycle = 2
+initial_samples = 2
+iterations = 0
+""")
+    study = tmp_path / "sweep.toml"
+    study.write_text(text)
+    out = tmp_path / "run"
+    assert main(["run", str(study), "--out", str(out), "-q"]) == 0
+    before = _snapshot(out)
+    study.write_text(text.replace("xi = [3, 4]", "xi = [3, 5]"))
+    assert main(["run", str(study), "--out", str(out), "--resume", "-q"]) == 2
+    line = _error_line(capsys)
+    assert line.startswith("hypate: error: --resume: ")
+    assert "study.sweep.xi [3.0, 4.0] -> [3.0, 5.0]" in line
+    assert _snapshot(out) == before
