@@ -188,8 +188,6 @@ def test_a_tls_scheduler_needs_the_clients_certificates(tmp_path):
             with contextlib.suppress(OSError), socket.create_connection(("127.0.0.1", port), 1):
                 break
             time.sleep(0.2)
-        with pytest.raises(ExecutorError, match="no TLS certificates configured"):
-            make_executor(1, address, lost_after=10.0)
         tls = {"distributed.comm.tls.ca-file": str(ca),
                "distributed.comm.tls.client.cert": str(cert),
                "distributed.comm.tls.client.key": str(key)}
@@ -199,6 +197,8 @@ def test_a_tls_scheduler_needs_the_clients_certificates(tmp_path):
                 assert executor.client.scheduler_info()["address"] == address
             finally:
                 close()
+        with pytest.raises(ExecutorError, match="no TLS certificates configured"):
+            make_executor(1, address, lost_after=10.0)
     finally:
         scheduler.kill()
         scheduler.wait()
