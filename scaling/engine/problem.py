@@ -311,7 +311,10 @@ def evaluate_design(problem: Any, x: np.ndarray, timeout: float | None = None,
     Outcome
         ``G`` holds the inequalities ``G <= 0``, then ``|H| - eq_tol`` for the equalities.
         The warnings raised by the evaluation are recorded on it (``warnings``), not
-        printed, wherever it runs; an evaluation killed at its time limit has none.
+        printed, wherever it runs; an evaluation killed at its time limit has none. (The
+        warnings machinery is process-wide: where one process evaluates several designs
+        in threads at once, e.g. a Dask worker with several threads, a warning may be
+        recorded by a concurrent evaluation; ``local:N`` workers have one thread.)
         Non-finite objectives are status ``"invalid"``, with numpy's "invalid value"
         message in ``message`` when numpy raised one.
     """
