@@ -43,9 +43,6 @@ ISOTROPIC_KEYS = ("density", "youngs_modulus", "poisson_ratio", "thermal_expansi
 ORTHOTROPIC_KEYS = ("density", "E1", "E2", "G12", "G13", "G23", "nu12", "alpha1", "alpha2",
                     "k1", "k2", "k3", "specific_heat")
 
-_warned: set[tuple[str, str]] = set()
-
-
 @dataclass(frozen=True, eq=False)
 class Property:
     """A scalar material property as a piecewise-linear table in temperature.
@@ -108,9 +105,10 @@ class Property:
         if self.is_constant or T.size == 0:
             return
         lo, hi = self.range
+        # Every clamping warns (the same text each time: the default filter prints it once
+        # per calling line), so that an evaluation recording its warnings counts its own.
         for side, outside in (("below", T.min() < lo), ("above", T.max() > hi)):
-            if outside and (self.name, side) not in _warned:
-                _warned.add((self.name, side))
+            if outside:
                 warnings.warn(
                     f"{self.name}: temperature {side} the table range [{lo:g}, {hi:g}] K; "
                     "the property is clamped to the end value (not extrapolated)",

@@ -1,4 +1,4 @@
-"""Designs that sleep, raise, return NaN or kill the process evaluating them, and the
+"""Designs that sleep, raise, warn, return NaN or kill the process evaluating them, and the
 process and campaign probes of tests/reliability/test_faults.py.
 
 A module on the tests' ``sys.path`` (``pythonpath = ["tests"]``), not a test file, so that
@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,6 +18,8 @@ from hypate.scaling.engine.store import EvaluationStore
 
 #: The box of every faulty problem.
 BOUNDS = [(0.0, 1.0), (0.0, 1.0)]
+#: What a design above ``warn_above`` warns.
+WARNING = "ti6242.conductivity: temperature below the table range [250, 950] K"
 
 
 @dataclass(frozen=True)
@@ -35,6 +38,11 @@ class Faulty:
         Designs with ``x0 < raise_below`` raise ``RuntimeError("solver diverged")``.
     nan_above : float
         Designs with ``x1 > nan_above`` return NaN.
+    warn_above : float
+        Designs with ``x0 > warn_above`` warn ``WARNING`` three times (a clamped table).
+    numpy_nan_above : float
+        Designs with ``x1 > numpy_nan_above`` return ``sqrt(-1)`` (numpy's "invalid value
+        encountered in sqrt" RuntimeWarning, then NaN).
     log : str
         File getting one line ``"pid x0 x1"`` when each evaluation starts ("" for none).
     """
@@ -45,6 +53,8 @@ class Faulty:
     kill_above: float = np.inf
     raise_below: float = -np.inf
     nan_above: float = np.inf
+    warn_above: float = np.inf
+    numpy_nan_above: float = np.inf
     log: str = ""
 
     def __call__(self, x: np.ndarray) -> float:
@@ -61,6 +71,11 @@ class Faulty:
             raise RuntimeError("solver diverged")
         if x[1] > self.nan_above:
             return float("nan")
+        if x[0] > self.warn_above:
+            for _ in range(3):
+                warnings.warn(WARNING, RuntimeWarning, stacklevel=1)
+        if x[1] > self.numpy_nan_above:
+            return float(np.sqrt(np.array(-1.0)))
         return float((x[0] - 0.3) ** 2 + (x[1] - 0.6) ** 2 + 0.1 * np.sin(9.0 * x[0]))
 
 

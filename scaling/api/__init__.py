@@ -87,7 +87,7 @@ def minimize(fun: Callable[[np.ndarray], Any] | Problem,
         ``x``, ``fun`` (best design and its objective(s); for several objectives the design
         with the smallest largest objective), ``nfev``, ``success``, ``message``,
         ``pareto_x`` / ``pareto_fun`` (the Pareto set), and ``evaluations`` (a DataFrame:
-        ``x0..``, ``f0..``, status, message, seconds, iteration).
+        ``x0..``, ``f0..``, status, message, warnings, seconds, iteration).
 
     Examples
     --------

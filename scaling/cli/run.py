@@ -9,7 +9,7 @@ import sys
 import time
 import warnings
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +18,7 @@ from hypate.scaling.cli import jsonout
 from hypate.scaling.engine.executors import LOST_AFTER
 from hypate.scaling.engine.faults import InfrastructureError
 from hypate.scaling.engine.pareto import hypervolume
+from hypate.scaling.engine.problem import summarize_warnings, tally_warnings
 from hypate.scaling.engine.store import EvaluationStore, StoreError
 from hypate.scaling.report.html import write_report_safely
 from hypate.scaling.workflow.campaign import preflight
@@ -27,6 +28,7 @@ from hypate.scaling.workflow.rundir import (
     REPORT_HTML,
     STORE,
     SWEEP_CSV,
+    describe_occurrences,
     worst_objective,
 )
 from hypate.scaling.workflow.shipped import default_study, resolve
@@ -80,7 +82,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    '"design_point"} (progress still goes to stderr)')
     p.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     p.add_argument("-v", "--verbose", action="store_true", help="show every solver warning "
-                   "as it happens (otherwise: one summary line per kind at the end)")
+                   "as it is recorded, with its evaluation (otherwise: one summary line per "
+                   "kind at the end, with the evaluations it occurred in)")
     p.add_argument("--seed-from", action="append", default=[], metavar="RUN_DIR",
                    help="seed the initial sample with the 10 best designs of an earlier run "
                    "(repeatable; e.g. Case 1 for the Case 2 strategy); variables it lacks "
@@ -102,13 +105,20 @@ class Progress:
     Parameters
     ----------
     quiet : bool
-        No output at all.
+        No progress output at all.
     tty : bool or None
         Whether stderr is a terminal (``None``: ask it).
+    verbose : bool
+        Print each evaluation's recorded warnings as it is stored
+        (``"evaluation 12: RuntimeWarning: ... (3 times)"``), even when quiet.
+    first_id : int
+        Evaluation id of the first evaluation of this run (the number already stored).
     """
 
-    def __init__(self, quiet: bool = False, tty: bool | None = None) -> None:
+    def __init__(self, quiet: bool = False, tty: bool | None = None, verbose: bool = False,
+                 first_id: int = 0) -> None:
         tty = sys.stderr.isatty() if tty is None else tty
+        self.verbose, self.first_id = verbose, first_id
         self.lines = not quiet and not tty
         self.bar = tqdm(total=1, unit="eval", desc="evaluations", disable=quiet or not tty,
                         dynamic_ncols=True)
@@ -118,6 +128,10 @@ class Progress:
 
     def __call__(self, done: int, budget: int, evaluation) -> None:
         self.bar.total = budget
+        if self.verbose and evaluation is not None:
+            for entry in evaluation.warnings:  # above the bar, not through it
+                self.bar.write(f"evaluation {self.first_id + done - 1}: {entry}",
+                               file=sys.stderr)
         if evaluation is not None and evaluation.status == "ok":
             self.F.append(np.asarray(evaluation.F, float))
         post = {}
@@ -145,8 +159,9 @@ class Progress:
 
 @contextlib.contextmanager
 def collected_warnings(verbose: bool) -> Iterator[list[warnings.WarningMessage]]:
-    """Collect the Python warnings of a run instead of printing them into the progress bar
-    (``verbose``: print them as they come, collect nothing)."""
+    """Collect the Python warnings the CLI process raises outside the evaluations (which
+    record their own) instead of printing them into the progress bar (``verbose``: print
+    them as they come, collect nothing)."""
     if verbose:
         yield []
         return
@@ -155,14 +170,52 @@ def collected_warnings(verbose: bool) -> Iterator[list[warnings.WarningMessage]]
         yield caught
 
 
-def warning_summary(caught: list[warnings.WarningMessage]) -> list[str]:
-    """One line per distinct warning, most frequent first: ``"12 x RuntimeWarning: ..."``."""
-    counts = Counter(f"{w.category.__name__}: {w.message}" for w in caught)
-    if not counts:
+def print_warnings(place: str, entries: Sequence[str]) -> None:
+    """``-v``: the warnings recorded at ``place`` (``"prototype"``), one line each."""
+    for entry in entries:
+        print(f"{place}: {entry}", file=sys.stderr)
+
+
+def run_warnings(run_dir: Path, first: int = 0) -> list[tuple[int, tuple[str, ...]]]:
+    """``(evaluation id, warnings)`` of the evaluations of a run directory's store from id
+    ``first`` on (those of this run after a resume) that recorded any, read-only."""
+    if not (run_dir / STORE).is_file():
         return []
-    head = (f"{sum(counts.values())} solver warnings of {len(counts)} kinds during the run "
-            "(-v shows each as it happens):")
-    return [head, *(f"  {n} x {text}" for text, n in counts.most_common())]
+    with EvaluationStore(run_dir / STORE, read_only=True) as store:
+        rows = store.load()
+    return [(i, r.warnings) for i, r in enumerate(rows) if i >= first and r.warnings]
+
+
+def warning_summary(caught: Iterable[warnings.WarningMessage],
+                    evaluations: Iterable[tuple[Any, Sequence[str]]] = (),
+                    prototype: Sequence[str] = ()) -> list[str]:
+    """One line per distinct warning, most frequent first, saying where it occurred:
+    ``"  RuntimeWarning: ...: prototype, evaluations 3, 7-9 (5 times)"``.
+
+    Parameters
+    ----------
+    caught : iterable of warnings.WarningMessage
+        Raised in the CLI process outside the prototype and the evaluations (the
+        optimizer, the design point's re-simulation, the report): attributed to "run".
+    evaluations : iterable of (id, entries)
+        Each evaluation's recorded warnings (:func:`run_warnings`).
+    prototype : sequence of str
+        The prototype simulation's recorded warnings.
+
+    Returns
+    -------
+    list of str
+        A heading and the lines; empty without warnings.
+    """
+    tally = tally_warnings([("prototype", prototype), *evaluations,
+                            ("run", summarize_warnings(caught))])
+    if not tally:
+        return []
+    total = sum(n for _, _, n in tally)
+    head = (f"{total} solver warnings of {len(tally)} kinds during the run "
+            "(-v shows each as it is recorded; evaluation ids as in evaluations.csv):")
+    return [head, *(f"  {text}: {describe_occurrences(labels)} ({n} time"
+                    f"{'' if n == 1 else 's'})" for text, labels, n in tally)]
 
 
 def stored_evaluations(run_dir: Path) -> int:
@@ -247,13 +300,14 @@ def run(args: argparse.Namespace) -> int:
                 print(f"report: {summary['report']}")
         return 0
     say("simulating the prototype ...")
-    bar = Progress(quiet=args.quiet)
+    bar = Progress(quiet=args.quiet, verbose=args.verbose, first_id=before)
     try:
         with collected_warnings(args.verbose) as caught:
             outcome = run_study(study, out, resume=args.resume, workers=args.workers,
                                 scheduler=args.scheduler, seed=args.seed, progress=bar,
                                 seed_runs=args.seed_from, on_written=write_report_safely,
-                                lost_after=args.cluster_timeout)
+                                lost_after=args.cluster_timeout,
+                                on_warnings=print_warnings if args.verbose else None)
     except KeyboardInterrupt:
         bar.close()
         return interrupted(args, out)
@@ -262,8 +316,9 @@ def run(args: argparse.Namespace) -> int:
         return infrastructure_lost(args, out, exc)
     finally:
         bar.close()
-    if not args.quiet:
-        for line in warning_summary(caught):
+    if not args.quiet and not args.verbose:
+        for line in warning_summary(caught, run_warnings(out, before),
+                                    outcome.prototype_warnings):
             say(line)
     point = outcome.design_point
     summary = _summary(out, point, before, time.perf_counter() - t0)
@@ -302,13 +357,17 @@ def interrupted(args: argparse.Namespace, out: Path) -> int:
 def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
     """``hypate run`` of a sweep study: one optimization per point, then the summary."""
     bars: list[Progress] = []
+    # evaluations each point's store held before this run: its ids of this run follow them
+    before = {store.parent.name: stored_evaluations(store.parent)
+              for store in (out.glob(f"*/{STORE}") if args.resume else ())}
 
     def on_point(i: int, n: int, point) -> None:
         if bars:
             bars.pop().close()
         if not args.quiet:
             print(f"[{i + 1}/{n}] {point.label}", file=sys.stderr)
-        bars.append(Progress(quiet=args.quiet))
+        bars.append(Progress(quiet=args.quiet, verbose=args.verbose,
+                             first_id=before.get(point.label, 0)))
 
     def progress(done: int, budget: int, evaluation) -> None:
         if bars:
@@ -331,8 +390,11 @@ def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
     finally:
         for bar in bars:
             bar.close()
-    if not args.quiet:
-        for line in warning_summary(caught):
+    if not args.quiet and not args.verbose:
+        attributed = [((rec["label"], i), w) for rec in outcome.points
+                      for i, w in run_warnings(out / rec["label"],
+                                               before.get(rec["label"], 0))]
+        for line in warning_summary(caught, attributed):
             print(line, file=sys.stderr)
     if args.json:
         print(jsonout.dumps({"directory": str(out), "summary": str(out / SWEEP_CSV),

@@ -138,5 +138,6 @@ def run_static(args: argparse.Namespace) -> int:
 
 
 def _report_warnings(caught: list[warnings.WarningMessage]) -> None:
-    for w in caught:
-        print(f"hypate: warning: {w.message}", file=sys.stderr)
+    # each distinct warning once (a material table clamps at every call)
+    for message in dict.fromkeys(str(w.message) for w in caught):
+        print(f"hypate: warning: {message}", file=sys.stderr)

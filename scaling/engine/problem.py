@@ -8,9 +8,14 @@ handed to the inner SLSQP exactly; expensive ones come from evaluations
 """
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import functools
+import re
 import time
-from collections.abc import Callable, Sequence
+import warnings
+from collections import Counter
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -29,12 +34,22 @@ __all__ = [
     "project_cheap",
     "Outcome",
     "evaluate_design",
+    "MAX_WARNINGS",
+    "MAX_WARNING_CHARS",
+    "recorded_warnings",
+    "summarize_warnings",
+    "parse_warning",
+    "tally_warnings",
 ]
 
 #: Status of a successful evaluation; anything else is a failure.
 STATUS_OK = "ok"
 #: Feasibility tolerance of the cheap constraints at every proposal.
 CHEAP_TOL = 1e-8
+#: Distinct warnings kept per evaluation; the rest are counted in one last entry.
+MAX_WARNINGS = 20
+#: Characters kept of a warning's text ("Category: message").
+MAX_WARNING_CHARS = 300
 
 
 # ----------------------------------------------------------------- cheap constraints
@@ -132,6 +147,10 @@ class Outcome:
     message : str
     seconds : float
         Wall time of the evaluation.
+    warnings : tuple of str
+        The Python warnings raised during the evaluation, aggregated
+        (:func:`summarize_warnings`): ``"Category: message (N times)"`` in order of first
+        occurrence.
     """
 
     F: np.ndarray
@@ -139,11 +158,13 @@ class Outcome:
     status: str = STATUS_OK
     message: str = ""
     seconds: float = 0.0
+    warnings: tuple[str, ...] = ()
 
     @classmethod
-    def failure(cls, m: int, k: int, status: str, message: str, seconds: float) -> Outcome:
+    def failure(cls, m: int, k: int, status: str, message: str, seconds: float,
+                warnings: tuple[str, ...] = ()) -> Outcome:
         """A failed evaluation of ``m`` objectives and ``k`` constraints (all NaN)."""
-        return cls(np.full(m, np.nan), np.full(k, np.nan), status, message, seconds)
+        return cls(np.full(m, np.nan), np.full(k, np.nan), status, message, seconds, warnings)
 
     @property
     def ok(self) -> bool:
@@ -158,7 +179,111 @@ class Outcome:
         return getattr(self, key)
 
 
-_OUTCOME_KEYS = frozenset(("F", "G", "status", "message", "seconds"))
+_OUTCOME_KEYS = frozenset(("F", "G", "status", "message", "seconds", "warnings"))
+
+
+# ------------------------------------------------------------------- warnings
+@contextlib.contextmanager
+def recorded_warnings() -> Iterator[list[warnings.WarningMessage]]:
+    """Record every Python warning raised inside the block (each occurrence, none printed).
+
+    Yields
+    ------
+    list of warnings.WarningMessage
+        Filled while the block runs; :func:`summarize_warnings` aggregates it.
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")  # count every occurrence, whatever the registry saw
+        yield caught
+
+
+def _warning_text(w: warnings.WarningMessage) -> str:
+    text = f"{w.category.__name__}: {w.message}"
+    return text if len(text) <= MAX_WARNING_CHARS else text[:MAX_WARNING_CHARS - 3] + "..."
+
+
+def _times(n: int) -> str:
+    return f"({n} time)" if n == 1 else f"({n} times)"
+
+
+def summarize_warnings(caught: Iterable[warnings.WarningMessage]) -> tuple[str, ...]:
+    """Recorded warnings aggregated: one ``"Category: message (N times)"`` per distinct text.
+
+    Parameters
+    ----------
+    caught : iterable of warnings.WarningMessage
+        As recorded by :func:`recorded_warnings`.
+
+    Returns
+    -------
+    tuple of str
+        In order of first occurrence (deterministic for a deterministic evaluation); texts
+        cut at :data:`MAX_WARNING_CHARS`; beyond :data:`MAX_WARNINGS` distinct texts the
+        rest are one last entry ``"Other warnings: K more kinds (N times)"``.
+    """
+    counts = Counter(_warning_text(w) for w in caught)  # insertion order = first occurrence
+    items = list(counts.items())
+    out = [f"{text} {_times(n)}" for text, n in items[:MAX_WARNINGS]]
+    rest = items[MAX_WARNINGS:]
+    if rest:
+        out.append(f"Other warnings: {len(rest)} more kinds {_times(sum(n for _, n in rest))}")
+    return tuple(out)
+
+
+_ENTRY = re.compile(r"^(.*) \((\d+) times?\)$", re.DOTALL)
+
+
+def parse_warning(entry: str) -> tuple[str, int]:
+    """``(text, count)`` of one entry of :func:`summarize_warnings` (count 1 for a bare text).
+
+    Parameters
+    ----------
+    entry : str
+        ``"Category: message (N times)"``.
+
+    Returns
+    -------
+    text : str
+    count : int
+    """
+    m = _ENTRY.match(entry)
+    return (m.group(1), int(m.group(2))) if m else (entry, 1)
+
+
+def tally_warnings(attributed: Iterable[tuple[Any, Sequence[str]]]
+                   ) -> list[tuple[str, list[Any], int]]:
+    """Distinct warnings over many evaluations: where each occurred and how often.
+
+    Parameters
+    ----------
+    attributed : iterable of (label, entries)
+        A label (an evaluation id, ``"prototype"``...) and its :func:`summarize_warnings`
+        entries.
+
+    Returns
+    -------
+    list of (text, labels, count)
+        One per distinct text, the labels in the order given (each once), the total count;
+        most frequent first, ties in order of first occurrence.
+    """
+    where: dict[str, list[Any]] = {}
+    counts: Counter[str] = Counter()
+    for label, entries in attributed:
+        for entry in entries:
+            text, n = parse_warning(entry)
+            labels = where.setdefault(text, [])
+            if label not in labels:
+                labels.append(label)
+            counts[text] += n
+    return [(text, where[text], n) for text, n in counts.most_common()]
+
+
+def _numpy_invalid(caught: Sequence[warnings.WarningMessage]) -> str | None:
+    """The first numpy "invalid value encountered in ..." message among ``caught``."""
+    for w in caught:
+        if issubclass(w.category, RuntimeWarning) and "invalid value" in str(w.message):
+            return str(w.message)
+    return None
 
 
 def evaluate_design(problem: Any, x: np.ndarray, timeout: float | None = None,
@@ -185,6 +310,13 @@ def evaluate_design(problem: Any, x: np.ndarray, timeout: float | None = None,
     -------
     Outcome
         ``G`` holds the inequalities ``G <= 0``, then ``|H| - eq_tol`` for the equalities.
+        The warnings raised by the evaluation are recorded on it (``warnings``), not
+        printed, wherever it runs; an evaluation killed at its time limit has none. (The
+        warnings machinery is process-wide: where one process evaluates several designs
+        in threads at once, e.g. a Dask worker with several threads, a warning may be
+        recorded by a concurrent evaluation; ``local:N`` workers have one thread.)
+        Non-finite objectives are status ``"invalid"``, with numpy's "invalid value"
+        message in ``message`` when numpy raised one.
     """
     if timeout is None:
         return _evaluate_here(problem, x, eq_tol)
@@ -205,25 +337,37 @@ def _evaluate_here(problem: Any, x: np.ndarray, eq_tol: float) -> Outcome:
     m = int(problem.n_obj)
     k = int(problem.n_ieq_constr) + int(problem.n_eq_constr)
     t0 = time.perf_counter()
-    try:
-        out = problem.evaluate(np.asarray(x, dtype=float)[None, :], return_as_dictionary=True)
-    except Exception as exc:  # any failure of the user's model is recorded, not raised
-        return Outcome.failure(m, k, "error", f"{type(exc).__name__}: {exc}",
-                               time.perf_counter() - t0)
+    with recorded_warnings() as caught:
+        try:
+            out = problem.evaluate(np.asarray(x, dtype=float)[None, :],
+                                   return_as_dictionary=True)
+        except Exception as exc:  # any failure of the user's model is recorded, not raised
+            return Outcome.failure(m, k, "error", f"{type(exc).__name__}: {exc}",
+                                   time.perf_counter() - t0, summarize_warnings(caught))
     seconds = time.perf_counter() - t0
+    found = summarize_warnings(caught)
     try:
-        F = np.asarray(out["F"], dtype=float).reshape(-1)
-        parts = []
-        if problem.n_ieq_constr:
-            parts.append(np.asarray(out["G"], dtype=float).reshape(-1))
-        if problem.n_eq_constr:
-            parts.append(np.abs(np.asarray(out["H"], dtype=float).reshape(-1)) - eq_tol)
-        G = np.concatenate(parts) if parts else np.zeros(0)
+        outcome = _outcome(problem, out, m, k, eq_tol, seconds, caught)
     except (KeyError, TypeError, ValueError) as exc:
-        return Outcome.failure(m, k, "error", f"{type(exc).__name__}: {exc}", seconds)
+        return Outcome.failure(m, k, "error", f"{type(exc).__name__}: {exc}", seconds, found)
+    return dataclasses.replace(outcome, warnings=found)
+
+
+def _outcome(problem: Any, out: dict[str, Any], m: int, k: int, eq_tol: float,
+             seconds: float, caught: Sequence[warnings.WarningMessage]) -> Outcome:
+    """The Outcome of a problem's output dictionary ``out`` (without its warnings)."""
+    F = np.asarray(out["F"], dtype=float).reshape(-1)
+    parts = []
+    if problem.n_ieq_constr:
+        parts.append(np.asarray(out["G"], dtype=float).reshape(-1))
+    if problem.n_eq_constr:
+        parts.append(np.abs(np.asarray(out["H"], dtype=float).reshape(-1)) - eq_tol)
+    G = np.concatenate(parts) if parts else np.zeros(0)
     if F.shape != (m,) or G.shape != (k,):
         return Outcome.failure(m, k, "error", f"expected {m} objectives and {k} constraints, "
                                f"got {F.size} and {G.size}", seconds)
     if not (np.all(np.isfinite(F)) and np.all(np.isfinite(G))):
-        return Outcome(F, G, "invalid", "non-finite objective or constraint", seconds)
+        why = _numpy_invalid(caught)
+        return Outcome(F, G, "invalid", "non-finite objective or constraint"
+                       + (f" (numpy: {why})" if why else ""), seconds)
     return Outcome(F, G, STATUS_OK, "", seconds)

@@ -1,12 +1,14 @@
 """Append-only, crash-safe evaluation store (SQLite, stdlib ``sqlite3``).
 
-Every finished evaluation (x, F, G, status, message, seconds, iteration, seed) is one row,
+Every finished evaluation (x, F, G, status, message, warnings, seconds, iteration, seed) is
+one row,
 committed before the optimizer proposes anything else, in WAL mode with
 ``synchronous=FULL``: a run killed at any point loses at most the evaluation in flight, and
 :class:`hypate.scaling.engine.optimizer.BayesianOptimizer` resumes from the rows without
 re-evaluating.
 Arrays are stored as JSON (Python's float ``repr`` round-trips exactly; NaN/inf allowed).
-Rows are never updated or deleted.
+Rows are never updated or deleted. A store written before the ``warnings`` column existed
+gets it (empty) when opened for writing, and reads as evaluations without warnings.
 """
 from __future__ import annotations
 
@@ -22,7 +24,8 @@ import numpy as np
 import pandas as pd
 from hypate.scaling.engine.problem import STATUS_OK, Outcome
 
-__all__ = ["Evaluation", "EvaluationStore", "StoreError", "evaluations_to_dataframe"]
+__all__ = ["Evaluation", "EvaluationStore", "StoreError", "evaluations_to_dataframe",
+           "warnings_text", "warnings_from_text"]
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS evaluations (
@@ -37,6 +40,7 @@ CREATE TABLE IF NOT EXISTS evaluations (
     seconds REAL NOT NULL,
     seed INTEGER,
     created REAL NOT NULL,
+    warnings TEXT NOT NULL DEFAULT '[]',
     UNIQUE (iteration, batch_index)
 );
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -63,6 +67,9 @@ class Evaluation:
     message : str
     seconds : float
         Wall time of the evaluation.
+    warnings : tuple of str
+        The warnings raised during the evaluation
+        (:func:`hypate.scaling.engine.problem.summarize_warnings`).
     iteration : int
         ``-1`` recycled samples, ``0`` initial design, ``t >= 1`` BO iteration.
     batch_index : int
@@ -80,6 +87,7 @@ class Evaluation:
     batch_index: int = 0
     seed: int | None = None
     created: float = field(default_factory=time.time)
+    warnings: tuple[str, ...] = ()
 
     @property
     def ok(self) -> bool:
@@ -92,7 +100,8 @@ class Evaluation:
         return cls(x=np.asarray(x, float), F=np.asarray(outcome.F, float),
                    G=np.asarray(outcome.G, float), status=outcome.status,
                    message=outcome.message, seconds=float(outcome.seconds),
-                   iteration=iteration, batch_index=batch_index, seed=seed)
+                   iteration=iteration, batch_index=batch_index, seed=seed,
+                   warnings=tuple(outcome.warnings))
 
 
 def _dump(a: np.ndarray) -> str:
@@ -101,6 +110,41 @@ def _dump(a: np.ndarray) -> str:
 
 def _load(s: str) -> np.ndarray:
     return np.asarray(json.loads(s), dtype=float)
+
+
+def warnings_text(entries: tuple[str, ...] | list[str]) -> str:
+    """The ``warnings`` cell of evaluations.csv: ``""`` without warnings, else a JSON list.
+
+    Parameters
+    ----------
+    entries : sequence of str
+
+    Returns
+    -------
+    str
+    """
+    return json.dumps(list(entries)) if entries else ""
+
+
+def warnings_from_text(text: object) -> tuple[str, ...]:
+    """Inverse of :func:`warnings_text` (also for the store's JSON and pandas' NaN of an
+    empty CSV cell).
+
+    Parameters
+    ----------
+    text : str or None or float
+
+    Returns
+    -------
+    tuple of str
+    """
+    if not isinstance(text, str) or not text.strip():
+        return ()
+    return tuple(str(v) for v in json.loads(text))
+
+
+def _columns(con: sqlite3.Connection) -> set[str]:
+    return {row[1] for row in con.execute("PRAGMA table_info(evaluations)")}
 
 
 class EvaluationStore:
@@ -135,6 +179,9 @@ class EvaluationStore:
                 self._con.execute("PRAGMA journal_mode=WAL")
             self._con.execute("PRAGMA synchronous=FULL")
             self._con.executescript(_SCHEMA)
+            if "warnings" not in _columns(self._con):  # a store of an earlier version
+                self._con.execute("ALTER TABLE evaluations ADD COLUMN warnings TEXT NOT NULL"
+                                  " DEFAULT '[]'")
             self._con.commit()
         except sqlite3.Error as exc:
             raise StoreError(f"{self.path} is not a readable hypate evaluation store: {exc}"
@@ -158,20 +205,24 @@ class EvaluationStore:
         """Insert one evaluation and commit it."""
         self._con.execute(
             "INSERT INTO evaluations (iteration, batch_index, x, F, G, status, message, seconds,"
-            " seed, created) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            " seed, created, warnings) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
             (int(ev.iteration), int(ev.batch_index), _dump(ev.x), _dump(ev.F), _dump(ev.G),
              str(ev.status), str(ev.message), float(ev.seconds),
-             None if ev.seed is None else int(ev.seed), float(ev.created)))
+             None if ev.seed is None else int(ev.seed), float(ev.created),
+             json.dumps([str(w) for w in ev.warnings])))
         self._con.commit()
 
     def load(self) -> list[Evaluation]:
         """All evaluations in insertion order."""
+        # a read-only snapshot of an earlier version's store has no warnings column
+        warn = "warnings" if "warnings" in _columns(self._con) else "'[]'"
         rows = self._con.execute(
-            "SELECT iteration, batch_index, x, F, G, status, message, seconds, seed, created"
-            " FROM evaluations ORDER BY id").fetchall()
+            "SELECT iteration, batch_index, x, F, G, status, message, seconds, seed, created,"
+            f" {warn} FROM evaluations ORDER BY id").fetchall()
         return [Evaluation(x=_load(x), F=_load(F), G=_load(G), status=st, message=msg,
-                           seconds=sec, iteration=it, batch_index=bi, seed=seed, created=cr)
-                for it, bi, x, F, G, st, msg, sec, seed, cr in rows]
+                           seconds=sec, iteration=it, batch_index=bi, seed=seed, created=cr,
+                           warnings=warnings_from_text(w))
+                for it, bi, x, F, G, st, msg, sec, seed, cr, w in rows]
 
     def __len__(self) -> int:
         return int(self._con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0])
@@ -213,10 +264,10 @@ class EvaluationStore:
 
 def evaluations_to_dataframe(evals: list[Evaluation]) -> pd.DataFrame:
     """One row per evaluation: ``iteration, batch_index, x0.., f0.., g0.., status, message,
-    seconds, seed``."""
+    warnings, seconds, seed`` (``warnings``: :func:`warnings_text`)."""
     if not evals:
-        return pd.DataFrame(columns=["iteration", "batch_index", "status", "message", "seconds",
-                                     "seed"])
+        return pd.DataFrame(columns=["iteration", "batch_index", "status", "message",
+                                     "warnings", "seconds", "seed"])
     d, m, k = len(evals[0].x), len(evals[0].F), len(evals[0].G)
     cols: dict[str, object] = {
         "iteration": [e.iteration for e in evals],
@@ -229,5 +280,6 @@ def evaluations_to_dataframe(evals: list[Evaluation]) -> pd.DataFrame:
     cols.update({f"f{i}": F[:, i] for i in range(m)})
     cols.update({f"g{i}": G[:, i] for i in range(k)})
     cols.update(status=[e.status for e in evals], message=[e.message for e in evals],
+                warnings=[warnings_text(e.warnings) for e in evals],
                 seconds=[e.seconds for e in evals], seed=[e.seed for e in evals])
     return pd.DataFrame(cols)

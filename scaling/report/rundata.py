@@ -17,7 +17,8 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from hypate.scaling.engine.store import EvaluationStore
+from hypate.scaling.engine.problem import tally_warnings
+from hypate.scaling.engine.store import EvaluationStore, warnings_from_text
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.rundir import (
     CLASSICAL_JSON,
@@ -28,6 +29,7 @@ from hypate.scaling.workflow.rundir import (
     FIGURES_DIR,
     ID_COLUMN,
     PROTOTYPE_NPZ,
+    PROTOTYPE_WARNINGS,
     STORE,
     design_point_index,
 )
@@ -39,7 +41,8 @@ from hypate.solvers.errors import InputError
 __all__ = ["RunData", "load_run", "FIGURES_DIR"]
 
 #: Figure folder in the run directory.
-_RESERVED = {ID_COLUMN, "iteration", "batch_index", "status", "message", "seconds", "seed"}
+_RESERVED = {ID_COLUMN, "iteration", "batch_index", "status", "message", "warnings", "seconds",
+             "seed"}
 
 @dataclass
 class RunData:
@@ -53,7 +56,8 @@ class RunData:
     study_path : str or None
     evaluations : pandas.DataFrame
         One row per evaluation in evaluation order: ``iteration, batch_index``, one column
-        per design variable, one per objective, ``status, message, seconds, seed``. The
+        per design variable, one per objective, ``status, message, warnings, seconds,
+        seed`` (``warnings``: empty or a JSON list, as in ``evaluations.csv``). The
         index is the evaluation id (0-based row in the store order, the ``id`` column of
         ``evaluations.csv``): every evaluation number the report prints is this index.
     variables, objectives : list of str
@@ -72,6 +76,9 @@ class RunData:
         Time step of the design-point model (s), for the nondimensional time axis.
     notes : list of str
         What could not be rebuilt, and why (shown at the top of the report).
+    prototype_warnings : list of str
+        The warnings of the prototype's simulation (the store's metadata; empty for runs
+        older than it).
     """
 
     directory: Path
@@ -87,6 +94,17 @@ class RunData:
     model: Response | None = None
     model_time_step: float | None = None
     notes: list[str] = field(default_factory=list)
+    prototype_warnings: list[str] = field(default_factory=list)
+
+    @property
+    def warnings(self) -> list[tuple[str, list[Any], int]]:
+        """Distinct warnings of the run: ``(text, where, count)``, most frequent first;
+        ``where`` lists ``"prototype"`` and evaluation ids
+        (:func:`hypate.scaling.engine.problem.tally_warnings`)."""
+        df = self.evaluations
+        cells = df["warnings"] if "warnings" in df else pd.Series([], dtype=object)
+        return tally_warnings([("prototype", self.prototype_warnings),
+                               *((int(i), warnings_from_text(c)) for i, c in cells.items())])
 
     @property
     def interrupted(self) -> bool:
@@ -159,7 +177,8 @@ def _store_frame(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
 
     with EvaluationStore(path) as store:
         df = store.to_dataframe()
-        meta = {k: store.get_meta(k) for k in ("n_var", "n_obj", "study_path", "study")}
+        meta = {k: store.get_meta(k) for k in ("n_var", "n_obj", "study_path", "study",
+                                               PROTOTYPE_WARNINGS)}
     return df, meta
 
 
@@ -250,6 +269,8 @@ def load_run(run_dir: str | Path, study_path: str | Path | None = None,
         df = _rename(df, run.variables, run.objectives)
     # the id column of evaluations.csv is the row number itself: the index carries it
     run.evaluations = df.drop(columns=[ID_COLUMN], errors="ignore").reset_index(drop=True)
+    proto = meta.get(PROTOTYPE_WARNINGS)
+    run.prototype_warnings = [str(w) for w in proto] if isinstance(proto, list) else []
     _attach_point(run, point, simulate)
     return run
 

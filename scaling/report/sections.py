@@ -6,8 +6,9 @@ order: *Study*, *Design point* (Table 9.8 style, with the rule that chose it and
 constraints), *Similarity parameters* (prototype / model / relative difference; > 10 %
 highlighted), *Glossary* (symbol, formula, equation and meaning of each parameter),
 *Figures*, *Pareto set* (the design point's row marked), *Run statistics* (evaluations,
-failures grouped by reason, wall time) and *Scaling laws* (a sweep's refined laws,
-Fig. 9.12). :mod:`.html` renders them into the page.
+failures grouped by reason, wall time), *Warnings* (the distinct solver warnings, where
+they occurred and how often; left out without any) and *Scaling laws* (a sweep's refined
+laws, Fig. 9.12). :mod:`.html` renders them into the page.
 
 Every evaluation number printed is the evaluation id (``RunData.evaluations``' index, the
 ``id`` column of ``evaluations.csv``); every number goes through :mod:`.numbers`.
@@ -46,7 +47,7 @@ from hypate.scaling.workflow.laws import (
     laws_table,
     load_sweep,
 )
-from hypate.scaling.workflow.rundir import describe_rule
+from hypate.scaling.workflow.rundir import describe_occurrences, describe_rule
 
 __all__ = ["Section", "html_table", "BUILTIN_SECTIONS"]
 
@@ -351,6 +352,27 @@ def _statistics_section(run: RunData) -> Section:
     return Section("Run statistics", body)
 
 
+#: Distinct warnings listed in the Warnings section (the rest are counted below it).
+REPORT_WARNINGS = 30
+
+
+def _warnings_section(run: RunData) -> Section | None:
+    """The "Warnings" section: one row per distinct warning (the prototype's and each
+    evaluation's, as recorded), with the evaluations it occurred in and its count."""
+    tally = run.warnings
+    if not tally:
+        return None
+    rows = [(text[:300], describe_occurrences(where), n)
+            for text, where, n in tally[:REPORT_WARNINGS]]
+    body = ("<p>Warnings raised by the solvers during the prototype's simulation and the "
+            "evaluations (evaluation ids as in <code>evaluations.csv</code>, whose "
+            "<code>warnings</code> column lists each evaluation's).</p>"
+            + html_table(["warning", "where", "times"], rows))
+    if len(tally) > REPORT_WARNINGS:
+        body += f"<p>... and {len(tally) - REPORT_WARNINGS} more distinct warnings.</p>"
+    return Section("Warnings", body)
+
+
 def _laws_section(run: RunData) -> Section | None:
     """The "Scaling laws" section: shown for a sweep directory or a sweep point's
     sub-directory (``sweep.json`` in it or in its parent) with finished points at two or more
@@ -377,4 +399,4 @@ def _laws_section(run: RunData) -> Section | None:
 #: The built-in section builders, in page order (registered plug-ins follow them).
 BUILTIN_SECTIONS: tuple[Callable[[RunData], Section | None], ...] = (
     _study_section, _design_section, _similarity_section, _glossary_section, _figures_section,
-    _pareto_section, _statistics_section, _laws_section)
+    _pareto_section, _statistics_section, _warnings_section, _laws_section)

@@ -5,8 +5,9 @@ Outputs in the run directory (public names):
 * ``evaluations.sqlite`` -- the crash-safe store (every finished evaluation committed before
   the next proposal; ``--resume`` continues from it);
 * ``evaluations.csv`` -- ``id`` (the 0-based row number in the store order, the number the
-  report cites), every design with its variables by name, objectives, status, message and
-  wall time;
+  report cites), every design with its variables by name, objectives, status, message,
+  warnings (empty, or a JSON list of ``"Category: message (N times)"`` raised during the
+  evaluation) and wall time;
 * ``pareto.csv`` -- the Pareto set (or the best designs of a single-objective study);
 * ``design_point.json`` -- ``design`` (name -> value), ``objectives`` (name -> value),
   ``similarity`` (list of ``{"name", "prototype", "model", "relative_difference"}``),
@@ -32,7 +33,12 @@ from hypate.scaling.engine.coordinates import LogLinearCoordinates
 from hypate.scaling.engine.executors import LOST_AFTER, make_executor
 from hypate.scaling.engine.faults import ExecutorError
 from hypate.scaling.engine.optimizer import BayesianOptimizer
-from hypate.scaling.engine.problem import evaluate_design, project_cheap
+from hypate.scaling.engine.problem import (
+    evaluate_design,
+    project_cheap,
+    recorded_warnings,
+    summarize_warnings,
+)
 from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.engine.settings import OptimizerSettings
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
@@ -52,6 +58,7 @@ from hypate.scaling.workflow.rundir import (
     ID_COLUMN,
     PARETO_CSV,
     PROTOTYPE_NPZ,
+    PROTOTYPE_WARNINGS,
     STORE,
     design_point_index,
     finite_or_none,
@@ -69,12 +76,18 @@ CLASSICAL_MATCH = {"aeroelastic": ["h/L", "lambda_F", "DeltaT_NTx_L2/Dxx"],
 
 @dataclass
 class RunOutcome:
-    """What a finished (or resumed) run produced."""
+    """What a finished (or resumed) run produced.
+
+    ``prototype_warnings``: the warnings of this run's prototype simulation
+    (:func:`hypate.scaling.engine.problem.summarize_warnings`; empty when the prototype's
+    response was given); each evaluation's are on its row (``result.data["warnings"]``).
+    """
 
     directory: Path
     result: OptimizationResult
     design_point: dict[str, Any]
     problem: ScalingProblem
+    prototype_warnings: tuple[str, ...] = ()
 
 
 def classical_baseline(study: Study, problem: ScalingProblem) -> dict[str, Any] | None:
@@ -226,7 +239,9 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
               prototype_response: Response | None = None,
               seed_runs: Sequence[str | Path] = (),
               on_written: Callable[[Path], object] | None = None,
-              lost_after: float = LOST_AFTER) -> RunOutcome:
+              lost_after: float = LOST_AFTER,
+              on_warnings: Callable[[str, tuple[str, ...]], None] | None = None
+              ) -> RunOutcome:
     """Run (or resume) a study into ``out``.
 
     ``on_written(out)`` is called once the outputs are written: the CLI and ``hypate.run_study``
@@ -265,6 +280,11 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
         Seconds after which a cluster without a reachable scheduler or without a worker is
         lost (:class:`~hypate.scaling.engine.faults.InfrastructureError`; the finished
         evaluations are stored and a resume evaluates the rest).
+    on_warnings : callable, optional
+        ``on_warnings("prototype", entries)`` once the prototype's simulation recorded
+        warnings (they are not printed; also stored in the store's metadata and on the
+        :class:`RunOutcome`). Each evaluation records its own (``Evaluation.warnings``,
+        the ``warnings`` column), handed to ``progress`` with it.
     """
     out = Path(out)
     store_path = out / STORE
@@ -282,9 +302,15 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
     except ExecutorError as exc:
         raise InputError(exc.field, exc.message) from None
     try:
-        proto = problem.prototype_response  # simulated once, before any worker starts
+        with recorded_warnings() as caught:  # attributed to the prototype, not printed
+            proto = problem.prototype_response  # simulated once, before any worker starts
+        prototype_warnings = summarize_warnings(caught)
+        if prototype_warnings and on_warnings is not None:
+            on_warnings("prototype", prototype_warnings)
         with run_lock(out), EvaluationStore(store_path) as store:
             record_campaign(store, identity, study)
+            if prototype_response is None:  # this run simulated it
+                store.set_meta(PROTOTYPE_WARNINGS, list(prototype_warnings), replace=True)
             proto.save(out / PROTOTYPE_NPZ)
             classical = classical_baseline(study, problem)
             seed_list = _seed_designs(study, problem, classical, seeds)
@@ -313,7 +339,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
                 on_written(out)
     finally:
         close()
-    return RunOutcome(directory=out, result=result, design_point=point, problem=problem)
+    return RunOutcome(directory=out, result=result, design_point=point, problem=problem,
+                      prototype_warnings=prototype_warnings)
 
 
 def evaluations_table(study: Study, result: OptimizationResult) -> pd.DataFrame:

@@ -7,7 +7,7 @@ file                        content                                     written 
                             evaluation (WAL, synchronous=FULL)          report, sweeps, laws
 ``evaluations.csv``         ``id`` (0-based row in the store order),    :func:`run.write_outputs`
                             designs by name, objectives, status,        / ``--seed-from``, report
-                            message, wall time
+                            message, warnings, wall time
 ``pareto.csv``              the Pareto set (best designs of one         ``write_outputs`` / users
                             objective)
 ``design_point.json``       public fields ``design``, ``objectives``,   ``write_outputs`` / report,
@@ -59,6 +59,11 @@ LOCK_FILE = "run.lock"
 #: The id column of ``evaluations.csv``: the 0-based row number in the store order, the
 #: number every report cites ("evaluation 37").
 ID_COLUMN = "id"
+#: Store metadata key of the prototype simulation's warnings (a JSON list of
+#: :func:`hypate.scaling.engine.problem.summarize_warnings` entries).
+PROTOTYPE_WARNINGS = "prototype_warnings"
+#: Evaluation ids listed by :func:`describe_occurrences` before the rest are only counted.
+LISTED_IDS = 8
 #: The design-point rules (``[optimizer] design_point``); the first is the default.
 DESIGN_POINT_RULES = ("minmax", "weighted", "knee")
 #: The store's name under its historical public alias.
@@ -205,3 +210,43 @@ def describe_rule(rule: str, n_objectives: int,
                 "their range over the Pareto set ('knee')")
     return ("the feasible evaluation with the smallest max(J_u, J_T), the larger of its "
             "two errors (Sec. 9.2.3 min-max criterion, 'minmax')")
+
+
+def describe_occurrences(labels: Sequence[Any], limit: int = LISTED_IDS) -> str:
+    """Where a warning occurred, in words: ``"prototype, evaluations 3, 7-9, 12"``.
+
+    Parameters
+    ----------
+    labels : sequence of int, str or (str, int)
+        Evaluation ids (ints), other places (``"prototype"``, ``"run"``; strings, listed
+        first as given) and ids within a group (a sweep point's label and its id:
+        ``"p1 evaluations 3, 4; p2 evaluation 0"``).
+    limit : int
+        Runs of consecutive ids listed (per group); beyond them ``"... (N in all)"``.
+
+    Returns
+    -------
+    str
+    """
+    groups: dict[str, list[Any]] = {}
+    for v in labels:
+        if isinstance(v, tuple):
+            groups.setdefault(str(v[0]), []).append(v[1])
+    if groups:
+        rest = describe_occurrences([v for v in labels if not isinstance(v, tuple)], limit)
+        return "; ".join([rest] * bool(rest) + [f"{g} {describe_occurrences(ids, limit)}"
+                                                 for g, ids in groups.items()])
+    names = [str(v) for v in labels if isinstance(v, str)]
+    ids = sorted({int(v) for v in labels if not isinstance(v, str)})
+    runs: list[list[int]] = []
+    for i in ids:
+        if runs and i == runs[-1][1] + 1:
+            runs[-1][1] = i
+        else:
+            runs.append([i, i])
+    parts = [f"{a}" if a == b else f"{a}-{b}" for a, b in runs[:limit]]
+    if len(runs) > limit:
+        parts.append(f"... ({len(ids)} in all)")
+    if ids:
+        names.append(("evaluation " if len(ids) == 1 else "evaluations ") + ", ".join(parts))
+    return ", ".join(names)

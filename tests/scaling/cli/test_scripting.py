@@ -126,8 +126,10 @@ def test_solver_warnings_are_collected_and_summarized_once(capsys: pytest.Captur
         warnings.warn("other", UserWarning, stacklevel=1)
     assert capsys.readouterr().err == ""  # nothing reached the terminal
     assert warning_summary(caught) == [
-        "4 solver warnings of 2 kinds during the run (-v shows each as it happens):",
-        "  3 x RuntimeWarning: ti6242.conductivity: clamped", "  1 x UserWarning: other"]
+        "4 solver warnings of 2 kinds during the run (-v shows each as it is recorded; "
+        "evaluation ids as in evaluations.csv):",
+        "  RuntimeWarning: ti6242.conductivity: clamped: run (3 times)",
+        "  UserWarning: other: run (1 time)"]
     with pytest.warns(RuntimeWarning), collected_warnings(verbose=True) as shown:
         warnings.warn("shown", RuntimeWarning, stacklevel=1)
     assert shown == [] and warning_summary(shown) == []

@@ -1,11 +1,17 @@
 """The append-only SQLite evaluation store (scaling/store.py)."""
 from __future__ import annotations
 
+import hashlib
 import sqlite3
 
 import numpy as np
 import pytest
-from hypate.scaling.engine.store import Evaluation, EvaluationStore
+from hypate.scaling.engine.store import (
+    Evaluation,
+    EvaluationStore,
+    warnings_from_text,
+    warnings_text,
+)
 
 
 def _evals():
@@ -14,7 +20,9 @@ def _evals():
                    G=np.array([-1.0]), iteration=0, batch_index=0, seed=7, seconds=0.25),
         Evaluation(x=np.array([1.0, 2.0, 3.0]), F=np.array([np.nan, np.inf]), G=np.array([np.nan]),
                    status="error", message="RuntimeError: solver diverged", iteration=0,
-                   batch_index=1, seed=7, seconds=1.5),
+                   batch_index=1, seed=7, seconds=1.5,
+                   warnings=("RuntimeWarning: clamped; below [250, 950] K (3 times)",
+                             'UserWarning: "quoted" (1 time)')),
         Evaluation(x=np.array([5e-324, -0.0, 1.0 / 3.0]), F=np.array([-np.inf, 1e308]),
                    G=np.array([0.0]), status="invalid", message="non-finite", iteration=1,
                    batch_index=0, seed=7),
@@ -26,7 +34,8 @@ def _same(a: Evaluation, b: Evaluation) -> bool:
     bits = all(np.array_equal(np.asarray(getattr(a, k)).view(np.int64),
                               np.asarray(getattr(b, k)).view(np.int64)) for k in "xFG")
     rest = all(getattr(a, k) == getattr(b, k) for k in
-               ("status", "message", "seconds", "iteration", "batch_index", "seed", "created"))
+               ("status", "message", "seconds", "iteration", "batch_index", "seed", "created",
+                "warnings"))
     return arrs and bits and rest
 
 
@@ -66,6 +75,49 @@ def test_dataframe_columns():
         store.append(e)
     df = store.to_dataframe()
     assert list(df.columns) == ["iteration", "batch_index", "x0", "x1", "x2", "f0", "f1", "g0",
-                                "status", "message", "seconds", "seed"]
+                                "status", "message", "warnings", "seconds", "seed"]
     assert list(df["status"]) == ["ok", "error", "invalid"]
     assert df.loc[0, "x0"] == 0.1 + 0.2
+
+
+#: The evaluations table of stores written before the ``warnings`` column existed.
+OLD_SCHEMA = """
+CREATE TABLE evaluations (
+    id INTEGER PRIMARY KEY AUTOINCREMENT, iteration INTEGER NOT NULL,
+    batch_index INTEGER NOT NULL, x TEXT NOT NULL, F TEXT NOT NULL, G TEXT NOT NULL,
+    status TEXT NOT NULL, message TEXT NOT NULL, seconds REAL NOT NULL, seed INTEGER,
+    created REAL NOT NULL, UNIQUE (iteration, batch_index));
+CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+INSERT INTO evaluations (iteration, batch_index, x, F, G, status, message, seconds, seed,
+    created) VALUES (0, 0, '[0.5, 0.25]', '[1.5]', '[]', 'ok', '', 0.5, 3, 1.0);
+"""
+
+
+def _digest(path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_a_store_without_the_warnings_column_still_loads(tmp_path):
+    path = tmp_path / "old.sqlite"
+    with sqlite3.connect(path) as con:
+        con.executescript(OLD_SCHEMA)
+    con.close()
+    before = _digest(path)
+    with EvaluationStore(path, read_only=True) as store:  # a snapshot: nothing written
+        (row,) = store.load()
+        assert (row.warnings, row.status, row.F.tolist()) == ((), "ok", [1.5])
+        assert list(store.to_dataframe()["warnings"]) == [""]
+    assert _digest(path) == before
+    with EvaluationStore(path) as store:  # writable: the column is added, rows kept
+        new = Evaluation(x=np.array([0.1, 0.2]), F=np.array([2.0]), G=np.zeros(0),
+                         iteration=1, warnings=("RuntimeWarning: w (2 times)",))
+        store.append(new)
+    with EvaluationStore(path, read_only=True) as store:
+        assert [e.warnings for e in store.load()] == [(), ("RuntimeWarning: w (2 times)",)]
+
+
+def test_the_csv_cell_of_the_warnings():
+    entries = ("RuntimeWarning: a, b; c (2 times)",)
+    assert warnings_text(()) == "" and warnings_from_text("") == ()
+    assert warnings_from_text(float("nan")) == ()  # pandas' empty cell
+    assert warnings_from_text(warnings_text(entries)) == entries

@@ -1,6 +1,7 @@
 """hypate.scaling.report.sections: the table helper and the built-in sections."""
 from __future__ import annotations
 
+import json
 from collections.abc import Callable
 
 import numpy as np
@@ -90,3 +91,20 @@ def test_failure_ids_are_the_evaluation_ids(fabricated_run: Callable[..., RunDat
     run = fabricated_run()  # evaluation 5 failed
     statistics = _sections(run)["Run statistics"].html
     assert "<td>failed</td><td>1</td><td>5</td>" in statistics
+
+
+def test_warnings_section_lists_each_warning_with_its_evaluations(
+        fabricated_run: Callable[..., RunData]) -> None:
+    run = fabricated_run()
+    assert "Warnings" not in _sections(run)  # none recorded: no section
+    run.evaluations["warnings"] = [
+        "", json.dumps(["RuntimeWarning: ti6242.conductivity: below <250 K (3 times)"]), "",
+        json.dumps(["RuntimeWarning: ti6242.conductivity: below <250 K (2 times)",
+                    "UserWarning: other (1 time)"]), "", float("nan")]
+    run.prototype_warnings = ["UserWarning: other (4 times)"]
+    body = _sections(run)["Warnings"].html
+    assert ("<td>UserWarning: other</td><td>prototype, evaluation 3</td><td>5</td>"
+            in body)
+    assert ("<td>RuntimeWarning: ti6242.conductivity: below &lt;250 K</td>"
+            "<td>evaluations 1, 3</td><td>5</td>") in body
+    assert list(_sections(run))[-1] == "Warnings"  # after the run statistics

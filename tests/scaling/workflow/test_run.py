@@ -4,12 +4,18 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 from conftest import kill_after, stored_evaluations, tiny_study_text
+from hypate.scaling.engine.store import EvaluationStore
+from hypate.scaling.report.rundata import load_run
+from hypate.scaling.report.sections import BUILTIN_SECTIONS
+from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.rundir import PROTOTYPE_WARNINGS
 from hypate.scaling.workflow.run import run_study
 from hypate.scaling.workflow.study import load_study
 from pymoo.core.problem import Problem
@@ -107,3 +113,31 @@ def test_a_dying_worker_costs_only_its_evaluation() -> None:
         "worker died while evaluating this design alone").all()
     assert (data.loc[~killers, "status"] == "ok").all()
     assert len(data) == 8 + 3 * 2
+
+
+def test_the_prototype_s_warnings_are_recorded_stored_and_reported(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    simulate = ScalingProblem.prototype_response.fget
+
+    def warning_prototype(self):
+        if self._prototype_response is None:
+            warnings.warn("prototype table clamped", RuntimeWarning, stacklevel=1)
+        return simulate(self)
+
+    monkeypatch.setattr(ScalingProblem, "prototype_response", property(warning_prototype))
+    heard: list[tuple[str, tuple[str, ...]]] = []
+    path = tmp_path / "tiny.toml"
+    path.write_text(tiny_study_text(initial=3, iterations=1))
+    with warnings.catch_warnings(record=True) as outside:
+        warnings.simplefilter("always")
+        outcome = run_study(load_study(path), tmp_path / "run",
+                            on_warnings=lambda *a: heard.append(a))
+    entry = "RuntimeWarning: prototype table clamped (1 time)"
+    assert outcome.prototype_warnings == (entry,) and heard == [("prototype", (entry,))]
+    assert not [w for w in outside if "prototype table" in str(w.message)]  # not printed
+    with EvaluationStore(tmp_path / "run" / "evaluations.sqlite", read_only=True) as store:
+        assert store.get_meta(PROTOTYPE_WARNINGS) == [entry]
+    run = load_run(tmp_path / "run")
+    sections = {s.title: s for s in (b(run) for b in BUILTIN_SECTIONS) if s is not None}
+    assert ("<td>RuntimeWarning: prototype table clamped</td><td>prototype</td><td>1</td>"
+            in sections["Warnings"].html)
