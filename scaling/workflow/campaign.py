@@ -26,7 +26,7 @@ from hypate.scaling.engine.executors import check_scheduler_address
 from hypate.scaling.engine.store import EvaluationStore, StoreError
 from hypate.scaling.workflow.rundir import LOCK_FILE, STORE
 from hypate.scaling.workflow.study import Study, study_data
-from hypate.solvers.aero.factory import ROM_PREFIX
+from hypate.solvers.aero.factory import ROM_PREFIX, check_fluid_model
 from hypate.solvers.config import read_toml
 from hypate.solvers.errors import InputError
 
@@ -195,10 +195,12 @@ def preflight(study: Study, out: Path, *, resume: bool, seed: int | None, worker
     Raises
     ------
     InputError
-        Naming the setting: ``out``, ``resume``, ``seed``, ``workers``, ``scheduler``.
+        Naming the setting: ``out``, ``resume``, ``seed``, ``workers``, ``scheduler``,
+        ``simulation.aero`` (a ``rom:`` file that is missing or does not load).
     """
     check_run_settings(out, seed=seed, workers=workers, scheduler=scheduler)
     check_out(out, resume)
+    check_fluid_model(study.spec.prototype.simulation.aero)  # a rom: file exists and loads
     if seed is None and resume:
         seed = stored_seed(out / STORE)
     run_seed = study.optimizer.seed if seed is None else int(seed)

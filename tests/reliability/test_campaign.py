@@ -319,3 +319,13 @@ iterations = 0
     assert line.startswith("hypate: error: --resume: ")
     assert "study.sweep.xi [3.0, 4.0] -> [3.0, 5.0]" in line
     assert _snapshot(out) == before
+
+
+def test_a_missing_rom_file_is_refused_before_any_work(tmp_path: Path,
+                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY.replace('aero = "pt-bl"', 'aero = "rom:missing.npz"'))
+    assert main(["run", str(study), "--out", str(tmp_path / "run"), "-q"]) == 2
+    assert _error_line(capsys) == ("hypate: error: simulation.aero: ROM file missing.npz "
+                                   "not found")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["study.toml"]
