@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -134,6 +135,37 @@ SMALL_ROM = {
     "wall_temperature": {"range": [200.0, 900.0]},
     "training": {"samples": 50, "seed": 3, "restarts": 0, "optimized_modes": 2},
 }
+
+
+def toml_text(data: dict[str, Any]) -> str:
+    """``data`` (tables of scalars, lists of scalars, sub-tables and lists of tables, as
+    :data:`SMALL_ROM`) as TOML text, for the commands that read a file."""
+
+    def value(v: object) -> str:
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, str):
+            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(value(x) for x in v) + "]"
+        return repr(v)
+
+    def table(name: str, body: dict[str, Any], header: str) -> list[str]:
+        lines = [header] if header else []
+        nested = []
+        for k, v in body.items():
+            if isinstance(v, dict):
+                nested += table(f"{name}{k}.", v, f"[{name}{k}]")
+            elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
+                for item in v:
+                    nested += table(f"{name}{k}.", item, f"[[{name}{k}]]")
+            else:
+                lines.append(f"{k} = {value(v)}")
+        return lines + nested
+
+    return "\n".join(table("", data, "")) + "\n"
+
+
 #: The Sec. 7.1 ROM build file (Table 7.1).
 ROM_STUDY = REPO / "studies" / "rom" / "rom_2d_panel.toml"
 
