@@ -38,13 +38,18 @@ def integer_in(value: int, flag: str, low: int, high: int | None = None) -> int:
     return value
 
 
-def output_file(text: str, flag: str) -> Path:
-    """``text`` as a file a command will write: its folder exists and it is not a
-    directory (:class:`InputError` naming ``flag``)."""
+def output_file(text: str, flag: str, *, make_folders: bool = False) -> Path:
+    """``text`` as a file a command will write: not a directory, and its folder exists
+    (``make_folders``: or can be made -- the nearest existing one is a directory; the
+    command makes the rest when it writes). :class:`InputError` names ``flag``."""
     path = Path(text)
     if path.is_dir():
         raise InputError(flag, f"{path} is a directory; give a file name")
-    if not path.parent.is_dir():
+    if make_folders:
+        existing = next(p for p in (path.parent, *path.parent.parents) if p.exists())
+        if not existing.is_dir():
+            raise InputError(flag, f"{existing} is not a directory")
+    elif not path.parent.is_dir():
         raise InputError(flag, f"directory {path.parent} does not exist")
     return path
 

@@ -16,6 +16,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 from hypate.scaling.cli.arguments import integer_in, output_file, positive
 from hypate.scaling.cli.jsonout import dumps
+from hypate.scaling.cli.progress import StepProgress
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.aero.rom.build import build_rom_from_config, check_rom
 from hypate.solvers.aero.rom.config import MAX_SAMPLES, MIN_SAMPLES, load_rom_config
@@ -38,11 +39,15 @@ def register(sub: argparse._SubParsersAction) -> None:
                         description="Sample the built-in source on an OLH plan (or read the "
                         "external snapshots of the file) and fit the POD-kriging ROM.")
     b.add_argument("config", help="ROM build file (TOML), e.g. studies/rom/rom_2d_panel.toml or the shipped name rom_2d_panel")
-    b.add_argument("--out", required=True, help="output ROM file (.npz)")
+    b.add_argument("--out", required=True,
+                   help="output ROM file (.npz); missing folders are created")
     b.add_argument("--samples", type=int, help="override [training] samples")
     b.add_argument("--workers", type=int, default=1,
                    help="processes generating samples (default 1: in-process)")
     b.add_argument("--json", action="store_true", help="print a JSON summary")
+    b.add_argument("-q", "--quiet", action="store_true",
+                   help="no progress output (otherwise on stderr: a bar in a terminal, a "
+                   "line per finished step and every 10 s without one)")
     b.set_defaults(func=run_build)
 
     c = cmds.add_parser("check", help="NRMSE of a ROM against fresh source samples",
@@ -89,12 +94,18 @@ def run_build(args: argparse.Namespace) -> int:
     _samples(args.samples)
     integer_in(args.workers, "--workers", 1, MAX_WORKERS)
     cfg, base = load_rom_config(resolve(args.config, "rom"))
-    out = output_file(args.out, "--out")
-    if args.workers > 1:
-        with ProcessPoolExecutor(args.workers) as pool:
-            rom = build_rom_from_config(cfg, base, executor=pool, samples=args.samples)
-    else:
-        rom = build_rom_from_config(cfg, base, samples=args.samples)
+    out = output_file(args.out, "--out", make_folders=True)
+    progress = StepProgress("rom build", quiet=args.quiet)
+    try:
+        if args.workers > 1:
+            with ProcessPoolExecutor(args.workers) as pool:
+                rom = build_rom_from_config(cfg, base, executor=pool, samples=args.samples,
+                                            progress=progress)
+        else:
+            rom = build_rom_from_config(cfg, base, samples=args.samples, progress=progress)
+    finally:
+        progress.close()
+    out.parent.mkdir(parents=True, exist_ok=True)  # like `hypate run --out runs/...`
     save_rom(rom, out)
     summary = {"out": str(out), "kind": rom.kind, "samples": int(rom.pressure_model.D_.shape[0]),
                "pressure_pod_modes": rom.pressure_model.n_modes,

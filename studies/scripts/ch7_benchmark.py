@@ -23,13 +23,16 @@ from hypate.solvers.config import parse_case, read_toml, settings_from_config
 from hypate.solvers.coupling.lc import run_lc
 from hypate.solvers.coupling.model import PanelModel
 from hypate.solvers.coupling.tc import run_tc
-from hypate.studies.scripts._table import side_by_side, simple_main
+from hypate.studies.scripts.comparison import Approx, side_by_side, simple_main
 
 CASE = shipped("case")["sec7_3_benchmark"]
 #: Snap-through onset (s): Table 8.2 AM case 2 (= the Sec. 7.3 benchmark).
 ONSET = 2.02
 #: Fig. 7.16 text: "Near t = 2.1 s ... snap-through occurs".
 ONSET_FIG_7_16 = 2.1
+#: Agreement asked of an onset: 5 % (the dissertation's own two values, 2.02 and "near
+#: 2.1 s", are 4 % apart).
+RTOL = 0.05
 
 
 def benchmark_model(time_step: float, duration: float, *, aero: str | None = None,
@@ -115,21 +118,29 @@ def run(config: Config | None = None) -> Result:
     config = Config() if config is None else config
     tc = run_tc(benchmark_model(config.tc_time_step, config.duration))
     tc_on, tc_peak = snap_summary(tc)
-    rows = [(f"snap-through onset, TC dt = {config.tc_time_step:g} s (s)", ONSET, tc_on),
-            ("snap-through onset, TC vs Fig. 7.16 'near 2.1 s' (s)", ONSET_FIG_7_16, tc_on),
-            ("instability type, TC", "divergence (snap-through)", tc.instability_type),
+    none = f"none by {config.duration:g} s"
+    rows = [(f"snap-through onset, TC dt = {config.tc_time_step:g} s (s)", ONSET,
+             none if tc_on is None else tc_on),
+            ("snap-through onset, TC vs Fig. 7.16 'near 2.1 s' (s)", ONSET_FIG_7_16,
+             none if tc_on is None else tc_on),
+            ("instability type, TC (a snap-through is a divergence)", "divergence",
+             tc.instability_type or "none"),
             ("peak w/h before the snap, TC", None, tc_peak, "Fig. 7.16 (not tabulated)")]
     lc_on = lc_peak = None
     if config.run_lc:
         lc = run_lc(benchmark_model(config.lc_time_step, config.duration), "s2",
                     rho_bar=config.rho_bar, record_every=5)
         lc_on, lc_peak = snap_summary(lc)
-        rows += [(f"snap-through onset, LC S2 dt = {config.lc_time_step:g} s (s)", ONSET, lc_on),
+        rows += [(f"snap-through onset, LC S2 dt = {config.lc_time_step:g} s (s)", ONSET,
+                  none if lc_on is None else lc_on),
                  ("peak w/h before the snap, LC S2", None, lc_peak,
                   "Fig. 7.16 (not tabulated)"),
-                 ("TC onset - LC onset (s)", 0.0, None if (tc_on is None or lc_on is None)
-                  else tc_on - lc_on, "schemes 'almost identical' (Sec. 7.3.2.1)")]
-    return Result(tc_on, tc.instability_type, tc_peak, lc_on, lc_peak, side_by_side(rows))
+                 # "almost identical": within the onsets' own tolerance
+                 ("TC onset - LC onset (s)", Approx(0.0, abs=RTOL * ONSET),
+                  None if (tc_on is None or lc_on is None) else tc_on - lc_on,
+                  "schemes 'almost identical' (Sec. 7.3.2.1)")]
+    return Result(tc_on, tc.instability_type, tc_peak, lc_on, lc_peak,
+                  side_by_side(rows, rtol=RTOL))
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -17,13 +17,17 @@ from hypate.solvers.materials import isotropic
 from hypate.solvers.panel import Layer, PanelSpec
 from hypate.solvers.structure.modal import modes
 from hypate.solvers.structure.model import StructuralModel
-from hypate.studies.scripts._table import side_by_side, simple_main
+from hypate.studies.scripts.comparison import Approx, side_by_side, simple_main
 
 INCH, LBFT3, PSI = 0.0254, 16.018463373960142, 6894.757293168361
 #: Table 7.3, "Analytical, Hz [4]" column.
 ANALYTICAL_HZ = (109.7, 142.0, 199.8, 282.6, 285.5)
 #: Table 7.3, "Current, Hz" column (the dissertation's own DCS9 shell model).
 DISSERTATION_HZ = (110.0, 142.4, 200.3, 283.4, 286.4)
+#: Agreement asked: 1 % of the analytical values (the dissertation's DCS9 on this mesh sits
+#: 0.25-0.32 % high: the discretization error) and 0.2 % of its DCS9 values (the same
+#: element and mesh; the table rounds to 0.05-0.1 %).
+RTOL_ANALYTICAL, RTOL_DCS9 = 0.01, 0.002
 
 
 @dataclass(frozen=True)
@@ -57,10 +61,10 @@ def run(config: Config | None = None) -> Result:
     f = np.asarray(modes(StructuralModel(panel), config.count).frequencies_hz, dtype=float)
     rows = []
     for i in range(min(config.count, 5)):
-        rows.append((f"mode {i + 1} frequency (Hz), vs analytical [4]", ANALYTICAL_HZ[i],
-                     float(f[i])))
-        rows.append((f"mode {i + 1} frequency (Hz), vs dissertation DCS9", DISSERTATION_HZ[i],
-                     float(f[i])))
+        rows.append((f"mode {i + 1} frequency (Hz), vs analytical [4]",
+                     Approx(ANALYTICAL_HZ[i], rel=RTOL_ANALYTICAL), float(f[i])))
+        rows.append((f"mode {i + 1} frequency (Hz), vs dissertation DCS9",
+                     Approx(DISSERTATION_HZ[i], rel=RTOL_DCS9), float(f[i])))
     return Result(tuple(float(x) for x in f), side_by_side(rows))
 
 

@@ -46,10 +46,13 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 from hypate.solvers.coupling.lc import run_lc
-from hypate.studies.scripts._table import publish, side_by_side, standard_parser
 from hypate.studies.scripts.ch7_benchmark import benchmark_model
+from hypate.studies.scripts.comparison import Approx, publish, side_by_side, standard_parser
 
 FIELDS = ("displacement", "temperature", "pressure", "heat flux")
+#: Agreement asked (tests/solvers/coupling/test_verification.py): a rate of 2 +- 0.3 from
+#: a step triple; an energy exponent +- 0.15 from the fit over all steps.
+RATE_TOL, EXPONENT_TOL = 0.3, 0.15
 
 
 @dataclass(frozen=True)
@@ -133,13 +136,17 @@ def analyse(config: Config, runs: dict) -> Result:
         for s in ("s1", "s2"):
             for i, p in enumerate(rates[s][f]):
                 rows.append((f"{f}, {s.upper()}: rate, dt {steps[i] * 1e3:g}/{steps[i + 1] * 1e3:g}"
-                             f"/{steps[i + 2] * 1e3:g} ms", 2.0, float(p),
+                             f"/{steps[i + 2] * 1e3:g} ms", Approx(2.0, abs=RATE_TOL), float(p),
                              "Fig. 7.17: second order"))
         for i, r in enumerate(ratio[f]):
             rows.append((f"{f}: eps_S2 / eps_S1 at dt = {steps[i] * 1e3:g} ms", None, float(r),
-                         "Sec. 7.3.2.2: S2 below S1 (about 0.1 for u, p, q)"))
-    rows.append(("energy exponent, S1 (mean |dE| per step)", 3.0, expo["s1"], "Eq. (5.23)"))
-    rows.append(("energy exponent, S2 (mean |dE| per step)", 4.0, expo["s2"], "Eq. (5.24)"))
+                         "Sec. 7.3.2.2: about 0.1 for u, p, q (early regime; docstring)"))
+        rows.append((f"{f}: S2's error below S1's at every step", "yes",
+                     bool(np.all(ratio[f] < 1.0)), "Sec. 7.3.2.2"))
+    rows.append(("energy exponent, S1 (mean |dE| per step)", Approx(3.0, abs=EXPONENT_TOL),
+                 expo["s1"], "Eq. (5.23)"))
+    rows.append(("energy exponent, S2 (mean |dE| per step)", Approx(4.0, abs=EXPONENT_TOL),
+                 expo["s2"], "Eq. (5.24)"))
     return Result(tuple(steps), errors, rates, ratio, expo, energy, side_by_side(rows))
 
 

@@ -34,8 +34,8 @@ from hypate.solvers.flow import FlowCondition
 from hypate.solvers.materials import homogenized_stiffener, library_material
 from hypate.solvers.panel import Layer, PanelSpec
 from hypate.solvers.settings import SimulationSettings
-from hypate.studies.scripts._table import side_by_side, simple_main
 from hypate.studies.scripts.ch7_benchmark import benchmark_model
+from hypate.studies.scripts.comparison import Approx, Bound, side_by_side, simple_main
 
 #: Table 8.1 / 8.2: L_le/a -> (delta/a, RANS onset s or None, AM onset s).
 TABLE_8_2 = {0.5: (0.01, 0.13, 1.98), 1.0: (0.02, 1.38, 2.02), 1.5: (0.03, 2.64, 2.04),
@@ -44,6 +44,8 @@ TABLE_8_2 = {0.5: (0.01, 0.13, 1.98), 1.0: (0.02, 1.38, 2.02), 1.5: (0.03, 2.64,
 STIFFENERS = {"R12=1": (0.002, 0.06, 0.002, 0.06), "R12=inf": (0.004, 0.06, 0.0, 0.06),
               "R12=0": (0.0, 0.06, 0.004, 0.06)}
 T_MAX = 850.0  # K, T_MS / 1.4 (Sec. 8.3.1)
+#: Agreement asked of an onset time: 5 %, about one TC step (0.1 s) of a 2 s onset.
+RTOL = 0.05
 
 
 @dataclass(frozen=True)
@@ -89,6 +91,11 @@ class Result:
 
 def _onset(resp) -> float | None:
     return resp.instability_time if resp.status == "unstable" else None
+
+
+def _stable_if_none(onset: float | None) -> float | str:
+    """An onset time, or "stable" when the run ended without one (differs from a number)."""
+    return "stable" if onset is None else onset
 
 
 def stiffened_panel(case: str, flow_angle_deg: float, mesh: tuple[int, int]):
@@ -137,18 +144,18 @@ def run(config: Config | None = None) -> Result:
                                    leading_edge_length=L))
         onset_pt[L] = _onset(r)
         ref = TABLE_8_2.get(L)
+        runs = f"runs end at {config.bl_duration:g} s"
         rows.append((f"(a) onset, L_le/a = {L:g} (delta/a = {ref[0] if ref else '?'}), "
-                     "AM / hypate pt + Eckert (s)", ref[2] if ref else None, onset_pt[L],
-                     "Table 8.2 AM"))
+                     "AM / hypate pt + Eckert (s)", ref[2] if ref else None,
+                     _stable_if_none(onset_pt[L]), f"Table 8.2 AM; {runs}"))
         if config.bl_with_pt_bl:
             rb = run_tc(benchmark_model(config.bl_time_step, config.bl_duration, aero="pt-bl",
                                         leading_edge_length=L))
             onset_bl[L] = _onset(rb)
             rans = ref[1] if ref else None
             rows.append((f"(a) onset, L_le/a = {L:g}, RANS / hypate pt-bl (s)",
-                         rans if rans is not None else "stable", onset_bl[L]
-                         if onset_bl[L] is not None else f"stable to {config.bl_duration:g} s",
-                         "Table 8.2 RANS (BL pressure effect)"))
+                         rans if rans is not None else "stable", _stable_if_none(onset_bl[L]),
+                         f"Table 8.2 RANS (BL pressure effect); {runs}"))
     seq = [onset_pt[L] if onset_pt[L] is not None else math.inf
            for L in sorted(config.leading_edge_lengths)]
     delayed = bool(all(b >= a for a, b in zip(seq, seq[1:])) and seq[-1] > seq[0])
@@ -162,12 +169,15 @@ def run(config: Config | None = None) -> Result:
     r3 = run_tc(benchmark_model(config.time_step_3d, config.duration_3d, aero="pt",
                                 width=config.width_3d, mesh=config.mesh_3d))
     stable_3d = r3.status == "completed"
-    rows += [("(b) 2D panel onset (s)", "within 2.5 s", onset_2d, "Sec. 8.2.2"),
+    ratio_3d_2d = float(np.max(r3.center_deflection) / peak_2d)
+    rows += [("(b) 2D panel onset (s)", Bound("<=", 2.5, "within 2.5 s"),
+              _stable_if_none(onset_2d), "Sec. 8.2.2"),
              (f"(b) 3D panel (b = {config.width_3d:g} m) stable to {config.duration_3d:g} s",
-              "yes (to 5.0 s)", stable_3d, "Sec. 8.2.2; span of Fig. 8.8 not given in text"),
-             ("(b) 3D peak w / 2D pre-snap peak w", None,
-              float(np.max(r3.center_deflection) / peak_2d),
-              "3D deforms less (Figs. 8.9-8.10)")]
+              "yes", stable_3d, "Sec. 8.2.2 (to 5.0 s); span of Fig. 8.8 not given in text"),
+             ("(b) 3D peak w / 2D pre-snap peak w", None, ratio_3d_2d,
+              "Figs. 8.9-8.10 (not tabulated)"),
+             ("(b) the 3D panel deforms less than the 2D panel before its snap", "yes",
+              ratio_3d_2d < 1.0, "Figs. 8.9-8.10")]
     # (c) flow angle and orthotropy ------------------------------------------------------
     sec8_3: dict[tuple[str, float], dict[str, float | None]] = {}
     if config.run_sec8_3:
@@ -183,15 +193,21 @@ def run(config: Config | None = None) -> Result:
                 s = sec8_3[case, beta]
                 ref_start = (50.0 if (case == "R12=1" and beta == 0.0) else
                              48.0 if (case == "R12=0" and beta == 0.0) else None)
-                rows.append((f"(c) {case}, beta = {beta:g} deg: failure starts (s)", ref_start,
-                             s["failure_start"], "Sec. 8.3.4.1-2 text"))
+                never = f"none by {config.sec8_3_duration:g} s"
+                # a time is resolved to one TC step; 5 % where that is finer
+                rows.append((f"(c) {case}, beta = {beta:g} deg: failure starts (s)",
+                             None if ref_start is None else Approx(
+                                 ref_start, rel=RTOL, abs=config.sec8_3_time_step),
+                             never if s["failure_start"] is None else s["failure_start"],
+                             "Sec. 8.3.4.1-2 text"))
                 rows.append((f"(c) {case}, beta = {beta:g} deg: failed area at "
                              f"{config.sec8_3_duration:g} s (%)",
-                             "> 35" if (case == "R12=1" and beta == 30.0) else None,
+                             Bound(">", 35.0) if (case == "R12=1" and beta == 30.0) else None,
                              s["final_failed_percent"], "Figs. 8.23, 8.27"))
                 rows.append((f"(c) {case}, beta = {beta:g} deg: stability boundary, failed "
-                             "area > 25 % (s)", None, s["stability_boundary"],
-                             "Fig. 8.27 (read-off only)"))
+                             "area > 25 % (s)", None,
+                             never if s["stability_boundary"] is None
+                             else s["stability_boundary"], "Fig. 8.27 (read-off only)"))
         betas = sorted(config.flow_angles)
         if len(betas) > 1:
             for case in config.stiffener_cases:
@@ -216,7 +232,8 @@ def run(config: Config | None = None) -> Result:
                 rows.append(("(c) lower R12 extends the stability boundary (beta 0: "
                              "R12 = 0 >= 1 >= inf)", "yes", bool(bnd[0] >= bnd[1] >= bnd[2]),
                              "Sec. 8.3.4.2, Fig. 8.27"))
-    return Result(onset_pt, onset_bl, delayed, stable_3d, onset_2d, sec8_3, side_by_side(rows))
+    return Result(onset_pt, onset_bl, delayed, stable_3d, onset_2d, sec8_3,
+                  side_by_side(rows, rtol=RTOL))
 
 
 def main(argv: list[str] | None = None) -> None:

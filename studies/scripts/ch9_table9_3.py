@@ -24,7 +24,7 @@ from hypate.scaling.workflow.shipped import shipped
 from hypate.scaling.workflow.similarity import analytical_scaling, similarity_parameters
 from hypate.solvers.config import load_case
 from hypate.solvers.materials import library_material
-from hypate.studies.scripts._table import publish, side_by_side, standard_parser
+from hypate.studies.scripts.comparison import Approx, publish, side_by_side, standard_parser
 
 NAMES = ("h/L", "lambda_F", "DeltaT_NTx_L2/Dxx")
 #: Table 9.3 (prototype, then the optimized models at xi = 2, 3, 4).
@@ -32,6 +32,11 @@ PROTOTYPE = {"h/L": 0.002, "lambda_F": 566.07, "DeltaT_NTx_L2/Dxx": 47.882}
 OPTIMIZED = {2.0: {"h/L": 0.00201, "lambda_F": 566.85, "DeltaT_NTx_L2/Dxx": 47.581},
              3.0: {"h/L": 0.00200, "lambda_F": 561.38, "DeltaT_NTx_L2/Dxx": 47.759},
              4.0: {"h/L": 0.00200, "lambda_F": 566.69, "DeltaT_NTx_L2/Dxx": 47.671}}
+#: Agreement asked: the prototype row to 0.1 % (Table 9.1's properties give it exactly up
+#: to their rounding); a model row to 1 % (the dissertation's optimized models lie up to
+#: 0.8 % off its prototype); a design variable to 5 % of Eq. 9.2 (the numerically best
+#: model lies 1-3 % off it, README "Study files").
+RTOL_PROTOTYPE, RTOL_MODEL, RTOL_DESIGN = 0.001, 0.01, 0.05
 
 
 @dataclass(frozen=True)
@@ -74,13 +79,19 @@ def read_design_point(run_dir: str | Path) -> dict:
     return json.loads(path.read_text(encoding="utf-8"))
 
 
+def _model(value: float | None) -> Approx | None:
+    """A published model-row value with its tolerance."""
+    return None if value is None else Approx(value, rel=RTOL_MODEL)
+
+
 def run(config: Config | None = None) -> Result:
     """Tabulate Table 9.3 against hypate (Eqs. 9.1-9.3)."""
 
     config = Config() if config is None else config
     proto, template = sec9_1_configurations()
     p = similarity_parameters(proto, names=list(NAMES))
-    rows: list[tuple] = [(f"prototype {n}", PROTOTYPE[n], p[n]) for n in NAMES]
+    rows: list[tuple] = [(f"prototype {n}", Approx(PROTOTYPE[n], rel=RTOL_PROTOTYPE), p[n])
+                         for n in NAMES]
     analytical: dict[float, dict[str, float]] = {}
     designs: dict[float, dict[str, float]] = {}
     for xi in config.xis:
@@ -90,7 +101,7 @@ def run(config: Config | None = None) -> Result:
         ref = OPTIMIZED.get(float(xi), {})
         for n in NAMES:
             rows.append((f"xi = {xi:g} {n} (dissertation: BO model; hypate: Eq. 9.2)",
-                         ref.get(n), m[n]))
+                         _model(ref.get(n)), m[n]))
         for k, v in a.design().items():
             rows.append((f"xi = {xi:g} Eq. 9.2 design {k}", None, v, "Fig. 9.4 (not tabulated)"))
     optimized: dict[str, dict[str, float]] = {}
@@ -105,11 +116,13 @@ def run(config: Config | None = None) -> Result:
         optimized[str(d)] = {**{n: sim.get(n) for n in NAMES}, **dp.get("design", {})}
         ref = OPTIMIZED.get(xi, {})
         for n in NAMES:
-            rows.append((f"xi = {xi:g} {n} (optimized, {Path(d).name})", ref.get(n), sim.get(n)))
+            rows.append((f"xi = {xi:g} {n} (optimized, {Path(d).name})", _model(ref.get(n)),
+                         sim.get(n)))
         for k, v in dp.get("design", {}).items():
             rows.append((f"xi = {xi:g} optimized design {k} ({Path(d).name})",
                          designs.get(xi, {}).get(k), v, "dissertation column: Eq. 9.2 value"))
-    return Result(dict(p), analytical, designs, optimized, side_by_side(rows))
+    return Result(dict(p), analytical, designs, optimized,
+                  side_by_side(rows, rtol=RTOL_DESIGN))
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
-from hypate.studies.scripts._table import publish, side_by_side, standard_parser
+from hypate.studies.scripts.comparison import Bound, publish, side_by_side, standard_parser
 
 #: Table 9.8 (p0 in MPa).
 TABLE_9_8 = {
@@ -54,6 +54,10 @@ TABLE_9_11 = {
     7.0: (5.22, 3.58, 2.43, 5.17, 2.01),
 }
 ALTITUDES_KM = (20.0, 22.0, 25.0, 28.0, 30.0)
+#: Agreement asked of a design variable or an error: 10 %, the threshold at which the run
+#: report highlights a similarity mismatch (a design point is one of many near-optimal
+#: designs; the tables give 4 digits of one of them).
+RTOL = 0.10
 TABLES = {"9.8": TABLE_9_8, "9.9": TABLE_9_9, "9.10": TABLE_9_10}
 
 
@@ -152,7 +156,7 @@ def run(config: Config | None = None) -> Result:
                          f"{dp.get('study')} ({path.name})"))
         for name, val in dp.get("objectives", {}).items():
             rows.append((f"Table {table} {col} {name} at the design point (%)",
-                         "< 10" if table == "9.8" else None, 100.0 * float(val),
+                         Bound("<", 10.0) if table == "9.8" else None, 100.0 * float(val),
                          {"9.8": "Fig. 9.9 / Sec. 9.2.2: response errors < 10 %",
                           "9.9": "Fig. 9.13 Case 1: no good design in any realistic tunnel",
                           "9.10": "Fig. 9.13 Case 2: approximate similarity in every tunnel",
@@ -164,7 +168,7 @@ def run(config: Config | None = None) -> Result:
             for col, vals in cols.items():
                 for name, ref in vals.items():
                     rows.append((f"Table {table} {col} {name}", ref, None, "no run directory"))
-    return Result(points, objectives, errors, side_by_side(rows))
+    return Result(points, objectives, errors, side_by_side(rows, rtol=RTOL))
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -324,8 +324,9 @@ ROWS = [
         {"r.toml": ROM_BUILD}),
     row("rom-build-samples-few", "rom build r.toml --out rom.npz --samples 2", "--samples",
         {"r.toml": ROM_BUILD}),
-    row("rom-build-out-missing-dir", "rom build r.toml --out no/rom.npz", "--out",
-        {"r.toml": ROM_BUILD}),
+    # a missing folder of --out is made (as for `hypate run --out runs/...`); a file is not
+    row("rom-build-out-under-a-file", "rom build r.toml --out notes/rom.npz", "--out",
+        {"r.toml": ROM_BUILD, "notes": "mine"}, says=("is not a directory",)),
     row("rom-plan-groups-zero", "rom plan r.toml --out plan.csv --groups 0", "--groups",
         {"r.toml": ROM_BUILD}),
     row("bench-rom-counts-zero", "bench rom --counts 0", "--counts"),

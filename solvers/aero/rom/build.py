@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Callable
 from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
@@ -25,8 +26,24 @@ from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.numerics.random import as_rng
 
-__all__ = ["build_rom", "build_rom_from_config", "check_rom", "check_samples",
+__all__ = ["BUILD_STEPS", "build_rom", "build_rom_from_config", "check_rom", "check_samples",
            "geometry_from_config", "nrmse", "snapshots_path"]
+
+#: The steps of a build, in order, as named to a ``progress(step, done, total)`` callback:
+#: source samples (``done`` of ``total`` samples; external snapshots are read in one go),
+#: then the pressure and the heat-flux POD-kriging (the POD, one kriging fit per optimized
+#: POD coefficient, the multi-output model).
+BUILD_STEPS = ("snapshots", "pressure POD-kriging", "heat-flux POD-kriging")
+
+#: ``progress(step, done, total)``: ``step`` one of :data:`BUILD_STEPS`.
+BuildProgress = Callable[[str, int, int], None]
+
+
+def _stage(progress: BuildProgress | None, step: str) -> Callable[[int, int], None] | None:
+    """The ``(done, total)`` callback of one build step (None without ``progress``)."""
+    if progress is None:
+        return None
+    return lambda done, total: progress(step, done, total)
 
 
 def nrmse(reference: Array, predicted: Array, weights: Array) -> Array:
@@ -45,13 +62,17 @@ def build_rom(geometry: RomGeometry, reference: FlowCondition, inputs: Array,
               trend: str = "linear", n_restarts: int = 2,
               source: dict[str, Any] | None = None, regime: str = "turbulent",
               rng: np.random.Generator | int | None = None,
-              optimized_modes: int = 3) -> RomFluid:
-    """Fit a ROM from samples ``inputs`` (N_s, N_d) and snapshots (N_s, n) each."""
+              optimized_modes: int = 3, progress: BuildProgress | None = None) -> RomFluid:
+    """Fit a ROM from samples ``inputs`` (N_s, N_d) and snapshots (N_s, n) each.
+
+    ``progress(step, done, total)`` reports the two POD-kriging steps of
+    :data:`BUILD_STEPS`.
+    """
     rng = as_rng(rng)
     p_model = PodKriging(tolerance, kernel, trend, n_restarts, rng, optimized_modes).fit(
-        inputs, pressure, bounds)
+        inputs, pressure, bounds, progress=_stage(progress, BUILD_STEPS[1]))
     q_model = PodKriging(tolerance, kernel, trend, n_restarts, rng, optimized_modes).fit(
-        inputs, heat_flux, bounds)
+        inputs, heat_flux, bounds, progress=_stage(progress, BUILD_STEPS[2]))
     return RomFluid(geometry, reference, p_model, q_model, kind=kind, regime=regime,
                     source=source)
 
@@ -72,12 +93,23 @@ def snapshots_path(cfg: RomBuildConfig, base_dir: str | Path | None = None) -> P
 
 
 def build_rom_from_config(cfg: RomBuildConfig, base_dir: str | Path | None = None,
-                          executor: Executor | None = None, samples: int | None = None
-                          ) -> RomFluid:
+                          executor: Executor | None = None, samples: int | None = None,
+                          progress: BuildProgress | None = None) -> RomFluid:
     """Build the ROM described by a :class:`~hypate.solvers.aero.rom.config.RomBuildConfig`:
     OLH plan + built-in source (or external snapshots) + POD-kriging.
 
-    ``samples`` overrides ``[training] samples``.
+    Parameters
+    ----------
+    cfg : RomBuildConfig
+    base_dir : str or Path, optional
+        Folder that relative snapshot paths are taken from.
+    executor : concurrent.futures.Executor, optional
+        Runs the source samples (in chunks).
+    samples : int, optional
+        Overrides ``[training] samples``.
+    progress : callable, optional
+        ``progress(step, done, total)`` as each step of :data:`BUILD_STEPS` advances (the
+        caller decides how to show it; the builder prints nothing).
     """
     geometry = geometry_from_config(cfg)
     reference = cfg.reference.flow()
@@ -104,22 +136,26 @@ def build_rom_from_config(cfg: RomBuildConfig, base_dir: str | Path | None = Non
             P[i:i + 1], Q[i:i + 1] = generate_samples(geometry, row[None, 2:2 + n_s],
                                                       row[None, -1], flow, source=src)
             D[i] = np.r_[flow.mach, flow.pressure, flow.temperature, row[2:]]
+            if progress is not None:
+                progress(BUILD_STEPS[0], i + 1, N)
         return build_rom(geometry, reference, D, P, Q, kind="conventional",
                          tolerance=tr.pod_tolerance, kernel=tr.kernel, trend=tr.trend,
                          n_restarts=tr.restarts, source=src, regime=cfg.source.regime, rng=rng,
-                     optimized_modes=tr.optimized_modes)
+                         optimized_modes=tr.optimized_modes, progress=progress)
     bounds = np.vstack([a_bounds, t_bounds])
     if cfg.source.kind == "snapshots":
         D, P, Q = read_snapshots(snapshots_path(cfg, base_dir), geometry)
         bounds = np.stack([np.minimum(bounds[:, 0], D.min(axis=0)),
                            np.maximum(bounds[:, 1], D.max(axis=0))], axis=1)
+        if progress is not None:
+            progress(BUILD_STEPS[0], D.shape[0], D.shape[0])
     else:
         D = olh_plan(bounds, samples or tr.samples, rng)
         P, Q = generate_samples(geometry, D[:, :n_s], D[:, -1], reference, source=src,
-                                executor=executor)
+                                executor=executor, progress=_stage(progress, BUILD_STEPS[0]))
     return build_rom(geometry, reference, D, P, Q, bounds=bounds, tolerance=tr.pod_tolerance,
                      kernel=tr.kernel, trend=tr.trend, n_restarts=tr.restarts, source=src,
-                     regime=cfg.source.regime, rng=rng)
+                     regime=cfg.source.regime, rng=rng, progress=progress)
 
 
 def check_samples(rom: RomFluid, n_samples: int, temperature: str = "uniform",

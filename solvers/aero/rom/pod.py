@@ -13,6 +13,8 @@ Both know nothing of panels or flows: inputs ``d`` and snapshots ``y`` are plain
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from hypate.solvers.aero.base import Array
 from hypate.solvers.errors import InputError
@@ -122,11 +124,20 @@ class PodKriging:
         self.n_restarts = n_restarts
         self.rng = rng
 
-    def fit(self, D: Array, Y: Array, bounds: Array | None = None) -> PodKriging:
+    def fit(self, D: Array, Y: Array, bounds: Array | None = None,
+            progress: Callable[[int, int], None] | None = None) -> PodKriging:
         """Fit on inputs ``D`` (N_s, N_d) and snapshots ``Y`` (N_s, n).
 
-        ``bounds`` (N_d, 2) define the unit box of the trend and the kriging (default: data
-        range).
+        Parameters
+        ----------
+        D : ndarray of shape (N_s, N_d)
+        Y : ndarray of shape (N_s, n)
+        bounds : ndarray of shape (N_d, 2), optional
+            Unit box of the trend and the kriging (default: data range).
+        progress : callable, optional
+            ``progress(done, total)`` after the POD and after each kriging fit (one per
+            optimized POD coefficient, then the multi-output model): ``total`` is
+            ``min(optimized_modes, N_p) + 2``.
         """
         D = np.asarray(D, float)
         Y = np.asarray(Y, float)
@@ -139,6 +150,13 @@ class PodKriging:
             bounds = np.stack([D.min(axis=0), D.max(axis=0)], axis=1)
         self.bounds_ = np.asarray(bounds, float)
         self.pod_ = PodBasis(self.tolerance).fit(Y)
+        total = min(self.optimized_modes, self.n_modes) + 2
+
+        def report(done: int) -> None:
+            if progress is not None:
+                progress(done, total)
+
+        report(1)
         C = self.pod_.project(Y)
         trend = self.trend
         if trend == "quadratic" and D.shape[0] < 2 * _trend_basis(D[:1], "quadratic")[0].shape[1]:
@@ -149,19 +167,19 @@ class PodKriging:
         F, _ = _trend_basis(self._unit(D), trend)
         self.beta_f_, *_ = np.linalg.lstsq(F, C, rcond=None)  # least-squares trend, Eq. (A.2)
         R = C - F @ self.beta_f_
-        self.gp_ = self._fit_gps(D, R)
+        self.gp_ = self._fit_gps(D, R, report)
         self.D_ = D
         self.C_ = C
         return self
 
-    def _fit_gps(self, D: Array, R: Array) -> KrigingRegressor:
+    def _fit_gps(self, D: Array, R: Array, report: Callable[[int], None]) -> KrigingRegressor:
         """One kriging model per POD coefficient (Eq. 2.58) with its own hyperparameters.
 
         The likelihood is maximized (with ``n_restarts`` restarts) for the first
         coefficient; each further coefficient starts from the previous optimum (warm start,
         no restarts); beyond ``optimized_modes`` the hyperparameters are inherited. One
         multi-output :class:`KrigingRegressor` with the fixed hyperparameters then serves
-        every prediction.
+        every prediction. ``report(done)`` follows :meth:`fit`'s ``progress`` count.
         """
         rng = as_rng(self.rng)
         n_p = R.shape[1]
@@ -175,8 +193,11 @@ class PodKriging:
                                   theta0=None if j == 0 else thetas[-1][None, :],
                                   rng=rng).fit(D, R[:, j])
             thetas.append(gp.theta_[0])
-        return KrigingRegressor(kernel=self.kernel, bounds=self.bounds_,
-                                theta0=np.array(thetas), optimize=False).fit(D, R)
+            report(j + 2)
+        gp = KrigingRegressor(kernel=self.kernel, bounds=self.bounds_,
+                              theta0=np.array(thetas), optimize=False).fit(D, R)
+        report(min(self.optimized_modes, n_p) + 2)
+        return gp
 
     def _unit(self, D: Array) -> Array:
         lo, hi = self.bounds_[:, 0], self.bounds_[:, 1]

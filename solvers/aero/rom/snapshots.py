@@ -25,6 +25,7 @@ Every sample must give every grid point exactly once.
 from __future__ import annotations
 
 import csv
+from collections.abc import Callable
 from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
@@ -55,13 +56,16 @@ def _source_chunk(geometry: RomGeometry, source_opts: dict[str, Any], flow: Flow
 def generate_samples(geometry: RomGeometry, amplitudes: Array, wall_temperature: Array,
                      flow: FlowCondition, scale: float = 1.0,
                      source: dict[str, Any] | None = None, executor: Executor | None = None,
-                     chunk_size: int = 50) -> tuple[Array, Array]:
+                     chunk_size: int = 50,
+                     progress: Callable[[int, int], None] | None = None
+                     ) -> tuple[Array, Array]:
     """Source snapshots (pressure ``p - p_inf`` and heat flux, each (N, n)) for modal
     amplitudes (N, N_S) in units of the reference thickness and wall temperatures (N,)
     uniform or (N, n), on the panel scaled by ``1/scale``.
 
     Chunks of ``chunk_size`` samples go to ``executor`` (any ``concurrent.futures.Executor``,
     e.g. a ``ProcessPoolExecutor`` or a dask ``Client``); ``None`` runs them in-process.
+    ``progress(done, N)`` is called with the samples finished after each chunk (in order).
     """
     A = np.atleast_2d(np.asarray(amplitudes, float))
     N = A.shape[0]
@@ -76,12 +80,14 @@ def generate_samples(geometry: RomGeometry, amplitudes: Array, wall_temperature:
                          "generate samples")
     bounds = list(range(0, N, chunk_size)) + [N]
     jobs = [(A[s:e], T[s:e]) for s, e in zip(bounds[:-1], bounds[1:])]
-    if executor is None:
-        parts = [_source_chunk(geometry, opts, flow, scale, a, t) for a, t in jobs]
-    else:
-        futures = [executor.submit(_source_chunk, geometry, opts, flow, scale, a, t)
-                   for a, t in jobs]
-        parts = [f.result() for f in futures]
+    futures = None if executor is None else [
+        executor.submit(_source_chunk, geometry, opts, flow, scale, a, t) for a, t in jobs]
+    parts = []
+    for k, (a, t) in enumerate(jobs):
+        parts.append(_source_chunk(geometry, opts, flow, scale, a, t) if futures is None
+                     else futures[k].result())
+        if progress is not None:
+            progress(bounds[k + 1], N)
     return np.concatenate([p for p, _ in parts]), np.concatenate([q for _, q in parts])
 
 

@@ -9,8 +9,9 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import REPO
+from conftest import REPO, SMALL_ROM, toml_text
 from hypate.scaling.cli.main import main
+from hypate.solvers.aero.rom.build import BUILD_STEPS
 
 SMALL_TOML = """
 [panel]
@@ -131,3 +132,37 @@ def test_bench_rom_prints_table(capsys: pytest.CaptureFixture, tmp_path: Path) -
     out = capsys.readouterr().out
     assert "samples" in out and len([ln for ln in out.splitlines() if ln.strip()[:2]
                                      in ("10", "20")]) == 2
+
+
+def test_build_progress_on_stderr_without_a_terminal_and_quiet(tmp_path: Path) -> None:
+    (tmp_path / "small.toml").write_text(toml_text(SMALL_ROM))
+    # captured stderr is a pipe, not a terminal: a line per finished step, no bar
+    res = _hypate("rom", "build", str(tmp_path / "small.toml"), "--out",
+                  str(tmp_path / "a.npz"), "--json")
+    assert res.returncode == 0, res.stderr
+    assert json.loads(res.stdout)["samples"] == 50  # stdout stays the result
+    lines = res.stderr.strip().splitlines()
+    assert [line.split(" ")[2] for line in lines[:1]] == ["snapshots"]
+    for step in BUILD_STEPS:
+        assert any(line.startswith(f"rom build: {step} ") and " done, " in line
+                   for line in lines), (step, lines)
+    assert "\r" not in res.stderr and "%|" not in res.stderr
+    quiet = _hypate("rom", "build", str(tmp_path / "small.toml"), "--out",
+                    str(tmp_path / "b.npz"), "-q")
+    assert quiet.returncode == 0 and quiet.stderr == ""
+    assert quiet.stdout.startswith("ROM (scaled) from 50 samples")
+
+
+def test_build_makes_missing_folders_of_out_and_refuses_a_file_as_folder(
+        tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    (tmp_path / "small.toml").write_text(SMALL_TOML)
+    out = tmp_path / "runs" / "roms" / "small.npz"  # as the README's runs/... on a fresh clone
+    assert main(["rom", "build", str(tmp_path / "small.toml"), "--out", str(out), "-q",
+                 "--samples", "12"]) == 0
+    assert out.is_file()
+    (tmp_path / "file").write_text("")
+    capsys.readouterr()
+    assert main(["rom", "build", str(tmp_path / "small.toml"), "--out",
+                 str(tmp_path / "file" / "x.npz"), "-q"]) == 2
+    assert "is not a directory" in capsys.readouterr().err
+    assert not (tmp_path / "file" / "x.npz").exists()

@@ -9,7 +9,7 @@ from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import richardson_derivative
+from conftest import assert_matches_richardson, richardson_derivative, richardson_jacobian
 from hypate.scaling.engine.acquisition import Acquisition, ExpectedImprovement
 from hypate.scaling.engine.benchmarks import (
     Branin,
@@ -516,13 +516,14 @@ def test_batch_of_two_halves_wall_time_on_two_workers(tmp_path):
 
 
 def test_test_surface_gradient_matches_central_differences():
-    # the oracle of the inner-optimization tests: its analytic gradient (1e-6 relative)
+    # the oracle of the inner-optimization tests: its analytic gradient, within the
+    # difference's own measured error (conftest.richardson_derivative)
     acq = _Surface()
     X = np.random.default_rng(0).uniform(0, 1, (20, 2))
     _, g = acq.value_and_gradient(X)
-    h = 1e-6
-    fd = np.stack([(acq.f(X + h * e) - acq.f(X - h * e)) / (2 * h) for e in np.eye(2)], 1)
-    assert np.allclose(g, fd, rtol=1e-6, atol=1e-6 * np.abs(fd).max())
+    cols = [richardson_derivative(lambda t, e=e: acq.f(X + t * e), 2e-6) for e in np.eye(2)]
+    fd, bound = (np.stack([c[k] for c in cols], axis=1) for k in (0, 1))
+    assert_matches_richardson(g, fd, bound, "surface gradient")
 
 
 # -------------------------------------------------------------- input coordinates
@@ -549,13 +550,10 @@ def test_log_linear_coordinates_jacobian_and_box():
     bounds = np.array([[2e-4, 1.2e-3], [3e3, 1.1e4], [0.5, 4.5]])
     X = bounds[:, 0] * (bounds[:, 1] / bounds[:, 0]) ** rng.random((5, 3))
     J = coords.jacobian(X)
-    for j in range(3):  # central differences, relative step 1e-6
-        h = 1e-6 * X[:, j]
-        Xp, Xm = X.copy(), X.copy()
-        Xp[:, j] += h
-        Xm[:, j] -= h
-        fd = (coords(Xp) - coords(Xm)) / (2 * h[:, None])
-        assert np.allclose(J[:, :, j], fd, rtol=1e-7, atol=0.0)
+    for i in range(5):  # extrapolated central differences, relative step 2e-6
+        fd, bound = richardson_jacobian(lambda x: coords(x[None])[0], X[i], 2e-6 * X[i])
+        # tolerance: the difference's own measured error (conftest.richardson_derivative)
+        assert_matches_richardson(J[i], fd, bound, ("dz/dx", i))
     # the box is the tight bounding box of the image: every corner inside, bounds attained
     corners = np.array(np.meshgrid(*bounds, indexing="ij")).reshape(3, -1).T
     Z, box = coords(corners), coords.box(bounds)
@@ -576,10 +574,11 @@ def test_warped_surrogate_gradients_match_finite_differences():
     assert np.allclose(mu[:, 0], res.F[:, 0], atol=1e-4)
     x = np.array([[1.3, 7.0], [2.5, 30.0]])
     mean, std, dmean, dstd = model.predict_with_gradients(x)
-    # Tolerance: the Richardson bound of the difference itself (measured, so it holds on any
-    # floating-point kernels) plus 1e-6 relative. The old check (h = 1e-6 x, rel 1e-5) sat
-    # at the rounding error of the GP's own prediction and failed on some machines. Step
-    # 1e-4 x: truncation ~1e-8 relative; a wrong chain-rule factor is off by O(1) and fails.
+    # Tolerance: the Richardson bound of the difference itself (measured truncation and
+    # rounding, so it holds on any floating-point kernels). The old check (h = 1e-6 x,
+    # rel 1e-5) sat at the rounding error of the GP's own prediction and failed on some
+    # machines. Step 1e-4 x: truncation ~1e-8 relative; a wrong chain-rule factor is off
+    # by O(1) and fails.
     for j in range(2):
         e = np.zeros(2)
         e[j] = 1.0
@@ -588,8 +587,7 @@ def test_warped_surrogate_gradients_match_finite_differences():
                 return np.concatenate(model.predict_moments(x[i:i + 1] + t * e))[:, 0]
             fd, bound = richardson_derivative(moments, 1e-4 * x[i, j])
             assert bound.max() < 1e-3 * np.abs(fd).max()  # the difference resolves the slope
-            for got, ref, err in zip((dmean[i, 0, j], dstd[i, 0, j]), fd, bound):
-                assert abs(got - ref) <= err + 1e-6 * abs(ref)
+            assert_matches_richardson([dmean[i, 0, j], dstd[i, 0, j]], fd, bound, (i, j))
 
 
 def test_similarity_coordinates_find_an_oblique_valley():

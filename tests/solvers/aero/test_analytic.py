@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import assert_matches_richardson, richardson_jacobian
 from hypate.solvers.aero.analytic import (
     AnalyticFluid,
     BoundaryLayerShape,
@@ -79,14 +80,6 @@ def test_jacobians_match_central_differences(aero: str, angle: float) -> None:
         out = model.evaluate(pts, st, M6_25KM)
         return np.concatenate([out.pressure, out.heat_flux])
 
-    def fd(fun, x, h):
-        cols = []
-        for i in range(x.size):
-            e = np.zeros_like(x)
-            e[i] = h
-            cols.append((fun(x + e) - fun(x - e)) / (2 * h))
-        return np.array(cols).T
-
     n = pts.n
     checks = [
         ("w", state.displacement, 1e-7, lambda w: run(w, state.velocity, state.wall_temperature),
@@ -97,12 +90,12 @@ def test_jacobians_match_central_differences(aero: str, angle: float) -> None:
          np.vstack([J["dp_dTw"], J["dq_dTw"]])),
     ]
     for name, x, h, fun, analytic in checks:
-        numeric = fd(fun, x, h)
+        numeric, bound = richardson_jacobian(fun, x, 2 * h)
+        # tolerance: the extrapolated difference's own measured error (truncation and
+        # rounding, conftest.richardson_derivative), entry by entry
         for rows, label in ((slice(0, n), "p"), (slice(n, 2 * n), "q")):
-            a, b = analytic[rows], numeric[rows]
-            scale = max(np.abs(b).max(), 1e-300)
-            # acceptance: Jacobians agree with central differences to 1e-6 relative
-            assert np.abs(a - b).max() <= 1e-6 * scale, f"d{label}/d{name} ({aero})"
+            assert_matches_richardson(analytic[rows], numeric[rows], bound[rows],
+                                      f"d{label}/d{name} ({aero})")
 
 
 def test_effective_shape_thickens_downstream_and_raises_pressure() -> None:

@@ -1,12 +1,12 @@
-"""Building and checking ROMs (solvers/aero/rom/build.py): the Sec. 7.1 acceptance sizes
-(``slow``)."""
+"""Building and checking ROMs (solvers/aero/rom/build.py): progress reporting, and the
+Sec. 7.1 acceptance sizes (``slow``)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import ROM_STUDY
-from hypate.solvers.aero.rom.build import build_rom_from_config, check_rom
-from hypate.solvers.aero.rom.config import load_rom_config
+from conftest import ROM_STUDY, SMALL_ROM
+from hypate.solvers.aero.rom.build import BUILD_STEPS, build_rom_from_config, check_rom
+from hypate.solvers.aero.rom.config import load_rom_config, parse_rom_config
 from hypate.solvers.aero.rom.model import RomFluid
 from hypate.solvers.flow import FlowCondition
 
@@ -16,6 +16,26 @@ def study_rom() -> RomFluid:
     cfg, base = load_rom_config(ROM_STUDY)
     assert cfg.training.samples <= 200
     return build_rom_from_config(cfg, base)
+
+
+def test_build_reports_every_step_in_order_and_the_same_rom() -> None:
+    calls: list[tuple[str, int, int]] = []
+    cfg = parse_rom_config(SMALL_ROM)
+    rom = build_rom_from_config(cfg, progress=lambda *c: calls.append(c))
+    assert [s for s in dict.fromkeys(c[0] for c in calls)] == list(BUILD_STEPS)
+    for step in BUILD_STEPS:
+        done = [c[1] for c in calls if c[0] == step]
+        totals = {c[2] for c in calls if c[0] == step}
+        assert len(totals) == 1 and done == sorted(done) and done[-1] == totals.pop(), step
+    # 50 samples in one chunk of 50; each POD-kriging counts one by one: the POD, a fit per
+    # optimized coefficient (at least one), the multi-output model
+    assert [c for c in calls if c[0] == "snapshots"] == [("snapshots", 50, 50)]
+    for step in BUILD_STEPS[1:]:
+        done = [c[1] for c in calls if c[0] == step]
+        assert done == list(range(1, len(done) + 1)) and len(done) >= 3, step
+    # reporting does not change the build
+    quiet = build_rom_from_config(cfg)
+    np.testing.assert_array_equal(rom.pressure_model.gp_.theta_, quiet.pressure_model.gp_.theta_)
 
 
 @pytest.mark.slow

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import SMALL_ROM, fd4, rom_state
+from conftest import SMALL_ROM, assert_matches_richardson, richardson_jacobian, rom_state
 from hypate.solvers.aero.base import SurfacePoints, SurfaceState, dense
 from hypate.solvers.aero.rom.build import build_rom_from_config, check_rom, nrmse
 from hypate.solvers.aero.rom.config import parse_rom_config
@@ -44,23 +44,23 @@ def test_rom_jacobians_match_central_differences(small_rom: RomFluid, correction
     pts, st = rom_state(small_rom.geometry, scale, [3.0, -1.0, 0.5], velocity=0.3)
     J = fluid.evaluate(pts, st, flow, jacobians=True).jacobians
     fields = {"w": "displacement", "ws": "slope", "wdot": "velocity", "Tw": "wall_temperature"}
-    steps = {"w": 1e-5 / scale, "ws": 1e-5, "wdot": 1e-3, "Tw": 1.0}
+    # steps where the extrapolated difference's truncation and rounding (the GP's noise
+    # over h) balance: its measured bound stays ~1e-7 of the largest slope
+    steps = {"w": 4e-4 / scale, "ws": 2e-5, "wdot": 2e-3, "Tw": 2.0}
     for key, name in fields.items():
-        def f(v, name=name):
-            kw = {k: getattr(st, k) for k in fields.values()}
-            kw[name] = v
-            loads = fluid.evaluate(pts, SurfaceState(**kw), flow)
-            return np.r_[loads.pressure, loads.heat_flux]
+        for part in ("pressure", "heat_flux"):
+            def f(v, name=name, part=part):
+                kw = {k: getattr(st, k) for k in fields.values()}
+                kw[name] = v
+                return getattr(fluid.evaluate(pts, SurfaceState(**kw), flow), part)
 
-        fd = fd4(f, getattr(st, name), steps[key])
-        an = np.vstack([dense(J["dp_d" + key]), dense(J["dq_d" + key])])
-        for part in (slice(0, pts.n), slice(pts.n, 2 * pts.n)):
-            ref = np.linalg.norm(fd[part])
-            if ref == 0.0:
-                assert np.linalg.norm(an[part]) == 0.0, key
+            fd, bound = richardson_jacobian(f, getattr(st, name), steps[key])
+            an = dense(J[("dp_d" if part == "pressure" else "dq_d") + key])
+            if not np.any(fd):
+                assert not np.any(an), key
                 continue
-            # acceptance: 1e-5 relative (Frobenius) against central differences
-            assert np.linalg.norm(an[part] - fd[part]) / ref < 1e-5, (key, part)
+            # tolerance: the difference's own measured error (conftest.richardson_derivative)
+            assert_matches_richardson(an, fd, bound, (key, part))
 
 
 def test_rom_on_another_grid_and_projection(small_rom: RomFluid) -> None:
