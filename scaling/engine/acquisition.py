@@ -126,10 +126,9 @@ class Acquisition(ABC):
     #: ``True`` for acquisitions of several objectives (registry checks the problem).
     multi_objective: bool = False
 
-    @classmethod
-    def from_context(cls, model: Model, context: AcquisitionContext) -> Acquisition:
-        """The acquisition for one proposal (what :data:`ACQUISITIONS` entries provide)."""
-        raise NotImplementedError(f"{cls.__name__} cannot be built from a context")
+    # Every class in :data:`ACQUISITIONS` also has a classmethod
+    # ``from_context(model, context)`` building it for one proposal; an acquisition made by
+    # hand (a user's factory) needs none, so the base class declares no placeholder for it.
 
     def __init__(self, model: Model) -> None:
         self.model = model

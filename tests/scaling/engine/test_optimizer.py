@@ -1,5 +1,8 @@
 """The BO loop, the multistart inner optimization, constraints, failures, batches,
-executors and resume (scaling/optimizer.py)."""
+executors and resume (scaling/engine/optimizer.py).
+
+Size: about 645 lines, one test file for one module (the tests mirror the tree); the
+executor and fault cases have their own files (test_executors.py, tests/reliability/)."""
 from __future__ import annotations
 
 import dataclasses
