@@ -26,11 +26,13 @@ from hypate.scaling.workflow.run import run_study
 from hypate.scaling.workflow.rundir import (
     DESIGN_POINT_JSON,
     REPORT_HTML,
+    SEEDS_CSV,
     STORE,
     SWEEP_CSV,
     describe_occurrences,
     worst_objective,
 )
+from hypate.scaling.workflow.seeds import seed_directory, seed_list, write_seeds_summary
 from hypate.scaling.workflow.shipped import default_study, resolve
 from hypate.scaling.workflow.study import load_study
 from hypate.scaling.workflow.sweep import run_sweep
@@ -77,6 +79,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="a cluster whose scheduler is unreachable, or which has no worker, "
                    "for this long is lost: the run stops with exit code 3")
     p.add_argument("--seed", type=int, help="override the study's optimizer seed")
+    p.add_argument("--seeds", type=int, metavar="N",
+                   help="run the study once per seed S, S+1, ..., S+N-1 (S: --seed or the "
+                   "study's) into --out/seed-<s>/ and write --out/seeds.json and seeds.csv: "
+                   "each seed's design point and the spread; each report shows the spread "
+                   "(default: one run)")
     p.add_argument("--json", action="store_true", help="print one JSON object at the end "
                    '{"directory", "report", "evaluations", "new_evaluations", "seconds", '
                    '"design_point"} (progress still goes to stderr)')
@@ -91,7 +98,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run, field_flags={"out": "--out", "resume": "--resume",
                                           "workers": "--workers", "scheduler": "--scheduler",
                                           "seed": "--seed", "seed_runs": "--seed-from",
-                                          "lost_after": "--cluster-timeout"})
+                                          "lost_after": "--cluster-timeout", "seeds": "--seeds"})
 
 
 class Progress:
@@ -237,8 +244,12 @@ def failure_reasons(run_dir: Path, limit: int = 5) -> list[str]:
 
 
 def resume_command(args: argparse.Namespace, out: Path) -> str:
-    """The command that continues an interrupted run."""
+    """The command that continues an interrupted run (of every seed, for ``--seeds``)."""
     study = f" {args.study}" if args.study else ""
+    seeds = getattr(args, "seeds_run", None)
+    if seeds is not None:  # one seed of a --seeds run: continue them all
+        first, n, parent = seeds
+        return f"hypate run{study} --seeds {n} --seed {first} --out {parent} --resume"
     return f"hypate run{study} --out {out} --resume"
 
 
@@ -284,7 +295,17 @@ def run(args: argparse.Namespace) -> int:
         if args.seed_from:
             raise InputError("--seed-from", "not available for sweep studies (their points "
                              "are seeded by recycling, [sweep] recycle)")
+        if args.seeds is not None:
+            raise InputError("--seeds", "not available for sweep studies (run the sweep "
+                             "once per --seed instead)")
         return _run_sweep(args, study, out, t0)
+    if args.seeds is not None:
+        return _run_seeds(args, study, out, say)
+    return _run_one(args, study, out, t0, say)
+
+
+def _run_one(args: argparse.Namespace, study, out: Path, t0: float, say) -> int:
+    """One optimization run of a (non-sweep) study into ``out``."""
     # refuse a bad setting or another campaign before anything is simulated or written
     preflight(study, out, resume=args.resume, seed=args.seed, workers=args.workers,
               scheduler=args.scheduler)
@@ -335,6 +356,38 @@ def run(args: argparse.Namespace) -> int:
     if not math.isfinite(point["statistics"].get("wall_seconds") or 0.0):
         return EXIT_NO_RESULT
     return 0
+
+
+def _run_seeds(args: argparse.Namespace, study, out: Path, say) -> int:
+    """``--seeds N``: one run per seed into ``out/seed-<s>``; the summary after each."""
+    if args.json:
+        raise InputError("--json", "not available with --seeds (seeds.json holds the result)")
+    first = study.optimizer.seed if args.seed is None else args.seed
+    seeds = seed_list(first, args.seeds)
+    out.mkdir(parents=True, exist_ok=True)
+    failed = 0
+    for k, seed in enumerate(seeds):
+        sub = seed_directory(out, seed)
+        say(f"[seed {k + 1}/{len(seeds)}] seed {seed}: {sub}")
+        one = argparse.Namespace(**{**vars(args), "seed": seed, "out": str(sub),
+                                    "resume": args.resume and (sub / STORE).is_file(),
+                                    "seeds_run": (first, len(seeds), out)})
+        code = _run_one(one, study, sub, time.perf_counter(), say)
+        write_seeds_summary(study, out, seeds)
+        if code in (EXIT_INTERRUPTED, EXIT_INFRASTRUCTURE):
+            return code
+        failed += code != 0
+    for seed in seeds:  # every report shows the spread over all seeds
+        write_report_safely(seed_directory(out, seed))
+    data = write_seeds_summary(study, out, seeds)
+    print(f"{out}: {data['finished']} of {len(seeds)} seeds finished "
+          f"(summary: {out / SEEDS_CSV})")
+    for group in ("objectives", "design"):
+        for name, st in data["spread"][group].items():
+            if st["median"] is not None:
+                print(f"  {name:>10s}: median {st['median']:.6g}, min {st['min']:.6g}, "
+                      f"max {st['max']:.6g}")
+    return EXIT_NO_RESULT if failed else 0
 
 
 def infrastructure_lost(args: argparse.Namespace, out: Path, exc: InfrastructureError) -> int:

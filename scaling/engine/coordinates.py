@@ -94,6 +94,11 @@ class WarpedModel:
         return (mean, std, np.einsum("nmk,nkd->nmd", dmean, J),
                 np.einsum("nmk,nkd->nmd", dstd, J))
 
+    def leave_one_out(self) -> tuple[np.ndarray, np.ndarray]:
+        """Leave-one-out mean and std at the training points (n, m) (the points are the
+        same in ``x`` and ``z``)."""
+        return self.model.leave_one_out()
+
     def condition(self, X: np.ndarray, y: np.ndarray) -> WarpedModel:
         """The model conditioned on (fantasized) data ``X`` (n, d), ``y`` (n, m) in ``x``."""
         return WarpedModel(self.model.condition(self.coords(X), y), self.coords)

@@ -54,7 +54,7 @@ from hypate.scaling.engine.acquisition import (
 )
 from hypate.scaling.engine.coordinates import WarpedModel
 from hypate.scaling.engine.executors import run_batch
-from hypate.scaling.engine.inner import optimize_acquisition
+from hypate.scaling.engine.inner import Resolution, optimize_acquisition
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
 from hypate.scaling.engine.problem import (
     Outcome,
@@ -74,7 +74,7 @@ from hypate.solvers.numerics.random import latin_hypercube, raw_latin_hypercube
 from hypate.solvers.numerics.threads import blas_threads
 from scipy.optimize import minimize
 
-__all__ = ["BayesianOptimizer"]
+__all__ = ["BayesianOptimizer", "SurrogateCheck"]
 
 #: Smallest objective value of the log transform (ln 1e-12 = -27.6).
 LOG_FLOOR = 1e-12
@@ -84,6 +84,37 @@ FAILURE_NUGGET = 0.05
 FAILURE_LENGTH_SCALES = (0.15, 1e2)
 #: Largest predicted failure indicator accepted for a proposal.
 FAILURE_THRESHOLD = 0.15
+
+
+@dataclasses.dataclass(frozen=True)
+class SurrogateCheck:
+    """How well the final surrogates know one evaluation: their leave-one-out prediction.
+
+    The kriging model fitted to every successful evaluation interpolates them (its std at
+    a sample is ~0, which says nothing); the model without that sample, hyperparameters
+    kept, predicts it from the rest of the data. A prediction within a few std of the
+    observed value says the surrogate has learned the neighbourhood; an observed value far
+    below it marks a point the surrogate did not expect (a narrow valley, or a spike).
+
+    Attributes (arrays of shape (m,), one entry per objective)
+    ----------
+    observed : the evaluated objective values.
+    mean : predicted objective (with the ``"log"`` transform: ``exp`` of the predicted
+        ``ln J``, the median of the log-normal prediction).
+    std : standard deviation of the prediction in the surrogate's output space (objective
+        units, or of ``ln J`` with the ``"log"`` transform).
+    lower, upper : the one-std band in objective units.
+    z : ``(observed - predicted) / std`` in the surrogate's output space.
+    transform : the output transform (``"none"`` or ``"log"``).
+    """
+
+    observed: np.ndarray
+    mean: np.ndarray
+    std: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    z: np.ndarray
+    transform: str
 
 
 # --------------------------------------------------------------------- optimizer
@@ -213,12 +244,74 @@ class BayesianOptimizer:
                            n_restarts=s.n_restarts, rng=rng, **kw)
         return WarpedModel(gp, coords)
 
+    def resolution(self, model: Any) -> Resolution | None:
+        """The objective surrogates' metric (:class:`~hypate.scaling.engine.inner.Resolution`):
+        input coordinates (``settings.coordinates`` or the design box) scaled to the
+        surrogates' unit box and divided by their shortest length scale per input (over the
+        objectives); None when ``settings.resolution`` is 0."""
+        radius = self.settings.resolution
+        if radius <= 0.0:
+            return None
+        coords = model.coords if isinstance(model, WarpedModel) else None
+        gp = model.model if isinstance(model, WarpedModel) else model
+        lower, unit = gp.lower_, gp.scale_ * gp.length_scale_.min(axis=0)
+        if coords is None:
+            return Resolution(lambda X: (np.atleast_2d(X) - lower) / unit,
+                              lambda W: lower + np.atleast_2d(W) * unit, radius,
+                              np.eye(self.n_var))
+        A_inv = np.linalg.inv(coords.matrix)
+        # x_i grows along the gradient of ln x_i = (A^-1 z)_i, i.e. of A^-1 (lower + w unit)
+        normals = A_inv * unit[None, :]
+        return Resolution(lambda X: (coords(X) - lower) / unit,
+                          lambda W: np.exp((lower + np.atleast_2d(W) * unit) @ A_inv.T),
+                          radius, normals / np.linalg.norm(normals, axis=1, keepdims=True))
+
     def _model_space(self, F: np.ndarray) -> np.ndarray:
         """Objective values as the surrogates see them (:attr:`output_transform`)."""
         if self.settings.output_transform == "log":
             with np.errstate(invalid="ignore"):
                 return np.log(np.maximum(F, LOG_FLOOR))
         return F
+
+    def leave_one_out(self, result: OptimizationResult, row: int) -> SurrogateCheck:
+        """The final surrogates' leave-one-out prediction of evaluation ``row``.
+
+        Parameters
+        ----------
+        result : OptimizationResult
+            The run's evaluations (those of :meth:`run`).
+        row : int
+            A successful evaluation (row of ``result.data``), e.g. the design point.
+
+        Returns
+        -------
+        SurrogateCheck
+
+        Raises
+        ------
+        ValueError
+            If ``row`` is not a successful evaluation, or fewer than 3 evaluations succeeded.
+        """
+        ok = result.ok
+        if not 0 <= row < len(ok) or not ok[row]:
+            raise ValueError(f"evaluation {row} is not a successful evaluation")
+        if ok.sum() < 3:
+            raise ValueError("a leave-one-out check needs at least 3 successful evaluations")
+        F = self._model_space(result.F[ok])
+        model = self.surrogate(result.X[ok], F, self._rng(self.settings.n_iter + 1))
+        mean, std = model.leave_one_out()
+        k = int(np.count_nonzero(ok[:row]))
+        m, s, y = mean[k], std[k], F[k]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = np.where(s > 0, (y - m) / s, np.nan)
+        if self.settings.output_transform == "log":
+            back = np.exp
+        else:
+            def back(v: np.ndarray) -> np.ndarray:
+                return v
+        return SurrogateCheck(observed=result.F[row].copy(), mean=back(m), std=s,
+                              lower=back(m - s), upper=back(m + s), z=z,
+                              transform=self.settings.output_transform)
 
     def _reference_point(self, F_feas: np.ndarray) -> np.ndarray | None:
         if self.ref_point is not None:
@@ -289,6 +382,7 @@ class BayesianOptimizer:
             best_idx = idx[non_dominated_mask(F[idx])] if len(idx) else idx
             best_idx = best_idx[rng.permutation(len(best_idx))[:5]]
         span = self.bounds[:, 1] - self.bounds[:, 0]
+        resolution = self.resolution(model)
         X_obs, F_obs, feas_obs = X[ok], F[ok], feas[ok]
         pending: list[np.ndarray] = []
         cur_model = model
@@ -300,7 +394,8 @@ class BayesianOptimizer:
                 x, _ = optimize_acquisition(
                     acq, self.bounds, n_raw=st.n_raw, n_starts=st.n_starts,
                     cheap_constraints=st.cheap_constraints, model_constraints=model_constraints,
-                    X_avoid=X_avoid, min_distance=st.min_distance, extra_starts=extra, rng=rng)
+                    X_avoid=X_avoid, min_distance=st.min_distance, extra_starts=extra, rng=rng,
+                    resolution=resolution)
             except RuntimeError as exc:
                 # every start infeasible or already sampled: fall back to a fresh OLH point
                 warnings.warn(f"iteration {iteration}: {exc}; proposing a space-filling point",

@@ -37,6 +37,7 @@ _INT_MIN = {"n_init": 0, "n_iter": 0, "batch_size": 1, "n_restarts": 0, "n_raw":
 _REAL_RANGE = {"v": (0.0, math.inf, True, False), "g": (1.0, math.inf, True, True),
                "p_feasible": (0.0, 1.0, False, False),
                "min_distance": (0.0, math.inf, True, False),
+               "resolution": (0.0, 1.0, True, False),
                "timeout": (0.0, math.inf, False, False),
                "convergence_tol": (0.0, math.inf, True, False),
                "polish_step": (0.0, 0.5, False, True)}
@@ -132,6 +133,14 @@ class OptimizerSettings:
         Raw OLH points and SLSQP starts of the inner optimization.
     min_distance : float >= 0
         Unit-box distance below which a candidate duplicates a sample.
+    resolution : float in [0, 1)
+        Radius, in length scales of the objective surrogates (their own input metric), of
+        the inward probe at a bound: when the acquisition's best candidate lies that close
+        to a sample on a bound of the box that has no sample near it off the bound, the
+        proposal is the acquisition's best point of the inward half of the sphere of this
+        radius around the sample (:func:`hypate.scaling.engine.inner.optimize_acquisition`)
+        -- one evaluation that measures whether the objective falls inward, instead of a
+        search that refines a bound point forever (Sec. 9.1). ``0`` disables the probe.
     executor : object or None
         ``submit(fn, *args)`` -> future with ``.result(timeout)``; ``None`` evaluates
         in-process.
@@ -197,6 +206,7 @@ class OptimizerSettings:
     n_raw: int = 256
     n_starts: int = 5
     min_distance: float = 1e-5
+    resolution: float = 0.05
     executor: Any = None
     timeout: float | None = None
     store: str | Path | EvaluationStore | None = None

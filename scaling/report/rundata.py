@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 from hypate.scaling.engine.problem import tally_warnings
 from hypate.scaling.engine.store import EvaluationStore, warnings_from_text
+from hypate.scaling.workflow.campaign import ENVIRONMENTS
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.rundir import (
     CLASSICAL_JSON,
@@ -33,6 +34,7 @@ from hypate.scaling.workflow.rundir import (
     STORE,
     design_point_index,
 )
+from hypate.scaling.workflow.seeds import load_seeds
 from hypate.scaling.workflow.shipped import shipped
 from hypate.scaling.workflow.study import load_study
 from hypate.solvers.coupling.response import Response
@@ -79,6 +81,14 @@ class RunData:
     prototype_warnings : list of str
         The warnings of the prototype's simulation (the store's metadata; empty for runs
         older than it).
+    seeds : dict or None
+        For one seed of a ``hypate run --seeds N`` run: the parent's ``seeds.json``
+        (:func:`hypate.scaling.workflow.seeds.load_seeds`, with ``"this"``).
+    seed : int or None
+        The optimizer seed the run used (the store's; ``--seed`` may override the study's).
+    environments : list of dict
+        The numerical environments the run ran in
+        (:func:`hypate.scaling.workflow.campaign.runtime_environment`).
     """
 
     directory: Path
@@ -95,6 +105,9 @@ class RunData:
     model_time_step: float | None = None
     notes: list[str] = field(default_factory=list)
     prototype_warnings: list[str] = field(default_factory=list)
+    seeds: dict[str, Any] | None = None
+    seed: int | None = None
+    environments: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def warnings(self) -> list[tuple[str, list[Any], int]]:
@@ -178,7 +191,7 @@ def _store_frame(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
     with EvaluationStore(path) as store:
         df = store.to_dataframe()
         meta = {k: store.get_meta(k) for k in ("n_var", "n_obj", "study_path", "study",
-                                               PROTOTYPE_WARNINGS)}
+                                               "seed", ENVIRONMENTS, PROTOTYPE_WARNINGS)}
     return df, meta
 
 
@@ -272,6 +285,10 @@ def load_run(run_dir: str | Path, study_path: str | Path | None = None,
     proto = meta.get(PROTOTYPE_WARNINGS)
     run.prototype_warnings = [str(w) for w in proto] if isinstance(proto, list) else []
     _attach_point(run, point, simulate)
+    run.seeds = load_seeds(run_dir)
+    run.seed = meta.get("seed") if isinstance(meta.get("seed"), int) else None
+    envs = meta.get(ENVIRONMENTS)
+    run.environments = [e for e in envs if isinstance(e, dict)] if isinstance(envs, list) else []
     return run
 
 

@@ -2,9 +2,11 @@
 
 Each builder takes a :class:`~hypate.scaling.report.rundata.RunData` and returns a
 :class:`Section` (or ``None`` to leave it out). :data:`BUILTIN_SECTIONS` lists them in page
-order: *Study*, *Design point* (Table 9.8 style, with the rule that chose it and the active
-constraints), *Similarity parameters* (prototype / model / relative difference; > 10 %
-highlighted), *Glossary* (symbol, formula, equation and meaning of each parameter),
+order: *Study*, *Design point* (Table 9.8 style, with the rule that chose it, the active
+constraints and the surrogates' leave-one-out prediction), *Across seeds* (one seed of a
+``--seeds`` run: the spread of the design point; left out otherwise), *Similarity
+parameters* (prototype / model / relative difference; > 10 % highlighted), *Glossary*
+(symbol, formula, equation and meaning of each parameter),
 *Figures*, *Pareto set* (the design point's row marked), *Run statistics* (evaluations,
 failures grouped by reason, wall time), *Warnings* (the distinct solver warnings, where
 they occurred and how often; left out without any) and *Scaling laws* (a sweep's refined
@@ -150,7 +152,8 @@ def _study_section(run: RunData) -> Section:
     budget = (f"{opt.initial_samples} initial samples + {opt.iterations} iterations x "
               f"batch {opt.batch_size}"
               + (f" + {opt.polish} polish evaluations" if opt.polish else "")
-              + f" ({study.acquisition.upper()}, {opt.approach} approach, seed {opt.seed}"
+              + f" ({study.acquisition.upper()}, {opt.approach} approach, seed "
+              f"{opt.seed if run.seed is None else run.seed}"
               + (f", {opt.coordinates} coordinates" if opt.coordinates != "design" else "")
               + (f", {opt.transform} transform" if opt.transform != "none" else "") + ")")
     items = [("study", html.escape(study.name)),
@@ -192,6 +195,27 @@ def _rule_paragraph(run: RunData) -> str:
             f"({html.escape(which)}, {source}) is {html.escape(rule)}.{key}</p>")
 
 
+#: What the leave-one-out column means (under the objectives table).
+_SURROGATE_NOTE = (
+    "<p class='note'>How sure the search is: the kriging surrogate fitted to every other "
+    "evaluation (hyperparameters of the final fit) predicts the design point's objective "
+    "as shown, with its one-standard-deviation band; <i>z</i> is the observed value's "
+    "distance from the prediction in standard deviations (of ln J for a log-transformed "
+    "study). |z| &lt; 2: the surrogate had learned this neighbourhood. z &lt; -3: the design "
+    "point is much better than the surrogate expected (a narrow valley, sampled "
+    "sparsely): a search with another seed may land elsewhere.</p>")
+
+
+def _surrogate_cell(check: dict[str, Any] | None) -> str:
+    """``predicted (lower - upper), z = ...`` in percent, or ``-`` without a check."""
+    if not check or check.get("predicted") is None:
+        return "-"
+    band = f"{_pct(check.get('lower'))} &ndash; {_pct(check.get('upper'))}"
+    z = check.get("z")
+    zs = f", <i>z</i> = {z:+.2g}" if isinstance(z, (int, float)) else ""
+    return f"{_pct(check['predicted'])} ({band}){zs}"
+
+
 def _design_section(run: RunData) -> Section:
     point = run.point
     if not point or not point.get("design"):
@@ -211,13 +235,17 @@ def _design_section(run: RunData) -> Section:
         classes.append("active" if state else "")
     intro = _rule_paragraph(run)
     objs = point.get("objectives") or {}
-    obj_rows = [(k, _Raw(_pct(v)), _Raw(_pct(((run.classical or {}).get("objectives")
-                                               or {}).get(k))))
+    checks = ((point.get("surrogate") or {}).get("objectives")) or {}
+    obj_rows = [(k, _Raw(_pct(v)), _Raw(_surrogate_cell(checks.get(k))),
+                 _Raw(_pct(((run.classical or {}).get("objectives") or {}).get(k))))
                 for k, v in objs.items()]
     body = intro + html_table(["variable", "unit", "value", "lower bound", "upper bound",
                                "bound hit", "classical baseline"], rows, classes)
-    body += "<h3>Objectives</h3>" + html_table(["objective", "design point",
-                                                "classical baseline"], obj_rows)
+    body += "<h3>Objectives</h3>" + html_table(
+        ["objective", "design point", "surrogate prediction (leave-one-out)",
+         "classical baseline"], obj_rows)
+    if checks:
+        body += _SURROGATE_NOTE
     body += "<h3>Active constraints</h3>" + (
         "<ul>" + "".join(f"<li>{html.escape(a)}</li>" for a in active) + "</ul>"
         if active else "<p>none</p>")
@@ -323,6 +351,8 @@ def _statistics_section(run: RunData) -> Section:
         items.append(("wall time", "not recorded (interrupted run)"))
     if stats.get("pareto_size") is not None:
         items.append(("Pareto-set size", _fmt(stats["pareto_size"])))
+    for env in run.environments:
+        items.append(("numerical environment", html.escape(describe_environment(env))))
     if n and "iteration" in df:
         it = df["iteration"].to_numpy()
         opt = run.study.optimizer if run.study is not None else None
@@ -350,6 +380,40 @@ def _statistics_section(run: RunData) -> Section:
         body += "<h3>Failures by reason</h3>" + html_table(
             ["status", "count", "evaluations", "example message"], rows)
     return Section("Run statistics", body)
+
+
+def _seeds_section(run: RunData) -> Section | None:
+    """One seed of a ``--seeds`` run: its design point next to the spread over the seeds."""
+    data = run.seeds
+    if not data:
+        return None
+    this, spread = data["this"], data.get("spread") or {}
+    rows, classes = [], []
+    for group, as_pct in (("objectives", True), ("design", False), ("similarity", True)):
+        for name, st in (spread.get(group) or {}).items():
+            mine = (this.get(group) or {}).get(name)
+            show = _pct if as_pct else _fmt
+            label = f"{name} (relative difference)" if group == "similarity" else name
+            rows.append((label, _Raw(show(mine)), _Raw(show(st.get("median"))),
+                         _Raw(show(st.get("min"))), _Raw(show(st.get("max")))))
+            classes.append("")
+    seeds = ", ".join(f"{r['seed']} ({r['status']})" for r in data.get("seeds", []))
+    body = (f"<p>This run is seed {this['seed']} of a <code>--seeds</code> run; "
+            f"{data.get('finished', 0)} of {len(data.get('seeds', []))} seeds have a design "
+            f"point (seeds: {html.escape(seeds)}). A design whose spread is wide depends on "
+            "the optimizer's seed: read the median and the range, not one seed.</p>")
+    body += html_table(["quantity", "this seed", "median over seeds", "min", "max"],
+                       rows, classes)
+    return Section("Across seeds", body)
+
+
+def describe_environment(env: dict[str, Any]) -> str:
+    """``Python 3.11.7, numpy 2.4.6, ..., BLAS openblas 0.3.31 Haswell`` (one line)."""
+    pkgs = ", ".join(f"{k} {v}" for k, v in (env.get("packages") or {}).items() if v)
+    blas = "; ".join(f"{b.get('internal_api')} {b.get('version')} {b.get('architecture')}"
+                     for b in env.get("blas") or [])
+    return (f"Python {env.get('python')}, hypate {env.get('hypate')}, {pkgs}"
+            + (f"; BLAS {blas}" if blas else ""))
 
 
 #: Distinct warnings listed in the Warnings section (the rest are counted below it).
@@ -398,5 +462,5 @@ def _laws_section(run: RunData) -> Section | None:
 
 #: The built-in section builders, in page order (registered plug-ins follow them).
 BUILTIN_SECTIONS: tuple[Callable[[RunData], Section | None], ...] = (
-    _study_section, _design_section, _similarity_section, _glossary_section, _figures_section,
-    _pareto_section, _statistics_section, _warnings_section, _laws_section)
+    _study_section, _design_section, _seeds_section, _similarity_section, _glossary_section,
+    _figures_section, _pareto_section, _statistics_section, _warnings_section, _laws_section)

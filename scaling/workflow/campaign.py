@@ -15,6 +15,7 @@ import fcntl
 import hashlib
 import json
 import os
+import platform
 import sqlite3
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -29,15 +30,22 @@ from hypate.scaling.workflow.study import Study, study_data
 from hypate.solvers.aero.factory import ROM_PREFIX, check_fluid_model
 from hypate.solvers.config import read_toml
 from hypate.solvers.errors import InputError
+from threadpoolctl import threadpool_info
 
-__all__ = ["MAX_SEED", "campaign_identity", "changed_keys", "check_resume", "fingerprint",
-           "check_run_settings", "package_version", "preflight", "record_campaign", "refuse_changes", "run_lock", "stored_seed",
-           "sweep_identity"]
+__all__ = ["ENVIRONMENTS", "MAX_SEED", "campaign_identity", "changed_keys", "check_resume",
+           "fingerprint", "check_run_settings", "package_version", "preflight",
+           "record_campaign", "refuse_changes", "run_lock", "runtime_environment",
+           "stored_seed", "sweep_identity"]
 
 #: Largest accepted seed: the store keeps it as a signed 64-bit SQLite integer.
 MAX_SEED = 2**63 - 1
 #: Changed keys named in a refused resume before "... and N more".
 SHOWN_CHANGES = 6
+#: Store ``meta`` key: the numerical environments the campaign ran in (one entry per
+#: distinct environment, in order: a run resumed elsewhere appends the new one).
+ENVIRONMENTS = "environments"
+#: Distributions whose versions decide the last bits of a result.
+NUMERICAL_PACKAGES = ("numpy", "scipy", "scikit-learn", "pymoo", "pandas")
 
 
 def package_version() -> str:
@@ -46,6 +54,27 @@ def package_version() -> str:
         return version("hypate")
     except PackageNotFoundError:  # pragma: no cover - running from an uninstalled tree
         return "unknown"
+
+
+def _installed(name: str) -> str | None:
+    try:
+        return version(name)
+    except PackageNotFoundError:
+        return None
+
+
+def runtime_environment() -> dict[str, Any]:
+    """The numerical environment of this process: Python, hypate and the numerical
+    packages' versions, and the BLAS libraries numpy and scipy call (threadpoolctl: library,
+    version, kernel architecture, threading layer). A result that differs in its last bits
+    between two machines can be traced to a difference here."""
+    blas = [{k: lib.get(k) for k in ("internal_api", "version", "architecture",
+                                       "threading_layer", "filepath")}
+            for lib in threadpool_info() if lib.get("user_api") == "blas"]
+    return {"python": platform.python_version(), "machine": platform.machine(),
+            "hypate": package_version(),
+            "packages": {name: _installed(name) for name in NUMERICAL_PACKAGES},
+            "blas": blas}
 
 
 def _file_sha256(path: Path) -> str | None:
@@ -249,13 +278,18 @@ def run_lock(out: Path) -> Iterator[None]:
 
 
 def record_campaign(store: EvaluationStore, identity: dict[str, Any], study: Study) -> None:
-    """Write the identity (once; a resumed store already holds the same) and the report's
-    pointers to the study (``study_path``, ``study``)."""
+    """Write the identity (once; a resumed store already holds the same), the report's
+    pointers to the study (``study_path``, ``study``) and the numerical environment
+    (:data:`ENVIRONMENTS`, appended when it differs from the last one recorded)."""
     try:
         store.set_meta("campaign", identity)
         store.set_meta("fingerprint", fingerprint(identity))
         if study.path != "<memory>":
             store.set_meta("study_path", str(Path(study.path).resolve()), replace=True)
         store.set_meta("study", study.name, replace=True)
+        env = runtime_environment()
+        seen = store.get_meta(ENVIRONMENTS) or []
+        if not seen or seen[-1] != env:
+            store.set_meta(ENVIRONMENTS, [*seen, env], replace=True)
     except (ValueError, sqlite3.Error) as exc:
         raise InputError("resume", str(exc)) from None

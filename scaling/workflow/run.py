@@ -332,9 +332,11 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
                 timeout=opt.timeout, store=store, seed=run_seed, callback=callback,
                 output_transform=opt.transform, coordinates=coordinates, polish=opt.polish)
             t0 = time.perf_counter()
-            result = BayesianOptimizer(problem, settings).run()
+            optimizer = BayesianOptimizer(problem, settings)
+            result = optimizer.run()
             wall = time.perf_counter() - t0
-            point = write_outputs(study, problem, result, out, wall_seconds=wall)
+            point = write_outputs(study, problem, result, out, wall_seconds=wall,
+                                  optimizer=optimizer)
             if on_written is not None:
                 on_written(out)
     finally:
@@ -366,9 +368,31 @@ def choose_design_point(study: Study, result: OptimizationResult) -> int | None:
     return int(idx[design_point_index(result.F[idx], opt.design_point, opt.weights)])
 
 
+def surrogate_record(optimizer: BayesianOptimizer, result: OptimizationResult, row: int,
+                     objectives: Sequence[str]) -> dict[str, Any]:
+    """The public ``surrogate`` field of design_point.json: the final surrogates'
+    leave-one-out prediction of the design point
+    (:meth:`~hypate.scaling.engine.optimizer.BayesianOptimizer.leave_one_out`), per objective
+    ``{"observed", "predicted", "std", "lower", "upper", "z"}``; ``std`` and ``z`` are in
+    the surrogate's output space (``transform``: ``"log"`` means of ``ln J``)."""
+    check = optimizer.leave_one_out(result, row)
+    per = {name: {"observed": finite_or_none(float(check.observed[j])),
+                  "predicted": finite_or_none(float(check.mean[j])),
+                  "std": finite_or_none(float(check.std[j])),
+                  "lower": finite_or_none(float(check.lower[j])),
+                  "upper": finite_or_none(float(check.upper[j])),
+                  "z": finite_or_none(float(check.z[j]))}
+           for j, name in enumerate(objectives)}
+    return {"method": "leave-one-out kriging (hyperparameters of the final fit)",
+            "transform": check.transform, "objectives": per}
+
+
 def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationResult,
-                  out: Path, wall_seconds: float = float("nan")) -> dict[str, Any]:
-    """evaluations.csv, pareto.csv, design_point.json (+ design_point.npz)."""
+                  out: Path, wall_seconds: float = float("nan"),
+                  optimizer: BayesianOptimizer | None = None) -> dict[str, Any]:
+    """evaluations.csv, pareto.csv, design_point.json (+ design_point.npz); with the run's
+    ``optimizer``, the surrogates' leave-one-out prediction of the design point
+    (:func:`surrogate_record`)."""
     table = evaluations_table(study, result)
     tmp = out / "evaluations.csv.tmp"
     table.to_csv(tmp, index=False)
@@ -396,6 +420,9 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
         point["active_constraints"] = problem.active_bounds(x) + [
             f"{name} (equality)" for name in study.spec.equalities]
         point["evaluation"] = int(row)
+        if optimizer is not None and int(result.ok.sum()) >= 3:
+            point["surrogate"] = surrogate_record(optimizer, result, row,
+                                                  study.spec.objectives)
         point["bounds"] = {v.name: [v.lower, v.upper] for v in study.spec.variables}
         try:
             config, resp = problem.simulate_model(x, keep_fields=False)
@@ -417,5 +444,6 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     return point
 
 
-__all__ = ["RunOutcome", "run_study", "surrogate_coordinates", "seeds_from_runs",
+__all__ = ["RunOutcome", "run_study", "surrogate_coordinates", "surrogate_record",
+           "seeds_from_runs",
            "write_outputs", "classical_baseline", "evaluations_table", "choose_design_point"]

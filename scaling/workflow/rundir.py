@@ -20,6 +20,8 @@ file                        content                                     written 
 ``figures/``
 ``sweep.json``,             a sweep's points and their records          :mod:`.sweep` / laws,
 ``sweep.csv``                                                           report, scripts
+``seeds.json``,             one run per seed (``hypate run --seeds N``):  :mod:`.seeds` / report
+``seeds.csv``               each seed's design point and the spread
 ``run.lock``                the pid of the run holding the directory    :mod:`.campaign`
                             (an exclusive POSIX record lock)
 ==========================  ==========================================  ======================
@@ -55,6 +57,8 @@ REPORT_HTML = "report.html"
 FIGURES_DIR = "figures"
 SWEEP_JSON = "sweep.json"
 SWEEP_CSV = "sweep.csv"
+SEEDS_JSON = "seeds.json"
+SEEDS_CSV = "seeds.csv"
 LOCK_FILE = "run.lock"
 #: The id column of ``evaluations.csv``: the 0-based row number in the store order, the
 #: number every report cites ("evaluation 37").

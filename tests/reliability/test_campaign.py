@@ -217,7 +217,7 @@ def test_ctrl_c_exits_130_with_the_resume_command(tmp_path: Path,
     n = stored_evaluations(out / "evaluations.sqlite")
     assert err.strip().splitlines()[-1] == (
         f"hypate: interrupted after {n} evaluations; continue with "
-        f"`hypate run {study} --out {out} --resume`")
+        f"`hypate run {study} --out {out} --resume`"), err
     subprocess.run(_cli(str(study), "--out", str(out), "-q", "--resume"), check=True,
                    capture_output=True, timeout=600)
     assert _campaign(out) == whole

@@ -23,7 +23,7 @@ from hypate.scaling.engine.benchmarks import (
     get_benchmark,
 )
 from hypate.scaling.engine.coordinates import LogLinearCoordinates
-from hypate.scaling.engine.inner import optimize_acquisition
+from hypate.scaling.engine.inner import Resolution, optimize_acquisition
 from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask
 from hypate.scaling.engine.problem import (
@@ -128,6 +128,57 @@ def test_candidates_near_samples_are_rejected():
     x2, _ = optimize_acquisition(acq, np.array([[0.0, 1.0], [0.0, 1.0]]), rng=0,
                                  X_avoid=x_best[None], min_distance=0.05)
     assert np.linalg.norm(x2 - x_best) >= 0.05
+
+
+class _Ramp(Acquisition):
+    """A maximized acquisition rising towards the face x = 1 of the unit square, best at
+    (1, 0.5): a surrogate that believes the objective keeps falling beyond that bound."""
+
+    def __init__(self):
+        super().__init__(_SurfaceModel())
+
+    def __call__(self, X):
+        return self.value_and_gradient(X)[0]
+
+    def value_and_gradient(self, X):
+        X = np.atleast_2d(X)
+        val = X[:, 0] - (X[:, 1] - 0.5) ** 2
+        return val, np.stack([np.ones(len(X)), -2.0 * (X[:, 1] - 0.5)], axis=1)
+
+    def _from_moments(self, mu, sigma):  # pragma: no cover - value_and_gradient overridden
+        raise NotImplementedError
+
+
+def _unit_metric(length, radius):
+    """The metric of a surrogate with length scales ``length`` on the unit square."""
+    unit = np.asarray(length, float)
+    return Resolution(lambda X: np.atleast_2d(X) / unit, lambda W: np.atleast_2d(W) * unit,
+                      radius, np.eye(2))
+
+
+def test_a_refined_bound_sample_is_probed_inward_once():
+    acq, box = _Ramp(), np.array([[0.0, 1.0], [0.0, 1.0]])
+    metric = _unit_metric([0.4, 0.1], 0.05)  # sphere: 0.02 across the face, 0.005 along y
+    sample = np.array([[1.0, 0.5]])
+    # without the probe, the search refines the bound sample (lands on it, min_distance 0)
+    x, _ = optimize_acquisition(acq, box, X_avoid=sample, min_distance=0.0, rng=0)
+    assert np.allclose(x, sample[0], atol=1e-6)
+    x, _ = optimize_acquisition(acq, box, X_avoid=sample, min_distance=0.0, rng=0,
+                                resolution=metric)
+    w = (x - sample[0]) / [0.4, 0.1]
+    assert np.linalg.norm(w) == pytest.approx(0.05, rel=1e-5)  # on the sphere
+    # off the face by at least cos(60 deg) of the radius: it measures the inward trend
+    assert 1.0 - x[0] >= 0.5 * 0.05 * 0.4 * (1 - 1e-9)
+    # with that probe stored, the bound sample has an inward neighbour: no second probe
+    x2, _ = optimize_acquisition(acq, box, X_avoid=np.vstack([sample, x]), min_distance=0.0,
+                                 rng=0, resolution=metric)
+    assert np.allclose(x2, sample[0], atol=1e-6)
+    # an interior best (the surface's maximum) is never probed: same proposal as without
+    interior = _Surface()
+    xi, _ = optimize_acquisition(interior, box, rng=3)
+    xj, _ = optimize_acquisition(interior, box, X_avoid=xi[None], min_distance=0.0, rng=3,
+                                 resolution=metric)
+    np.testing.assert_array_equal(xi, xj)
 
 
 # ------------------------------------------------------------------- single objective
@@ -646,3 +697,29 @@ def test_polish_keeps_cheap_constraints():
     assert (res.data["iteration"] == 3).sum() == 12
     for x in res.X:
         assert abs(x[0] - 0.5 * x[1] - 1.0) <= CHEAP_TOL
+
+
+@pytest.mark.parametrize("transform", ["none", "log"])
+def test_leave_one_out_check_predicts_a_design_from_the_other_evaluations(transform):
+    # with failures in the run (rows the surrogates never see): the check at the best design
+    # equals the final surrogate conditioned on every other successful evaluation
+    prob = FailingProblem(Branin(), threshold=0.6, nan_threshold=0.9)
+    opt = BayesianOptimizer(prob, acquisition="ei", n_init=10, n_iter=10, seed=1,
+                            output_transform=transform)
+    res = opt.run()
+    ok = res.ok
+    assert not ok.all()
+    row = int(np.flatnonzero(ok)[np.argmin(res.F[ok, 0])])
+    check = opt.leave_one_out(res, row)
+    F = res.F[ok] if transform == "none" else np.log(res.F[ok])
+    gp = opt.surrogate(res.X[ok], F, opt._rng(opt.settings.n_iter + 1))
+    others = np.flatnonzero(ok) != row
+    mu, sd = gp.condition(res.X[ok][others], F[others]).predict_moments(res.X[row:row + 1])
+    back = np.exp if transform == "log" else (lambda v: v)
+    assert check.observed[0] == res.F[row, 0]
+    np.testing.assert_allclose(check.mean, back(mu[0]), rtol=1e-7)
+    np.testing.assert_allclose(check.std, sd[0], rtol=1e-5)
+    np.testing.assert_allclose(check.z, (F[~others][0] - mu[0]) / sd[0], rtol=1e-5)
+    assert check.lower[0] < check.mean[0] < check.upper[0]
+    with pytest.raises(ValueError, match="not a successful evaluation"):
+        opt.leave_one_out(res, int(np.flatnonzero(~ok)[0]))

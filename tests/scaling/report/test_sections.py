@@ -58,6 +58,20 @@ def test_design_section_states_the_rule(fabricated_run: Callable[..., RunData]) 
     assert "knee of the Pareto front" in design and 'design_point = "knee"' in design
 
 
+def test_design_section_shows_the_leave_one_out_prediction(
+        fabricated_run: Callable[..., RunData]) -> None:
+    run = fabricated_run()
+    design = _sections(run)["Design point"].html
+    assert "<td>J_u</td><td>20 %</td><td>-</td>" in design  # no check recorded: a dash
+    assert "How sure the search is" not in design
+    run.point["surrogate"] = {"transform": "none", "objectives": {
+        "J_u": {"observed": 0.2, "predicted": 0.25, "std": 0.04, "lower": 0.21,
+                "upper": 0.29, "z": -1.25}}}
+    design = _sections(run)["Design point"].html
+    assert "<td>25 % (21 % &ndash; 29 %), <i>z</i> = -1.2</td>" in design
+    assert "<td>J_T</td><td>20 %</td><td>-</td>" in design and "How sure the search is" in design
+
+
 def test_pareto_table_marks_the_design_point(fabricated_run: Callable[..., RunData]) -> None:
     run = fabricated_run()
     run.point["evaluation"] = 2  # (0.2, 0.2): on the front

@@ -10,13 +10,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import threadpoolctl
 from conftest import kill_after, stored_evaluations, tiny_study_text
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.report.rundata import load_run
 from hypate.scaling.report.sections import BUILTIN_SECTIONS
+from hypate.scaling.workflow import campaign
 from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.rundir import PROTOTYPE_WARNINGS
 from hypate.scaling.workflow.run import run_study
+from hypate.scaling.workflow.rundir import PROTOTYPE_WARNINGS
 from hypate.scaling.workflow.study import load_study
 from pymoo.core.problem import Problem
 
@@ -141,3 +143,24 @@ def test_the_prototype_s_warnings_are_recorded_stored_and_reported(
     sections = {s.title: s for s in (b(run) for b in BUILTIN_SECTIONS) if s is not None}
     assert ("<td>RuntimeWarning: prototype table clamped</td><td>prototype</td><td>1</td>"
             in sections["Warnings"].html)
+
+
+def test_each_run_records_its_numerical_environment(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    path = tmp_path / "tiny.toml"
+    path.write_text(tiny_study_text(initial=3, iterations=1))
+    run_study(load_study(path), tmp_path / "run")
+    store_path = tmp_path / "run" / "evaluations.sqlite"
+    with EvaluationStore(store_path, read_only=True) as store:
+        (env,) = store.get_meta(campaign.ENVIRONMENTS)
+    assert env["packages"]["numpy"] == np.__version__
+    kernels = {(lib["internal_api"], lib["version"], lib["architecture"])
+               for lib in threadpoolctl.threadpool_info() if lib["user_api"] == "blas"}
+    assert {(b["internal_api"], b["version"], b["architecture"]) for b in env["blas"]} == kernels
+    # resumed unchanged: nothing appended; resumed on another numpy: appended, not replaced
+    run_study(load_study(path), tmp_path / "run", resume=True)
+    other = {**env, "packages": {**env["packages"], "numpy": "0.0-elsewhere"}}
+    monkeypatch.setattr(campaign, "runtime_environment", lambda: other)
+    run_study(load_study(path), tmp_path / "run", resume=True)
+    with EvaluationStore(store_path, read_only=True) as store:
+        assert store.get_meta(campaign.ENVIRONMENTS) == [env, other]
