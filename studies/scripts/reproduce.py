@@ -47,7 +47,13 @@ import pandas as pd
 from scipy.optimize import minimize
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.run import run_study
-from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON, EVALUATIONS_CSV, STORE, SWEEP_CSV
+from hypate.scaling.workflow.rundir import (
+    DESIGN_POINT_JSON,
+    EVALUATIONS_CSV,
+    STORE,
+    SWEEP_CSV,
+    SWEEP_JSON,
+)
 from hypate.scaling.workflow.shipped import shipped
 from hypate.scaling.workflow.similarity import analytical_scaling
 from hypate.scaling.workflow.study import Study, load_study, parse_study, study_data
@@ -166,7 +172,7 @@ def run_directory(opt: Optimization, root: str | Path, seed: int = 0,
     out = Path(root) / opt.name
     study = opt.study()
     if study.sweep is not None:
-        run_sweep(study, out, resume=out.exists(), seed=seed, progress=progress)
+        run_sweep(study, out, resume=(out / SWEEP_JSON).exists(), seed=seed, progress=progress)
         return out
     if (out / DESIGN_POINT_JSON).exists():
         return out

@@ -6,8 +6,9 @@ accepted findings, then per chapter every table as *quantity | dissertation | hy
 (median) | min-max over seeds | difference | verdict | note*. The verdict is the row's
 comparison against its stated tolerance (:func:`.comparison.compare`): ``yes (±5 %)``,
 ``NO (±5 %)``, ``NO: accepted finding`` (explained in the row's note), ``no comparison``
-(a published number the run cannot resolve; the note says why) or ``-`` (nothing
-published or nothing measured).
+(a published number the run cannot resolve; the note says why), ``not measured`` (a
+published value, no hypate value: e.g. a row not run with ``--quick``) or ``nothing
+published`` (a hypate value the dissertation does not give).
 
 The run is handed in duck-typed (``result.config``, ``.reproductions``, ``.planned``,
 ``.seconds``, ``.counts()``): this module does not import the runner, which imports it.
@@ -57,9 +58,10 @@ def verdict(row: pd.Series) -> str:
         if row.get("finding"):
             return "NO: accepted finding"
         return f"NO ({criterion})" if criterion else "NO"
-    if not _missing(row.get("dissertation")) and not _missing(row.get("hypate")):
+    published, measured = not _missing(row.get("dissertation")), not _missing(row.get("hypate"))
+    if published and measured:
         return "no comparison"
-    return "-"
+    return "not measured" if published else "nothing published"
 
 
 def row_class(row: pd.Series) -> str:
@@ -80,12 +82,22 @@ def _difference(v: Any) -> str:
     return f"{v:+.3g}" if isinstance(v, float) and math.isfinite(v) else "-"
 
 
-def table_html(df: pd.DataFrame) -> str:
-    """One reproduction's table (:data:`HEADER`), rows classed by their verdict."""
+def table_html(df: pd.DataFrame, numbers: dict[str, int] | None = None) -> str:
+    """One reproduction's table (:data:`HEADER`), rows classed by their verdict.
+
+    ``numbers`` maps an accepted finding's text to its number on the page: a row it
+    explains (verdict ``NO: accepted finding``) shows the text, a row it concerns that
+    matches anyway refers to it by number.
+    """
     rows, classes = [], []
     for _, r in df.iterrows():
+        note = r.get("note", "") or ""
+        found = r.get("finding") or ""
+        if found and verdict(r) != "NO: accepted finding":
+            k = (numbers or {}).get(found)
+            note = f"accepted finding {k} concerns this row (above)" if k else ""
         rows.append((r["quantity"], r["dissertation"], r["hypate"], _spread(r),
-                     _difference(r["difference"]), verdict(r), r.get("note", "") or ""))
+                     _difference(r["difference"]), verdict(r), note))
         classes.append(row_class(r))
     return html_table(HEADER, rows, row_classes=classes, css_class="reproduction")
 
@@ -105,7 +117,8 @@ def render(result: Any) -> str:
            '<link rel="icon" href="data:,">',
            f"<title>{html.escape(title)}</title><style>{PAGE_CSS}{_EXTRA_CSS}</style>"
            "</head><body>", f"<h1>{html.escape(title)}</h1>",
-           f"<p>Mode {html.escape(mode)}; optimizer seeds 0 to {cfg.seeds - 1} "
+           f"<p>Mode {html.escape(mode)}; optimizer "
+           f"{'seed 0' if cfg.seeds == 1 else f'seeds 0 to {cfg.seeds - 1}'} "
            f"(Ch. 9 optimizations; the Ch. 7/8 scripts are deterministic and run once); "
            f"{html.escape(state)}; wall time {result.seconds / 60.0:.1f} min; generated "
            f"{stamp}.</p>",
@@ -123,28 +136,28 @@ def render(result: Any) -> str:
     out.append("<h2>Summary</h2>" + html_table(
         ("chapter", "reproduction", "rows", "compared", "match", "NO", "accepted findings",
          "seeds", "seconds"), summary_rows, css_class="summary"))
-    findings = {}
+    findings: dict[str, str] = {}
     for r in result.reproductions:
         if "finding" in r.table.columns:
             for f in r.table["finding"]:
                 if f:
                     findings.setdefault(f, r.title)
+    numbers = {f: k for k, f in enumerate(findings, start=1)}
     if findings:
-        out.append("<h2>Accepted findings</h2><div class='notes'><ul>"
-                   + "".join(f"<li>{html.escape(f)} <span class='note'>({html.escape(t)})"
-                             "</span></li>" for f, t in findings.items()) + "</ul></div>")
+        out.append("<h2>Accepted findings</h2><div class='notes'><ol>"
+                   + "".join(f"<li>{html.escape(f)} <span class='note'>(rows in: "
+                             f"{html.escape(t)})</span></li>" for f, t in findings.items())
+                   + "</ol></div>")
     chapter = None
     for r in result.reproductions:
         if r.chapter != chapter:
             chapter = r.chapter
             out.append(f"<h2>{html.escape(chapter)}</h2>")
+        warned = (f"; {len(r.warnings)} distinct solver warning(s) (in reproduction.json)"
+                  if r.warnings else "")
         out.append(f'<section id="{html.escape(r.key)}"><h3>{html.escape(r.title)}</h3>'
-                   f"{table_html(r.table)}<p class='note'>{html.escape(summary(r.table))}; "
-                   f"{r.seconds:.0f} s")
-        if r.warnings:
-            out.append(f"; {len(r.warnings)} distinct solver warning(s) (in "
-                       "reproduction.json)")
-        out.append("</p></section>")
+                   f"{table_html(r.table, numbers)}<p class='note'>"
+                   f"{html.escape(summary(r.table))}; {r.seconds:.0f} s{warned}</p></section>")
     out.append("<footer><p class='note'>Generated by hypate reproduce. Equations and tables "
                "refer to the dissertation (Ch. 7-9).</p></footer></body></html>")
     return "\n".join(out)
