@@ -95,7 +95,9 @@ COARSE_9_2 = {"simulation": {"mesh": [4, 4], "steps": 8, "time_step": 20.0},
               "optimizer": {"initial_samples": 12, "iterations": 24}}
 #: Sec. 9.2.2 coarse bound on min max(J_u, J_T) over the evaluations (fraction): the full
 #: study's 10 % (Sec. 9.2.2) is out of reach of 36 evaluations on a 4 x 4 mesh; seed 0
-#: measured 11.9 % (J_u 9.3 %, J_T 11.9 %), so a coarse run above 12 % is a regression.
+#: measured 11.9 % (J_u 9.3 %, J_T 11.9 %), so a seed-0 coarse run above 12 % is a
+#: regression (the fast test's bound). Other seeds land higher (seeds 0-2: 11.9, 14.5,
+#: 16.7 %): with ``--seeds 3`` the median row says NO, which is what the coarse budget gives.
 COARSE_9_2_2_BOUND = 0.12
 #: Coarse Sec. 9.1 tolerances on Table 9.3's model parameters (fractions): measured at
 #: seed 0 lambda_F +0.45 % and the thermal load +1.35 % off the prototype (the
