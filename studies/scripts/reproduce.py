@@ -569,7 +569,7 @@ def run(config: Config | None = None, progress: Progress | None = None) -> Resul
         start = time.monotonic()
         ctx.report(item.title, 0, 1)
         with warnings.catch_warnings(record=True) as caught:  # solver warnings: counted
-            warnings.simplefilter("always")
+            warnings.simplefilter("default")  # each distinct warning once
             table = item.build(ctx)
         seen = tuple(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
         rep = Reproduction(item.key, item.chapter, item.title, table,
