@@ -20,6 +20,7 @@ from hypate.scaling.cli import (
     init,
     laws,
     report,
+    reproduce,
     rom,
     run,
     simulate,
@@ -34,9 +35,9 @@ from hypate.solvers.errors import InputError
 
 #: The command registry: modules providing subcommands (each has ``register(subparsers)``),
 #: in ``--help`` order.
-COMMAND_MODULES: tuple[ModuleType, ...] = (run, studies, init, validate, report, whatif, laws,
-                                           condition, structure, thermal, simulate, flutter,
-                                           rom, bench)
+COMMAND_MODULES: tuple[ModuleType, ...] = (run, studies, reproduce, init, validate, report,
+                                           whatif, laws, condition, structure, thermal,
+                                           simulate, flutter, rom, bench)
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130

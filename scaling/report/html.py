@@ -105,6 +105,8 @@ figcaption{font-size:.9em;color:#555}.note{color:#555;font-style:italic}
 .warn{color:#a40}.notes{background:#fff8e5;border:1px solid #eb5;padding:.5em 1em}
 nav ul{columns:2}code{background:#f3f3f3;padding:0 .2em}
 """
+#: The page style, public for the other self-contained pages (``hypate reproduce``).
+PAGE_CSS = _CSS
 
 
 def _slug(title: str, used: set[str]) -> str:

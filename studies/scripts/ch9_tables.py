@@ -102,7 +102,9 @@ def _hypate_value(name: str, design: dict[str, float]) -> float | None:
     return float(v) / 1e6 if name == "p0" else float(v)  # Pa -> MPa
 
 
-def _envelope_rows(path: Path, errors: dict[tuple[float, float], float]) -> list[tuple]:
+def envelope_rows(path: Path, errors: dict[tuple[float, float], float]) -> list[tuple]:
+    """Table 9.11 rows of a finished (or partial) envelope sweep directory (``sweep.csv``);
+    fills ``errors[(M, H km)]`` with hypate's 100 J_s (Eq. 9.8)."""
     df = pd.read_csv(path / "sweep.csv")
     rows = []
     for _, r in df.iterrows():
@@ -115,6 +117,28 @@ def _envelope_rows(path: Path, errors: dict[tuple[float, float], float]) -> list
              else None)
         rows.append((f"Table 9.11 error at M = {mach:g}, H = {h_km:g} km (%)", d,
                      errors[mach, h_km], "hypate: 100 J_s (Eq. 9.8)"))
+    return rows
+
+
+def design_point_rows(path: Path, dp: dict, table: str, col: str) -> list[tuple]:
+    """Rows of one run directory's ``design_point.json`` (``dp``) against column ``col``
+    of Table ``table`` ("9.8", "9.9", "9.10"): the design variables (p0 in MPa), the
+    objectives at the design point (%) and the active constraints."""
+    rows: list[tuple] = []
+    design = dp.get("design", {})
+    for name, ref in TABLES[table][col].items():
+        unit = " (MPa)" if name == "p0" else ""
+        rows.append((f"Table {table} {col} {name}{unit}", ref, _hypate_value(name, design),
+                     f"{dp.get('study')} ({path.name})"))
+    for name, val in dp.get("objectives", {}).items():
+        rows.append((f"Table {table} {col} {name} at the design point (%)",
+                     Bound("<", 10.0) if table == "9.8" else None, 100.0 * float(val),
+                     {"9.8": "Fig. 9.9 / Sec. 9.2.2: response errors < 10 %",
+                      "9.9": "Fig. 9.13 Case 1: no good design in any realistic tunnel",
+                      "9.10": "Fig. 9.13 Case 2: approximate similarity in every tunnel",
+                      }.get(table, "")))
+    active = dp.get("active_constraints") or []
+    rows.append((f"Table {table} {col} active constraints", None, ", ".join(active) or "-"))
     return rows
 
 
@@ -133,7 +157,7 @@ def run(config: Config | None = None) -> Result:
     for d in config.run_dirs:
         path = Path(d)
         if (path / "sweep.csv").exists():
-            rows += _envelope_rows(path, errors)
+            rows += envelope_rows(path, errors)
             continue
         try:
             dp = json.loads((path / "design_point.json").read_text(encoding="utf-8"))
@@ -147,22 +171,9 @@ def run(config: Config | None = None) -> Result:
                           "use assign=('DIR=9.8:xi4',)", stacklevel=2)
             continue
         table, col = target
-        design = dp.get("design", {})
-        points[str(d)] = dict(design)
+        points[str(d)] = dict(dp.get("design", {}))
         objectives[str(d)] = dict(dp.get("objectives", {}))
-        for name, ref in TABLES[table][col].items():
-            unit = " (MPa)" if name == "p0" else ""
-            rows.append((f"Table {table} {col} {name}{unit}", ref, _hypate_value(name, design),
-                         f"{dp.get('study')} ({path.name})"))
-        for name, val in dp.get("objectives", {}).items():
-            rows.append((f"Table {table} {col} {name} at the design point (%)",
-                         Bound("<", 10.0) if table == "9.8" else None, 100.0 * float(val),
-                         {"9.8": "Fig. 9.9 / Sec. 9.2.2: response errors < 10 %",
-                          "9.9": "Fig. 9.13 Case 1: no good design in any realistic tunnel",
-                          "9.10": "Fig. 9.13 Case 2: approximate similarity in every tunnel",
-                          }.get(table, "")))
-        active = dp.get("active_constraints") or []
-        rows.append((f"Table {table} {col} active constraints", None, ", ".join(active) or "-"))
+        rows += design_point_rows(path, dp, table, col)
     if not rows:  # nothing given: the dissertation's columns alone
         for table, cols in TABLES.items():
             for col, vals in cols.items():

@@ -14,12 +14,21 @@ A published value is a number (matches within the table's relative tolerance), a
 (``"flutter"``). ``None`` on the hypate side means "not measured" (not a mismatch); a
 script that measured the absence of an event says so in words (``"stable"``), which then
 differs from a published number.
+
+Two more kinds serve the reproductions page (``hypate reproduce``, issue 21): a
+:class:`NotCompared` published value is shown but not judged (a coarse variant that cannot
+resolve the number; the row says why), and a :class:`Finding` note marks a mismatch that is
+an accepted finding (explained next to the row, counted apart by :func:`summary`).
+:func:`side_by_side_seeds` builds the table of a reproduction run with several optimizer
+seeds: the median of each row's values, their min and max, and the verdict on the median.
 """
 from __future__ import annotations
 
 import argparse
 import math
 import operator
+import statistics
+from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -89,6 +98,38 @@ class Bound:
         return self.text or f"{self.op} {self.value:g}"
 
 
+@dataclass(frozen=True)
+class NotCompared:
+    """A published value shown next to hypate's but not judged, and why.
+
+    Parameters
+    ----------
+    value : object
+        The dissertation's value (a number, :class:`Approx`, :class:`Bound` or word).
+    reason : str
+        Why no verdict is given (e.g. "the coarse budget does not resolve h"); shown in the
+        row's note.
+    """
+
+    value: object
+    reason: str
+
+    def shown(self) -> object:
+        v = self.value
+        return v.value if isinstance(v, Approx) else str(v) if isinstance(v, Bound) else v
+
+
+@dataclass(frozen=True)
+class Finding:
+    """A row note marking an accepted finding: hypate differs from the dissertation for a
+    reason that was investigated and accepted (issues 8 and 10), explained in ``text``."""
+
+    text: str
+
+    def __str__(self) -> str:
+        return self.text
+
+
 def _number(v: object) -> float | None:
     """``v`` as a finite-or-NaN float when it is a number (not a bool), else None."""
     if isinstance(v, bool) or not isinstance(v, (int, float)):
@@ -122,7 +163,7 @@ def compare(dissertation: object, hypate: object, rtol: float = RTOL
     criterion : str
         The rule applied (``"±5 %"``, ``"> 35"``, ``"same"``), empty when not compared.
     """
-    if _missing(dissertation) or _missing(hypate):
+    if isinstance(dissertation, NotCompared) or _missing(dissertation) or _missing(hypate):
         return None, ""
     h = _number(hypate)
     if isinstance(dissertation, (Approx, Bound)):
@@ -140,6 +181,8 @@ def compare(dissertation: object, hypate: object, rtol: float = RTOL
 
 def relative_difference_percent(dissertation: object, hypate: object) -> float:
     """``100 (hypate - dissertation) / |dissertation|``; NaN if undefined."""
+    if isinstance(dissertation, NotCompared):
+        dissertation = dissertation.value
     if isinstance(dissertation, Approx):
         dissertation = dissertation.value
     d, h = _number(dissertation), _number(hypate)
@@ -148,15 +191,38 @@ def relative_difference_percent(dissertation: object, hypate: object) -> float:
     return 100.0 * (h - d) / abs(d)
 
 
+def _shown(d: object) -> object:
+    """The dissertation column's plain value of a published value."""
+    if isinstance(d, NotCompared):
+        return d.shown()
+    return d.value if isinstance(d, Approx) else str(d) if isinstance(d, Bound) else d
+
+
+def _note(d: object, note: object) -> str:
+    """A row's note; a :class:`NotCompared` row's reason comes first."""
+    parts = [d.reason] if isinstance(d, NotCompared) and d.reason else []
+    if note is not None and str(note):
+        parts.append(str(note))
+    return "; ".join(parts)
+
+
+def _finalize(records: list[dict], extra: Sequence[str] = ()) -> pd.DataFrame:
+    """The DataFrame of ``records``; ``note`` / ``finding`` kept only when any row has one."""
+    df = pd.DataFrame.from_records(records, columns=[*COLUMNS, *extra, "note", "finding"])
+    drop = [c for c in ("note", "finding") if not any(df[c].astype(bool))]
+    return df.drop(columns=drop)
+
+
 def side_by_side(rows: Iterable[Sequence[object]], rtol: float = RTOL) -> pd.DataFrame:
     """Build the comparison table.
 
     Parameters
     ----------
     rows : iterable of (quantity, dissertation, hypate) or (quantity, dissertation, hypate, note)
-        ``dissertation`` may be a number, :class:`Approx`, :class:`Bound`, bool, ``None`` or
-        a short string ("yes", "flutter"); ``hypate`` a number, bool, string or ``None``
-        (not measured).
+        ``dissertation`` may be a number, :class:`Approx`, :class:`Bound`,
+        :class:`NotCompared`, bool, ``None`` or a short string ("yes", "flutter");
+        ``hypate`` a number, bool, string or ``None`` (not measured); ``note`` a string or a
+        :class:`Finding`.
     rtol : float
         Relative tolerance of the published plain numbers (an :class:`Approx` carries its
         own).
@@ -165,23 +231,84 @@ def side_by_side(rows: Iterable[Sequence[object]], rtol: float = RTOL) -> pd.Dat
     -------
     pandas.DataFrame
         Columns ``quantity | dissertation | hypate | difference`` (relative, %) ``| matches
-        | criterion`` (:func:`compare`), plus ``note`` when any row carries one. The
-        dissertation column holds plain values (an :class:`Approx` its number, a
-        :class:`Bound` its text).
+        | criterion`` (:func:`compare`), plus ``note`` when any row carries one and
+        ``finding`` (the text of a :class:`Finding` note) when any row is an accepted
+        finding. The dissertation column holds plain values (an :class:`Approx` its number,
+        a :class:`Bound` its text).
     """
+    return _finalize([_record(row[0], row[1], row[2], row[3] if len(row) > 3 else None, rtol)
+                      for row in rows])
+
+
+def _record(q: object, d: object, h: object, note: object, rtol: float) -> dict:
+    """One table row (:func:`side_by_side`'s columns)."""
+    matches, criterion = compare(d, h, rtol)
+    return {"quantity": str(q), "dissertation": _shown(d), "hypate": h,
+            "difference": relative_difference_percent(d, h), "matches": matches,
+            "criterion": criterion, "note": _note(d, note),
+            "finding": str(note) if isinstance(note, Finding) else ""}
+
+
+def _aggregate(values: list[object]) -> object:
+    """One value for several seeds: the median of numbers, else the most common value."""
+    present = [v for v in values if not _missing(v)]
+    if not present:
+        return None
+    numbers = [_number(v) for v in present]
+    if all(n is not None for n in numbers):
+        return present[0] if len(present) == 1 else float(statistics.median(numbers))
+    counts = Counter(map(str, present))
+    top = counts.most_common(1)[0][0]
+    return next(v for v in present if str(v) == top)
+
+
+def side_by_side_seeds(rows_by_seed: Sequence[Sequence[Sequence[object]]], rtol: float = RTOL
+                       ) -> pd.DataFrame:
+    """The comparison table of a reproduction run over several optimizer seeds.
+
+    Parameters
+    ----------
+    rows_by_seed : sequence of row lists
+        One list of rows (as in :func:`side_by_side`) per seed; a row is identified by its
+        quantity (published value and note are taken from the first seed that has it).
+    rtol : float
+        As in :func:`side_by_side`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        As :func:`side_by_side`, with ``hypate`` the median over seeds (numbers; other
+        values: the most common) and ``matches`` the verdict on it, plus the columns
+        ``hypate_min``, ``hypate_max`` (over the seeds' numbers, NaN when not numeric),
+        ``seeds`` (how many seeds gave a value) and ``seeds_matching`` (how many of those
+        match on their own; NaN when not compared). A quantity that occurs twice in one
+        seed's rows is one row (its values are pooled).
+    """
+    order: list[str] = []
+    first: dict[str, Sequence[object]] = {}
+    values: dict[str, list[object]] = {}
+    for rows in rows_by_seed:
+        for row in rows:
+            q = str(row[0])
+            if q not in first:
+                order.append(q)
+                first[q] = row
+                values[q] = []
+            values[q].append(row[2])
     records = []
-    notes = False
-    for row in rows:
-        q, d, h = row[0], row[1], row[2]
-        note = str(row[3]) if len(row) > 3 and row[3] is not None else ""
-        notes = notes or bool(note)
-        matches, criterion = compare(d, h, rtol)
-        shown = d.value if isinstance(d, Approx) else str(d) if isinstance(d, Bound) else d
-        records.append({"quantity": str(q), "dissertation": shown, "hypate": h,
-                        "difference": relative_difference_percent(d, h), "matches": matches,
-                        "criterion": criterion, "note": note})
-    df = pd.DataFrame.from_records(records, columns=[*COLUMNS, "note"])
-    return df if notes else df.drop(columns="note")
+    for q in order:
+        row = first[q]
+        d = row[1]
+        h = _aggregate(values[q])
+        rec = _record(q, d, h, row[3] if len(row) > 3 else None, rtol)
+        present = [v for v in values[q] if not _missing(v)]
+        nums = [n for n in map(_number, present) if n is not None]
+        rec.update(hypate_min=min(nums) if nums else math.nan,
+                   hypate_max=max(nums) if nums else math.nan, seeds=len(present),
+                   seeds_matching=(sum(compare(d, v, rtol)[0] is True for v in present)
+                                   if rec["matches"] is not None else math.nan))
+        records.append(rec)
+    return _finalize(records, ("hypate_min", "hypate_max", "seeds", "seeds_matching"))
 
 
 def _state(m: object) -> bool | None:
@@ -194,13 +321,26 @@ def mismatches(df: pd.DataFrame) -> list[str]:
     return [str(q) for q, m in zip(df["quantity"], df["matches"]) if _state(m) is False]
 
 
+def accepted_findings(df: pd.DataFrame) -> list[str]:
+    """Quantities of the mismatches that are accepted findings (a :class:`Finding` note)."""
+    if "finding" not in df.columns:
+        return []
+    return [str(q) for q, m, f in zip(df["quantity"], df["matches"], df["finding"])
+            if _state(m) is False and f]
+
+
 def summary(df: pd.DataFrame) -> str:
-    """Footer line: how many compared values match, and which do not."""
+    """Footer line: how many compared values match, and which do not (and of those, which
+    are accepted findings)."""
     compared = sum(_state(m) is not None for m in df["matches"])
     bad = mismatches(df)
     text = f"{compared - len(bad)} of {compared} compared values match"
     if bad:
         text += f"; {len(bad)} mismatch{'es' if len(bad) > 1 else ''} (NO): " + "; ".join(bad)
+    found = accepted_findings(df)
+    if found:
+        text += f" ({len(found)} of them accepted finding{'s' if len(found) > 1 else ''}: " \
+            + "; ".join(found) + ")"
     return text
 
 
@@ -227,7 +367,7 @@ def _fmt_match(m: object, criterion: str) -> str:
 def to_markdown(df: pd.DataFrame) -> str:
     """GitHub-flavoured Markdown of the table (no ``tabulate`` dependency); the criterion
     is shown in the ``matches`` cell."""
-    cols = [c for c in df.columns if c != "criterion"]
+    cols = [c for c in df.columns if c not in ("criterion", "finding")]
     head = ["difference (%)" if c == "difference" else c for c in cols]
     lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in cols) + "|"]
     for _, r in df.iterrows():

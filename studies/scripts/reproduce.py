@@ -1,0 +1,599 @@
+"""The dissertation reproductions as one run (issue 21): Ch. 7 tables, Ch. 8 trends, Ch. 9
+studies, each a table ``quantity | dissertation | hypate | difference | matches``
+(:mod:`.comparison`), and the page ``reproduction.html`` (:mod:`.reproduction_page`).
+
+What runs (:func:`plan`):
+
+* the deterministic scripts once: ``ch7_table7_3_modes``, ``ch7_flutter``, ``ch7_benchmark``,
+  ``ch7_time_accuracy``, ``ch8_effects``, ``ch9_table9_3`` (``quick``: their ``--coarse``
+  configurations; full: their defaults, ``ch7_flutter`` with its time-domain rows);
+* Sec. 9.1 (Table 9.3, Figs. 9.3-9.4): the Bayesian optimization of ``sec9_1_xi*`` per seed,
+  and the optimum of J_u next to Eq. 9.2 by Nelder-Mead (:func:`j_u_optimum`; the accepted
+  Poisson's-ratio finding, :data:`FINDING_POISSON`);
+* Sec. 9.2.2 (Table 9.8), Sec. 9.2.3 (Tables 9.9-9.10, Fig. 9.13: Case 2 against Case 1,
+  the accepted WT5 finding :data:`FINDING_WT5`) per seed; Sec. 9.2.4 (Table 9.11, the
+  envelope sweep) per seed in the full run only.
+
+``quick`` runs the Ch. 9 studies as coarse variants (:data:`COARSE_9_1`,
+:data:`COARSE_9_2`: 4 x 4 meshes, fewer steps, 36-50 evaluations) with their own stated
+tolerances, or no verdict where such a budget cannot resolve the dissertation's number (the
+row says so: :class:`~.comparison.NotCompared`). Optimizations run for the seeds
+``0 .. seeds - 1``; their rows show the median and the min-max over seeds, the verdict is
+on the median.
+
+Nothing finished is lost: every optimization is a ``hypate run`` directory
+``OUT/runs/{quick,full}/seed<k>/<study>`` (a finished one is read again, an interrupted one
+resumed, by :func:`run_directory`), and after each reproduction its table
+(``OUT/tables/<key>.csv``, ``.md``), ``OUT/reproduction.json`` and the page are rewritten.
+The slow Ch. 9 tests read their run directories through :func:`run_directory` as well.
+
+Run ``python -m hypate.studies.scripts.reproduce [--coarse] [--seeds N] [--out DIR]`` (the
+command line is ``hypate reproduce``).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import minimize
+from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.run import run_study
+from hypate.scaling.workflow.rundir import (
+    DESIGN_POINT_JSON,
+    EVALUATIONS_CSV,
+    STORE,
+    SWEEP_CSV,
+    SWEEP_JSON,
+)
+from hypate.scaling.workflow.shipped import shipped
+from hypate.scaling.workflow.similarity import analytical_scaling
+from hypate.scaling.workflow.study import Study, load_study, parse_study, study_data
+from hypate.scaling.workflow.sweep import run_sweep
+from hypate.studies.scripts import (
+    ch7_benchmark,
+    ch7_flutter,
+    ch7_table7_3_modes,
+    ch7_time_accuracy,
+    ch8_effects,
+    ch9_table9_3,
+    ch9_tables,
+)
+from hypate.studies.scripts.comparison import (
+    Approx,
+    Bound,
+    Finding,
+    NotCompared,
+    accepted_findings,
+    mismatches,
+    side_by_side_seeds,
+    summary,
+    write_table,
+)
+from hypate.studies.scripts.reproduction_page import PAGE_NAME, write_page
+
+#: The JSON record of a reproduction run (every table's rows), next to the page.
+RESULT_JSON = "reproduction.json"
+#: Largest ``--seeds``: each seed repeats every Ch. 9 optimization.
+MAX_SEEDS = 20
+
+#: Coarse Sec. 9.1 variant: 4 x 4 mesh, 40 of the 100 steps, 10 + 40 evaluations of BO
+#: without the shipped studies' final polish (about 15 s each here).
+COARSE_9_1 = {"simulation": {"mesh": [4, 4], "steps": 40},
+              "optimizer": {"initial_samples": 10, "iterations": 40, "polish": 0}}
+#: Coarse Sec. 9.2 variant: 4 x 4 mesh, 8 steps of 20 s (the same 160 s), 12 + 24
+#: evaluations (about 12 s each here).
+COARSE_9_2 = {"simulation": {"mesh": [4, 4], "steps": 8, "time_step": 20.0},
+              "optimizer": {"initial_samples": 12, "iterations": 24}}
+#: Sec. 9.2.2 coarse bound on min max(J_u, J_T) over the evaluations (fraction): the full
+#: study's 10 % (Sec. 9.2.2) is out of reach of 36 evaluations on a 4 x 4 mesh; seed 0
+#: measured 11.9 % (J_u 9.3 %, J_T 11.9 %), so a seed-0 coarse run above 12 % is a
+#: regression (the fast test's bound). Other seeds land higher (seeds 0-2: 11.9, 14.5,
+#: 16.7 %): with ``--seeds 3`` the median row says NO, which is what the coarse budget gives.
+COARSE_9_2_2_BOUND = 0.12
+#: Coarse Sec. 9.1 tolerances on Table 9.3's model parameters (fractions): measured at
+#: seed 0 lambda_F +0.45 % and the thermal load +1.35 % off the prototype (the
+#: dissertation's own models lie up to 0.8 % off it), so 2 % and 3 %; h/L is not resolved
+#: by the coarse budget (14 % off).
+COARSE_9_1_RTOL = {"lambda_F": 0.02, "DeltaT_NTx_L2/Dxx": 0.03}
+#: Full Sec. 9.1 tolerance on Table 9.3's model parameters: 1 % (ch9_table9_3.RTOL_MODEL).
+FULL_9_1_RTOL = ch9_table9_3.RTOL_MODEL
+#: Design variables of Eq. (9.2) (Sec. 9.1) in the order of the studies' variables.
+EQ_9_2_VARIABLES = ("h", "p_inf", "delta_T")
+#: Agreement asked of the J_u optimum with Eq. 9.2 (percent of each design variable):
+#: issue 8's acceptance (2 %); with equal Poisson ratios, 0.5 % (measured within 0.1 %).
+EQ_9_2_TOLERANCE, EQ_9_2_TOLERANCE_EQUAL_NU = 2.0, 0.5
+
+FINDING_POISSON = Finding(
+    "Accepted finding (Sec. 9.1, issue 8): Eq. 9.1a leaves out Poisson's ratio (Inconel 718 "
+    "0.29, Ti 6242 0.32; the von Karman membrane energy has A_12 = nu A_11), so for the "
+    "Table 9.1 pair the optimum of J_u is not Eq. 9.2 (full mesh, Nelder-Mead: J_u 1.44 % "
+    "at h -1.0 %, p_inf -3.0 %, Delta T -0.9 %); with equal ratios (sec9_1_xi2_equal_nu) "
+    "the optimum lies within 0.1 % of Eq. 9.2.")
+FINDING_WT5 = Finding(
+    "Accepted finding (Sec. 9.2.3, issues 8 and 10): in this heating model WT5 is not "
+    "heat-starved, so the radiant heater (Case 2) does not beat Case 1 there (full studies: "
+    "Case 1 8.4-8.7 %, Case 2 seeded from Case 1's best designs 8.43 %); WT6 and WT7 show "
+    "the dissertation's finding.")
+
+#: progress(step, done, total): the callback of :class:`hypate.scaling.cli.progress.StepProgress`.
+Progress = Callable[[str, int, int], None]
+
+
+# -- the Ch. 9 optimizations ------------------------------------------------------------------
+@dataclass(frozen=True)
+class Optimization:
+    """A shipped Ch. 9 study, as it is or coarsened (``quick``).
+
+    Parameters
+    ----------
+    name : str
+        Shipped study name (``studies/optimization/<name>.toml``).
+    quick : bool
+        The coarse variant (:data:`COARSE_9_1` for Sec. 9.1, :data:`COARSE_9_2` else).
+    """
+
+    name: str
+    quick: bool = False
+
+    def study(self) -> Study:
+        """The study to run (the shipped file, with the coarse settings when ``quick``)."""
+        study = load_study(shipped("study")[self.name])
+        if not self.quick:
+            return study
+        coarse = COARSE_9_1 if self.name.startswith("sec9_1") else COARSE_9_2
+        data = study_data(study)
+        for section, values in coarse.items():
+            data[section].update(values)
+        return parse_study(data, study.path)
+
+
+def runs_root(out: str | Path, quick: bool, seed: int) -> Path:
+    """``OUT/runs/{quick,full}/seed<k>``: the run directories of one seed."""
+    return Path(out) / "runs" / ("quick" if quick else "full") / f"seed{seed}"
+
+
+def run_directory(opt: Optimization, root: str | Path, seed: int = 0,
+                  progress: Callable[[int, int, Any], None] | None = None) -> Path:
+    """The finished run directory ``root/<name>`` of ``opt`` at optimizer ``seed``.
+
+    A finished directory (``design_point.json``, or ``sweep.csv`` of a finished sweep) is
+    read as it is; an interrupted one is resumed (nothing finished is evaluated again;
+    another study or seed there is refused by the run's campaign check); otherwise the
+    study runs (:func:`hypate.scaling.workflow.run.run_study`, or
+    :func:`~hypate.scaling.workflow.sweep.run_sweep` for a ``[sweep]`` study).
+    """
+    out = Path(root) / opt.name
+    study = opt.study()
+    if study.sweep is not None:
+        run_sweep(study, out, resume=(out / SWEEP_JSON).exists(), seed=seed, progress=progress)
+        return out
+    if (out / DESIGN_POINT_JSON).exists():
+        return out
+    run_study(study, out, resume=(out / STORE).exists(), seed=seed, progress=progress)
+    return out
+
+
+def design_point(run_dir: Path) -> dict:
+    """``design_point.json`` of a run directory."""
+    return json.loads((run_dir / DESIGN_POINT_JSON).read_text(encoding="utf-8"))
+
+
+def best_minmax(run_dir: Path) -> float:
+    """min over the successful evaluations of max(J_u, J_T) (fraction)."""
+    ev = pd.read_csv(run_dir / EVALUATIONS_CSV)
+    ok = ev[ev["status"] == "ok"]
+    return float(np.max(ok[["J_u", "J_T"]].to_numpy(), axis=1).min())
+
+
+def eq_9_2_design(study: Study, xi: float) -> np.ndarray:
+    """The analytical design (h, p_inf, Delta T) of Eq. (9.2) at scale ``xi``."""
+    law = analytical_scaling(study.spec.prototype, study.spec.model, xi).design()
+    return np.array([law[v] for v in EQ_9_2_VARIABLES])
+
+
+def j_u_optimum(problem: ScalingProblem, x0: np.ndarray, maxfev: int = 120
+                ) -> tuple[np.ndarray, float]:
+    """Nelder-Mead on J_u (Eq. 9.4) from ``x0`` in log coordinates (5 % simplex): the
+    optimum the BO should find, independent of it.
+
+    Returns
+    -------
+    x : ndarray of shape (3,)
+        The design (h m, p_inf Pa, Delta T K) at the optimum.
+    J_u : float
+        J_u there (fraction).
+    """
+    def f(z: np.ndarray) -> float:
+        return problem.errors(x0 * np.exp(z))["J_u"]
+
+    simplex = np.vstack([np.zeros(3), 0.05 * np.eye(3)])
+    res = minimize(f, np.zeros(3), method="Nelder-Mead",
+                   options={"initial_simplex": simplex, "xatol": 1e-3, "fatol": 1e-5,
+                            "maxfev": maxfev})
+    return x0 * np.exp(res.x), float(res.fun)
+
+
+# -- what each reproduction computes -------------------------------------------------------------
+@dataclass(frozen=True)
+class Context:
+    """Settings of one reproduction run, handed to every item."""
+
+    quick: bool
+    seeds: int
+    out: Path
+    progress: Progress | None = None
+
+    def report(self, step: str, done: int, total: int) -> None:
+        if self.progress is not None:
+            self.progress(step, done, total)
+
+    def run_dirs(self, title: str, names: Sequence[str]) -> list[dict[str, Path]]:
+        """Run directories ``{name: dir}`` of ``names`` for every seed (run when missing)."""
+        per_seed = []
+        for seed in range(self.seeds):
+            dirs = {}
+            for name in names:
+                step = f"{title}: {name} seed {seed}"
+
+                def tick(done: int, budget: int, _ev: Any, step: str = step) -> None:
+                    self.report(step, done, budget)
+
+                dirs[name] = run_directory(Optimization(name, self.quick),
+                                           runs_root(self.out, self.quick, seed), seed, tick)
+            per_seed.append(dirs)
+        return per_seed
+
+
+@dataclass(frozen=True)
+class Item:
+    """One reproduction: a key (file names), its chapter and title, and how to build its
+    table from a :class:`Context`."""
+
+    key: str
+    chapter: str
+    title: str
+    build: Callable[[Context], pd.DataFrame]
+    seeded: bool = False
+
+
+def _script(module: Any, full_config: Any = None) -> Callable[[Context], pd.DataFrame]:
+    """A deterministic script's table: ``run(Config.coarse())`` or ``run(full_config)``."""
+
+    def build(ctx: Context) -> pd.DataFrame:
+        config = module.Config.coarse() if ctx.quick else (full_config or module.Config())
+        return module.run(config).table
+
+    return build
+
+
+def _sec9_1_bo(ctx: Context) -> pd.DataFrame:
+    """Table 9.3 (models found by the BO) and Fig. 9.3 (J_u < 4 %), per seed."""
+    xis = (2,) if ctx.quick else (2, 3, 4)
+    names = [f"sec9_1_xi{xi}" for xi in xis] + ([] if ctx.quick else ["sec9_1_xi2_equal_nu"])
+    coarse = "coarse budget (4 x 4 mesh, 50 evaluations)"
+    rows_by_seed = []
+    for dirs in ctx.run_dirs("Sec. 9.1", names):
+        rows: list[tuple] = []
+        for xi in xis:
+            dp = design_point(dirs[f"sec9_1_xi{xi}"])
+            sim = {s["name"]: s["model"] for s in dp.get("similarity", [])}
+            ref = ch9_table9_3.OPTIMIZED[float(xi)]
+            for n in ch9_table9_3.NAMES:
+                if ctx.quick:
+                    d = (Approx(ref[n], rel=COARSE_9_1_RTOL[n]) if n in COARSE_9_1_RTOL else
+                         NotCompared(ref[n], f"{coarse} does not resolve h (seed 0: 14 % off)"))
+                    note = f"{coarse}: ±{100 * COARSE_9_1_RTOL[n]:g} %" \
+                        if n in COARSE_9_1_RTOL else None
+                else:  # h/L and the thermal load sit ~1 % off where nu differs
+                    d = Approx(ref[n], rel=FULL_9_1_RTOL)
+                    note = None if n == "lambda_F" else FINDING_POISSON
+                rows.append((f"Table 9.3 xi = {xi} model {n} (BO)", d, sim.get(n), note))
+            J = 100.0 * float(dp["objectives"]["J_u"])
+            fig = Bound("<", 4.0, "< 4 % (Fig. 9.3)")
+            rows.append((f"xi = {xi} J_u at the design point (%)",
+                         NotCompared(fig, f"{coarse} does not reach it") if ctx.quick else fig,
+                         J, None if ctx.quick else FINDING_POISSON))
+        if not ctx.quick:  # Eq. 9.1a complete: the BO alone recovers Eq. 9.2 (Fig. 9.4)
+            study = Optimization("sec9_1_xi2_equal_nu").study()
+            dp = design_point(dirs["sec9_1_xi2_equal_nu"])
+            x = np.array([dp["design"][v] for v in EQ_9_2_VARIABLES])
+            for v, dev in zip(EQ_9_2_VARIABLES, 100.0 * (x / eq_9_2_design(study, 2.0) - 1.0)):
+                rows.append((f"equal nu, xi = 2: BO design {v} relative to Eq. 9.2 (%)",
+                             Approx(0.0, abs=EQ_9_2_TOLERANCE), float(dev),
+                             "Fig. 9.4: the BO recovers the analytical laws"))
+        rows_by_seed.append(rows)
+    return side_by_side_seeds(rows_by_seed)
+
+
+def _sec9_1_optimum(ctx: Context) -> pd.DataFrame:
+    """The optimum of J_u next to Eq. 9.2, Table 9.1 pair and equal Poisson ratios
+    (deterministic: Nelder-Mead, once)."""
+    rows: list[tuple] = []
+    names = ("sec9_1_xi2", "sec9_1_xi2_equal_nu")
+    for k, name in enumerate(names):
+        ctx.report("Sec. 9.1 optimum of J_u (Nelder-Mead)", k, len(names))
+        study = Optimization(name, ctx.quick).study()
+        problem = ScalingProblem(study.spec)
+        x0 = eq_9_2_design(study, 2.0)
+        J0 = problem.errors(x0)["J_u"]
+        x, J = j_u_optimum(problem, x0)
+        equal = name.endswith("equal_nu")
+        label = "equal nu" if equal else "Table 9.1 pair"
+        tol = EQ_9_2_TOLERANCE_EQUAL_NU if equal else EQ_9_2_TOLERANCE
+        note = ("Eq. 9.1a complete (model nu = 0.29)" if equal else FINDING_POISSON)
+        rows.append((f"{label}: J_u at Eq. 9.2 (%)", None, 100.0 * J0))
+        rows.append((f"{label}: J_u at its optimum (%)", Bound("<", 4.0, "< 4 % (Fig. 9.3)"),
+                     100.0 * J))
+        for v, dev in zip(EQ_9_2_VARIABLES, 100.0 * (x / x0 - 1.0)):
+            rows.append((f"{label}: optimum {v} relative to Eq. 9.2 (%)",
+                         Approx(0.0, abs=tol), float(dev), note))
+    ctx.report("Sec. 9.1 optimum of J_u (Nelder-Mead)", len(names), len(names))
+    return side_by_side_seeds([rows])
+
+
+def _sec9_2_2(ctx: Context) -> pd.DataFrame:
+    """Table 9.8 / Fig. 9.9: the ideal tunnel (design point and best min-max error)."""
+    xis = (4,) if ctx.quick else (2, 3, 4, 5)
+    coarse = "coarse budget (4 x 4 mesh, 36 evaluations): one of many near-optimal designs"
+    rows_by_seed = []
+    for dirs in ctx.run_dirs("Sec. 9.2.2", [f"sec9_2_2_xi{xi}" for xi in xis]):
+        rows: list[tuple] = []
+        for xi in xis:
+            path = dirs[f"sec9_2_2_xi{xi}"]
+            found = ch9_tables.design_point_rows(path, design_point(path), "9.8", f"xi{xi}")
+            if ctx.quick:
+                found = [(r[0], NotCompared(r[1], coarse) if r[1] is not None else None,
+                          *r[2:]) for r in found]
+            rows += found
+            bound = (Bound("<", 100.0 * COARSE_9_2_2_BOUND, "< 10 % (Sec. 9.2.2); coarse < 12 %")
+                     if ctx.quick else Bound("<", 10.0, "< 10 % (Sec. 9.2.2)"))
+            rows.append((f"Table 9.8 xi{xi} min over evaluations of max(J_u, J_T) (%)", bound,
+                         100.0 * best_minmax(path), "Fig. 9.9: a design below 10 % in both"))
+        rows_by_seed.append(rows)
+    return side_by_side_seeds(rows_by_seed, rtol=ch9_tables.RTOL)
+
+
+def _sec9_2_3(ctx: Context) -> pd.DataFrame:
+    """Fig. 9.13 / Tables 9.9-9.10: Case 2 (radiant heater) against Case 1 in WT5-WT7."""
+    tunnels = ("wt5", "wt6", "wt7")
+    names = [f"sec9_2_3_case{c}_{t}" for t in tunnels for c in (1, 2)]
+    rows_by_seed = []
+    for dirs in ctx.run_dirs("Sec. 9.2.3", names):
+        rows: list[tuple] = []
+        for t in tunnels:
+            J = {c: 100.0 * best_minmax(dirs[f"sec9_2_3_case{c}_{t}"]) for c in (1, 2)}
+            T = t.upper()
+            rows.append((f"{T} Case 1 min max(J_u, J_T) (%)", None, J[1]))
+            rows.append((f"{T} Case 2 min max(J_u, J_T) (%)", None, J[2]))
+            rows.append((f"{T} Case 2 better than Case 1 (Case 1 - Case 2, % points)",
+                         Bound(">", 0.0, "Case 2 better (Fig. 9.13)"), J[1] - J[2],
+                         FINDING_WT5 if t == "wt5" else
+                         ("coarse: 36 evaluations per case" if ctx.quick else None)))
+            if not ctx.quick:
+                for c, table in ((1, "9.9"), (2, "9.10")):
+                    path = dirs[f"sec9_2_3_case{c}_{t}"]
+                    rows += ch9_tables.design_point_rows(path, design_point(path), table, t)
+        rows_by_seed.append(rows)
+    return side_by_side_seeds(rows_by_seed, rtol=ch9_tables.RTOL)
+
+
+def _sec9_2_4(ctx: Context) -> pd.DataFrame:
+    """Table 9.11: errors over the flight envelope in WT7 (the sweep; full run only)."""
+    if ctx.quick:
+        rows = [(f"Table 9.11 error at M = {m:g}, H = {h:g} km (%)",
+                 NotCompared(ref[i], "not run with --quick (25 optimizations, hours)"), None)
+                for m, ref in ch9_tables.TABLE_9_11.items()
+                for i, h in enumerate(ch9_tables.ALTITUDES_KM)]
+        return side_by_side_seeds([rows], rtol=ch9_tables.RTOL)
+    rows_by_seed = []
+    for dirs in ctx.run_dirs("Sec. 9.2.4", ["sec9_2_4_envelope"]):
+        path = dirs["sec9_2_4_envelope"]
+        rows_by_seed.append(ch9_tables.envelope_rows(path, {}) if (path / SWEEP_CSV).exists()
+                            else [])
+    return side_by_side_seeds(rows_by_seed, rtol=ch9_tables.RTOL)
+
+
+def plan() -> list[Item]:
+    """Every reproduction, in page order."""
+    flutter_full = ch7_flutter.Config(time_domain=True)
+    return [
+        Item("ch7_table7_3_modes", "Ch. 7", "Table 7.3: natural frequencies of the clamped "
+             "panel", _script(ch7_table7_3_modes)),
+        Item("ch7_flutter", "Ch. 7", "Sec. 7.2.3: flutter of the heated panel",
+             _script(ch7_flutter, flutter_full)),
+        Item("ch7_benchmark", "Ch. 7", "Sec. 7.3: aerothermoelastic benchmark (snap-through "
+             "onset)", _script(ch7_benchmark)),
+        Item("ch7_time_accuracy", "Ch. 7", "Sec. 7.3.2.2 / Fig. 7.17: time and energy "
+             "accuracy of S1 and S2", _script(ch7_time_accuracy)),
+        Item("ch8_effects", "Ch. 8", "Ch. 8: boundary layer, aspect ratio, flow angle and "
+             "orthotropy (trends)", _script(ch8_effects)),
+        Item("ch9_table9_3", "Ch. 9", "Table 9.3: similarity parameters (Eq. 9.2 models)",
+             _script(ch9_table9_3)),
+        Item("sec9_1_bo", "Ch. 9", "Sec. 9.1: the Bayesian optimization recovers Table 9.3",
+             _sec9_1_bo, seeded=True),
+        Item("sec9_1_optimum", "Ch. 9", "Sec. 9.1: the optimum of J_u and Eq. 9.2 "
+             "(Poisson's ratio)", _sec9_1_optimum),
+        Item("sec9_2_2", "Ch. 9", "Sec. 9.2.2 / Table 9.8: the ideal tunnel", _sec9_2_2,
+             seeded=True),
+        Item("sec9_2_3", "Ch. 9", "Sec. 9.2.3 / Fig. 9.13: realistic tunnels, Case 2 against "
+             "Case 1", _sec9_2_3, seeded=True),
+        Item("sec9_2_4", "Ch. 9", "Sec. 9.2.4 / Table 9.11: errors over the flight envelope",
+             _sec9_2_4, seeded=True),
+    ]
+
+
+# -- the run ---------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Reproduction:
+    """One finished reproduction: its table and what it took."""
+
+    key: str
+    chapter: str
+    title: str
+    table: pd.DataFrame
+    seconds: float
+    seeds: int
+    warnings: tuple[str, ...] = ()
+
+    def counts(self) -> dict[str, int]:
+        """Rows, compared rows, matches, mismatches and accepted findings of the table."""
+        compared = int(sum(m is not None and not (isinstance(m, float) and math.isnan(m))
+                           for m in self.table["matches"]))
+        bad = len(mismatches(self.table))
+        return {"rows": len(self.table), "compared": compared, "match": compared - bad,
+                "mismatch": bad, "accepted_findings": len(accepted_findings(self.table))}
+
+    def record(self) -> dict[str, Any]:
+        """JSON-ready record (NaN written as null)."""
+        rows = json.loads(self.table.to_json(orient="records"))
+        return {"key": self.key, "chapter": self.chapter, "title": self.title,
+                "seconds": self.seconds, "seeds": self.seeds, "summary": summary(self.table),
+                **self.counts(), "warnings": list(self.warnings), "rows": rows}
+
+
+@dataclass(frozen=True)
+class Config:
+    """Settings of :func:`run`.
+
+    Parameters
+    ----------
+    quick : bool
+        The coarse variants (``hypate reproduce --quick``).
+    seeds : int
+        Optimizer seeds 0 .. seeds - 1 of every Ch. 9 optimization (1 <= seeds <=
+        :data:`MAX_SEEDS`).
+    out : path
+        Output directory (``reproduction.html``, ``reproduction.json``, ``tables/``,
+        ``runs/``).
+    only : tuple of str
+        Keys of the reproductions to run (empty: all of :func:`plan`).
+    """
+
+    quick: bool = False
+    seeds: int = 1
+    out: str = "reproduction"
+    only: tuple[str, ...] = ()
+
+    @classmethod
+    def coarse(cls) -> Config:
+        """The ``--quick`` run (one seed)."""
+        return cls(quick=True)
+
+
+@dataclass
+class Result:
+    """The reproductions finished so far, and the files written."""
+
+    config: Config
+    reproductions: list[Reproduction] = field(default_factory=list)
+    planned: int = 0
+    seconds: float = 0.0
+    page: Path | None = None
+    json: Path | None = None
+
+    @property
+    def finished(self) -> bool:
+        return len(self.reproductions) == self.planned
+
+    def counts(self) -> dict[str, int]:
+        """Totals of :meth:`Reproduction.counts` over the reproductions."""
+        keys = ("rows", "compared", "match", "mismatch", "accepted_findings")
+        return {k: sum(r.counts()[k] for r in self.reproductions) for k in keys}
+
+    def record(self) -> dict[str, Any]:
+        return {"quick": self.config.quick, "seeds": self.config.seeds,
+                "finished": self.finished, "planned": self.planned,
+                "seconds": self.seconds, **self.counts(),
+                "page": str(self.page) if self.page else None,
+                "reproductions": [r.record() for r in self.reproductions]}
+
+
+def _write(result: Result, out: Path) -> None:
+    """Rewrite ``reproduction.json`` and the page (atomically: never half-written)."""
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / RESULT_JSON
+    tmp = path.with_name(path.name + ".tmp")
+    result.page = out / PAGE_NAME
+    tmp.write_text(json.dumps(result.record(), indent=1, allow_nan=False), encoding="utf-8")
+    tmp.replace(path)
+    result.json = path
+    write_page(result, result.page)
+
+
+def check_config(config: Config) -> None:
+    """Refuse settings out of range before anything runs (:class:`ValueError` naming the
+    setting; the command line turns it into its flag)."""
+    if not 1 <= int(config.seeds) <= MAX_SEEDS:
+        raise ValueError(f"seeds must be an integer in [1, {MAX_SEEDS}]; got {config.seeds}")
+    known = {item.key for item in plan()}
+    unknown = sorted(set(config.only) - known)
+    if unknown:
+        raise ValueError(f"only: unknown reproduction(s) {', '.join(unknown)}; "
+                         f"known: {', '.join(sorted(known))}")
+
+
+def run(config: Config | None = None, progress: Progress | None = None) -> Result:
+    """Run the reproductions of ``config`` into ``config.out``.
+
+    After each one its table is written (``tables/<key>.csv``, ``.md``) and
+    ``reproduction.json`` and ``reproduction.html`` are rewritten, so an interrupted run
+    keeps what finished (and its optimizations resume: :func:`run_directory`).
+
+    Parameters
+    ----------
+    config : Config, optional
+    progress : callable, optional
+        ``progress(step, done, total)`` (a :class:`hypate.scaling.cli.progress.StepProgress`).
+
+    Returns
+    -------
+    Result
+    """
+    config = Config() if config is None else config
+    check_config(config)
+    out = Path(config.out)
+    items = [i for i in plan() if not config.only or i.key in config.only]
+    result = Result(config, planned=len(items))
+    ctx = Context(config.quick, int(config.seeds), out, progress)
+    t0 = time.monotonic()
+    for item in items:
+        start = time.monotonic()
+        ctx.report(item.title, 0, 1)
+        with warnings.catch_warnings(record=True) as caught:  # solver warnings: counted
+            warnings.simplefilter("default")  # each distinct warning once
+            table = item.build(ctx)
+        seen = tuple(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
+        rep = Reproduction(item.key, item.chapter, item.title, table,
+                           time.monotonic() - start, ctx.seeds if item.seeded else 1, seen)
+        result.reproductions.append(rep)
+        result.seconds = time.monotonic() - t0
+        write_table(table, out / "tables", item.key, item.title)
+        _write(result, out)
+        ctx.report(item.title, 1, 1)
+    return result
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``python -m hypate.studies.scripts.reproduce [--coarse] [--seeds N] [--out DIR]``."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--coarse", action="store_true", help="the quick (coarse) variants")
+    parser.add_argument("--seeds", type=int, default=1)
+    parser.add_argument("--out", default="reproduction")
+    args = parser.parse_args(argv)
+    res = run(Config(quick=args.coarse, seeds=args.seeds, out=args.out))
+    for r in res.reproductions:
+        print(f"{r.title}: {summary(r.table)}")
+    print(res.page)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,201 @@
+"""``hypate.studies.scripts.reproduce`` (issue 21): the runner behind ``hypate reproduce``,
+the seed statistics of :mod:`.comparison` and the page ``reproduction.html``.
+
+The fast tests run the cheap reproductions of ``--quick`` (Table 7.3, Table 9.3 and the
+Sec. 9.1 Nelder-Mead optimum of J_u, ~30 s) and check their numbers against the
+dissertation and the accepted Poisson's-ratio finding; the page is rendered by headless
+Chromium at 1400 px (skipped without a browser; ``.ci/run`` installs one).
+"""
+from __future__ import annotations
+
+import json
+import math
+import re
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import pytest
+from hypate.studies.scripts import reproduce
+from hypate.studies.scripts.comparison import (
+    Approx,
+    Bound,
+    Finding,
+    NotCompared,
+    side_by_side,
+    side_by_side_seeds,
+    summary,
+)
+from hypate.studies.scripts.reproduction_page import PAGE_NAME, verdict
+
+CHEAP = ("ch7_table7_3_modes", "ch9_table9_3", "sec9_1_optimum")
+
+
+# -- comparison: seeds, no-comparison rows, accepted findings ------------------------------------
+def test_side_by_side_seeds_reports_median_spread_and_verdict_on_the_median() -> None:
+    wt5 = Finding("heater does not help in WT5")
+    rows_by_seed = [
+        [("lambda", Approx(100.0, rel=0.02), 101.0), ("h", NotCompared(2.0, "coarse"), 2.5),
+         ("trend", Bound(">", 0.0), -1.0, wt5), ("words", "flutter", "flutter")],
+        [("lambda", Approx(100.0, rel=0.02), 99.5), ("h", NotCompared(2.0, "coarse"), 2.1),
+         ("trend", Bound(">", 0.0), -3.0, wt5), ("words", "flutter", "flutter")],
+        [("lambda", Approx(100.0, rel=0.02), 110.0), ("h", NotCompared(2.0, "coarse"), 2.2),
+         ("trend", Bound(">", 0.0), 0.5, wt5), ("words", "flutter", "divergence")],
+    ]
+    t = side_by_side_seeds(rows_by_seed).set_index("quantity")
+    # median 101 of (101, 99.5, 110) within 2 %; one seed of three (110) is not
+    assert t.loc["lambda", "hypate"] == 101.0 and bool(t.loc["lambda", "matches"])
+    assert (t.loc["lambda", "hypate_min"], t.loc["lambda", "hypate_max"]) == (99.5, 110.0)
+    assert t.loc["lambda", "seeds"] == 3 and t.loc["lambda", "seeds_matching"] == 2
+    assert t.loc["lambda", "difference"] == pytest.approx(1.0)
+    # shown, not judged, and the reason is on the row
+    assert t.loc["h", "matches"] is None and t.loc["h", "dissertation"] == 2.0
+    assert t.loc["h", "note"] == "coarse" and math.isnan(t.loc["h", "seeds_matching"])
+    # median -1 misses "> 0": a mismatch, and an accepted finding
+    assert t.loc["trend", "matches"] is False and t.loc["trend", "finding"] == wt5.text
+    assert t.loc["words", "hypate"] == "flutter" and bool(t.loc["words", "matches"])
+    df = t.reset_index()
+    assert summary(df) == ("2 of 3 compared values match; 1 mismatch (NO): trend "
+                           "(1 of them accepted finding: trend)")
+    assert [verdict(r) for _, r in df.iterrows()] == [
+        "yes (±2 %)", "no comparison", "NO: accepted finding", "yes (same)"]
+
+
+def test_side_by_side_is_unchanged_without_the_new_kinds() -> None:
+    df = side_by_side([("a", 2.0, 2.05), ("b", 2.0, None, "not run")])
+    assert list(df.columns) == ["quantity", "dissertation", "hypate", "difference",
+                                "matches", "criterion", "note"]
+    assert summary(df) == "1 of 1 compared values match"
+
+
+# -- the runner ------------------------------------------------------------------------------------
+def test_plan_covers_every_script_and_the_ch9_studies() -> None:
+    keys = [item.key for item in reproduce.plan()]
+    assert len(keys) == len(set(keys))
+    for script in ("ch7_table7_3_modes", "ch7_flutter", "ch7_benchmark", "ch7_time_accuracy",
+                   "ch8_effects", "ch9_table9_3"):
+        assert script in keys
+    assert {"sec9_1_bo", "sec9_1_optimum", "sec9_2_2", "sec9_2_3", "sec9_2_4"} <= set(keys)
+    # the quick variants are the coarse settings, the full ones the shipped studies
+    quick = reproduce.Optimization("sec9_2_3_case2_wt7", quick=True).study()
+    full = reproduce.Optimization("sec9_2_3_case2_wt7").study()
+    assert (quick.optimizer.initial_samples, quick.optimizer.iterations) == (12, 24)
+    assert (full.optimizer.initial_samples, full.optimizer.iterations) == (20, 50)
+    assert quick.raw.simulation.steps * quick.raw.simulation.time_step == \
+        full.raw.simulation.steps * full.raw.simulation.time_step  # the same 160 s
+
+
+@pytest.mark.parametrize("seeds", [0, reproduce.MAX_SEEDS + 1])
+def test_seeds_out_of_range_are_refused_before_anything_runs(seeds: int, tmp_path) -> None:
+    with pytest.raises(ValueError, match=r"seeds must be an integer in \[1, 20\]"):
+        reproduce.run(reproduce.Config(quick=True, seeds=seeds, out=str(tmp_path / "o")))
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.fixture(scope="module")
+def cheap_run(tmp_path_factory: pytest.TempPathFactory) -> reproduce.Result:
+    out = tmp_path_factory.mktemp("reproduce")
+    steps: list[tuple[str, int, int]] = []
+    res = reproduce.run(reproduce.Config(quick=True, out=str(out), only=CHEAP),
+                        progress=lambda s, d, t: steps.append((s, d, t)))
+    res.steps = steps  # type: ignore[attr-defined] - for the progress test below
+    return res
+
+
+def test_quick_tables_against_the_dissertation(cheap_run: reproduce.Result) -> None:
+    by_key = {r.key: r.table.set_index("quantity") for r in cheap_run.reproductions}
+    assert list(by_key) == list(CHEAP) and cheap_run.finished
+    # Table 7.3 within 0.2 % of the dissertation's DCS9 column (the script's tolerance)
+    t73 = by_key["ch7_table7_3_modes"]
+    assert t73["matches"].all() and len(t73) == 10
+    # Sec. 9.1 on the coarse mesh: the Table 9.1 pair's optimum of J_u lies off Eq. 9.2 in
+    # p_inf by more than issue 8's 2 % (full mesh -3.0 %; measured here -3.7 %): a mismatch
+    # that is the accepted Poisson's-ratio finding; with equal ratios within 0.5 %
+    # (measured 0.01 %).
+    opt = by_key["sec9_1_optimum"]
+    p = opt.loc["Table 9.1 pair: optimum p_inf relative to Eq. 9.2 (%)"]
+    assert p["hypate"] < -2.0 and p["matches"] is False
+    assert p["finding"] == reproduce.FINDING_POISSON.text
+    for v in reproduce.EQ_9_2_VARIABLES:
+        row = opt.loc[f"equal nu: optimum {v} relative to Eq. 9.2 (%)"]
+        assert abs(row["hypate"]) < 0.5 and row["matches"] is True
+    assert opt.loc["Table 9.1 pair: J_u at its optimum (%)", "hypate"] < \
+        opt.loc["Table 9.1 pair: J_u at Eq. 9.2 (%)", "hypate"]
+    # every mismatch of these tables is an accepted finding
+    counts = cheap_run.counts()
+    assert counts["mismatch"] == counts["accepted_findings"] >= 1
+
+
+def test_each_finished_reproduction_is_written(cheap_run: reproduce.Result) -> None:
+    out = Path(cheap_run.config.out)
+    for key in CHEAP:
+        assert (out / "tables" / f"{key}.csv").exists()
+        assert "compared values match" in (out / "tables" / f"{key}.md").read_text()
+    record = json.loads((out / reproduce.RESULT_JSON).read_text(),
+                        parse_constant=lambda c: pytest.fail(f"non-strict JSON {c}"))
+    assert record["finished"] and [r["key"] for r in record["reproductions"]] == list(CHEAP)
+    assert record["compared"] == cheap_run.counts()["compared"]
+    assert not list(out.glob("*.tmp"))
+    # progress: every reproduction reported its start and end
+    ends = [s for s, d, t in cheap_run.steps if d == t]  # type: ignore[attr-defined]
+    assert all(any(r.title == s for s in ends) for r in cheap_run.reproductions)
+
+
+# -- the page in a browser ------------------------------------------------------------------------
+def _chromium() -> str | None:
+    for name in ("chromium", "chromium-browser", "google-chrome", "/usr/bin/chromium"):
+        found = shutil.which(name)
+        if found:
+            return found
+    return None
+
+
+#: After load: per table row (of the reproduction tables) its verdict cell's text, and the
+#: page's scroll width against the window's.
+PROBE = """<script>
+window.addEventListener('load', function () {
+  var cells = [];
+  document.querySelectorAll('table.reproduction tbody tr').forEach(function (tr) {
+    cells.push(tr.cells[5].textContent);
+  });
+  var pre = document.createElement('pre');
+  pre.textContent = 'PROBE ' + window.innerWidth + ' ' + document.documentElement.scrollWidth
+    + ' ' + cells.length + ' ' + cells.join('|') + ' END';
+  document.body.appendChild(pre);
+});
+</script>"""
+
+
+def _browser(page: Path, *args: str) -> subprocess.CompletedProcess:
+    with tempfile.TemporaryDirectory() as profile:
+        return subprocess.run(
+            [_chromium(), "--headless", "--no-sandbox", "--disable-gpu",
+             "--disable-dev-shm-usage", "--no-first-run", f"--user-data-dir={profile}",
+             "--window-size=1400,3000", "--virtual-time-budget=5000", *args, page.as_uri()],
+            capture_output=True, text=True, timeout=180, check=False)
+
+
+@pytest.mark.skipif(_chromium() is None, reason="no chromium binary")
+def test_page_renders_every_row_with_its_verdict(cheap_run: reproduce.Result,
+                                                 tmp_path: Path) -> None:
+    page = Path(cheap_run.config.out) / PAGE_NAME
+    text = page.read_text(encoding="utf-8")
+    assert "<script" not in text and "http" not in text.split("<body>", 1)[1]  # self-contained
+    probe = tmp_path / "probe.html"
+    probe.write_text(text.replace("</body>", PROBE + "</body>"), encoding="utf-8")
+    done = _browser(probe, "--dump-dom")
+    assert done.returncode == 0, done.stderr[-2000:]
+    found = re.search(r"PROBE (\d+) (\d+) (\d+) (.*?) END", done.stdout, flags=re.S)
+    assert found, "the probe script did not run"
+    viewport, scroll, n = (int(found.group(k)) for k in (1, 2, 3))
+    verdicts = found.group(4).split("|")
+    assert n == sum(len(r.table) for r in cheap_run.reproductions) == len(verdicts)
+    allowed = re.compile(r"^(yes|NO)( \(.+\))?$|^NO: accepted finding$|^no comparison$"
+                         r"|^not measured$|^nothing published$")
+    assert all(allowed.match(v) for v in verdicts), set(verdicts)
+    assert "NO: accepted finding" in verdicts
+    assert scroll <= viewport <= 1400  # no horizontal overflow at 1400 px
+    shot = tmp_path / "reproduction_1400.png"
+    assert _browser(page, f"--screenshot={shot}").returncode == 0
+    assert shot.read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
