@@ -84,6 +84,8 @@ FAILURE_NUGGET = 0.05
 FAILURE_LENGTH_SCALES = (0.15, 1e2)
 #: Largest predicted failure indicator accepted for a proposal.
 FAILURE_THRESHOLD = 0.15
+#: Largest length scale (unit box) of the surrogates' metric for the inward probe.
+MAX_METRIC_LENGTH = 1.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -248,13 +250,17 @@ class BayesianOptimizer:
         """The objective surrogates' metric (:class:`~hypate.scaling.engine.inner.Resolution`):
         input coordinates (``settings.coordinates`` or the design box) scaled to the
         surrogates' unit box and divided by their shortest length scale per input (over the
-        objectives); None when ``settings.resolution`` is 0."""
+        objectives, at most :data:`MAX_METRIC_LENGTH`); None when ``settings.resolution``
+        is 0."""
         radius = self.settings.resolution
         if radius <= 0.0:
             return None
         coords = model.coords if isinstance(model, WarpedModel) else None
         gp = model.model if isinstance(model, WarpedModel) else model
-        lower, unit = gp.lower_, gp.scale_ * gp.length_scale_.min(axis=0)
+        # a length scale beyond the box (an input the fit calls irrelevant, up to the
+        # bound 1e2) would make the whole box one point: the metric caps it at the box
+        lower = gp.lower_
+        unit = gp.scale_ * np.minimum(gp.length_scale_.min(axis=0), MAX_METRIC_LENGTH)
         if coords is None:
             return Resolution(lambda X: (np.atleast_2d(X) - lower) / unit,
                               lambda W: lower + np.atleast_2d(W) * unit, radius,
