@@ -1,6 +1,7 @@
 """Shared pytest fixtures."""
 from __future__ import annotations
 
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -57,6 +58,15 @@ def tiny_study_text(name: str = "tiny", xi: float = 4.0, mesh: int = 2, steps: i
     return TINY_STUDY.format(name=name, xi=xi, case=PROTOTYPE_CASE.as_posix(), mesh=mesh,
                              steps=steps, time_step=time_step, initial=initial,
                              iterations=iterations, seed=seed, sections=sections, tail=tail)
+
+
+#: Names of a headless-capable browser binary, in the order they are looked for.
+BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
+
+
+def chromium() -> str | None:
+    """The path of a Chromium/Chrome binary, or None (the browser checks then skip)."""
+    return next((p for p in map(shutil.which, BROWSERS) if p), None)
 
 
 def stored_evaluations(store: Path) -> int:

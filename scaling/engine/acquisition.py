@@ -128,7 +128,7 @@ class Acquisition(ABC):
 
     # Every class in :data:`ACQUISITIONS` also has a classmethod
     # ``from_context(model, context)`` building it for one proposal; an acquisition made by
-    # hand (a user's factory) needs none, so the base class declares no placeholder for it.
+    # hand (a user's factory) needs none, so the base class does not declare it.
 
     def __init__(self, model: Model) -> None:
         self.model = model

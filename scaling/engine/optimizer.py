@@ -30,6 +30,10 @@ acquisition is built by name from :data:`hypate.scaling.engine.acquisition.ACQUI
 evaluations are :class:`hypate.scaling.engine.problem.Outcome` records committed as
 :class:`hypate.scaling.engine.store.Evaluation` rows.
 
+Size: about 620 lines, one class and the record of its leave-one-out check; the proposal,
+evaluation, polish and check share the optimizer's settings, surrogates and store, and the
+pieces that stand alone already have their own modules (inner, acquisition, executors).
+
 Reproducibility: the random numbers of iteration ``t`` come from
 ``numpy.random.default_rng([seed, t])`` and a proposal depends only on the evaluations of
 earlier iterations, so a resumed run proposes exactly what the uninterrupted run proposed.

@@ -1,7 +1,7 @@
 """The BO loop, the multistart inner optimization, constraints, failures, batches,
 executors and resume (scaling/engine/optimizer.py).
 
-Size: about 645 lines, one test file for one module (the tests mirror the tree); the
+Size: about 750 lines, one test file for one module (the tests mirror the tree); the
 executor and fault cases have their own files (test_executors.py, tests/reliability/)."""
 from __future__ import annotations
 
@@ -130,23 +130,22 @@ def test_candidates_near_samples_are_rejected():
     assert np.linalg.norm(x2 - x_best) >= 0.05
 
 
-class _Ramp(Acquisition):
-    """A maximized acquisition rising towards the face x = 1 of the unit square, best at
-    (1, 0.5): a surrogate that believes the objective keeps falling beyond that bound."""
+class _RampModel(_SurfaceModel):
+    """A noise-free "surrogate" rising towards the face x = 1 of the unit square, best at
+    (1, 0.5): one that believes the objective keeps falling beyond that bound."""
 
-    def __init__(self):
-        super().__init__(_SurfaceModel())
-
-    def __call__(self, X):
-        return self.value_and_gradient(X)[0]
-
-    def value_and_gradient(self, X):
+    @staticmethod
+    def f(X):
         X = np.atleast_2d(X)
         val = X[:, 0] - (X[:, 1] - 0.5) ** 2
         return val, np.stack([np.ones(len(X)), -2.0 * (X[:, 1] - 0.5)], axis=1)
 
-    def _from_moments(self, mu, sigma):  # pragma: no cover - value_and_gradient overridden
-        raise NotImplementedError
+
+class _Ramp(_Surface):
+    """The ramp as a maximized acquisition (C = mu, as :class:`_Surface`)."""
+
+    def __init__(self):
+        Acquisition.__init__(self, _RampModel())
 
 
 def _unit_metric(length, radius):

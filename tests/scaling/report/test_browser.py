@@ -5,13 +5,13 @@ Chromium binary exists (``.ci/run`` installs one)."""
 from __future__ import annotations
 
 import re
-import shutil
 import subprocess
 import tempfile
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import pytest
+from conftest import chromium
 from hypate.scaling.cli.main import main
 from hypate.scaling.report import figures
 from hypate.scaling.report.figures import fit_labels, label_overflows
@@ -41,17 +41,9 @@ window.addEventListener('load', function () {
 </script>"""
 
 
-def _chromium() -> str | None:
-    for name in ("chromium", "chromium-browser", "google-chrome", "/usr/bin/chromium"):
-        found = shutil.which(name)
-        if found:
-            return found
-    return None
-
-
 def _browser(page: Path, *args: str) -> str:
     """Run headless Chromium on ``page`` at WIDTH x HEIGHT; its stdout."""
-    binary = _chromium()
+    binary = chromium()
     assert binary is not None
     with tempfile.TemporaryDirectory() as profile:
         done = subprocess.run(
@@ -72,7 +64,7 @@ def quickstart_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
-@pytest.mark.skipif(_chromium() is None, reason="no chromium binary")
+@pytest.mark.skipif(chromium() is None, reason="no chromium binary")
 def test_quickstart_report_fits_1400_px(quickstart_report: Path, tmp_path: Path) -> None:
     page = (quickstart_report / "report.html").read_text(encoding="utf-8")
     probe = tmp_path / "probe.html"

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from conftest import forget_study_file
+from conftest import chromium, forget_study_file
 from hypate.scaling.cli.main import main
 from hypate.scaling.report.figures import MISMATCH_THRESHOLD
 from hypate.scaling.report.html import (
@@ -145,15 +145,7 @@ def test_report_errors(tmp_path: Path, tiny_run: tuple[Path, Path], capsys) -> N
     assert "--study" in capsys.readouterr().err
 
 
-def _browser() -> str | None:
-    for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable"):
-        path = shutil.which(name)
-        if path:
-            return path
-    return None
-
-
-@pytest.mark.skipif(_browser() is None, reason="no chromium/google-chrome binary installed")
+@pytest.mark.skipif(chromium() is None, reason="no chromium/google-chrome binary installed")
 def test_report_renders_in_headless_chromium(tiny_run: tuple[Path, Path], tmp_path: Path
                                              ) -> None:
     """The page loads with every image decoded and no console error."""
@@ -167,7 +159,7 @@ def test_report_renders_in_headless_chromium(tiny_run: tuple[Path, Path], tmp_pa
         ".filter(i=>!(i.complete&&i.naturalWidth>0)).length;document.body.setAttribute("
         "'data-bad-images',String(bad));document.body.setAttribute('data-images',"
         "String(document.images.length));});</script></body>"))
-    cmd = [_browser(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+    cmd = [chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
            "--enable-logging=stderr", "--v=0", "--virtual-time-budget=5000",
            "--user-data-dir=" + str(tmp_path / "profile"), "--dump-dom", probe.as_uri()]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=90)

@@ -11,12 +11,12 @@ from __future__ import annotations
 import json
 import math
 import re
-import shutil
 import subprocess
 import tempfile
 from pathlib import Path
 
 import pytest
+from conftest import chromium
 from hypate.studies.scripts import reproduce
 from hypate.studies.scripts.comparison import (
     Approx,
@@ -143,14 +143,6 @@ def test_each_finished_reproduction_is_written(cheap_run: reproduce.Result) -> N
 
 
 # -- the page in a browser ------------------------------------------------------------------------
-def _chromium() -> str | None:
-    for name in ("chromium", "chromium-browser", "google-chrome", "/usr/bin/chromium"):
-        found = shutil.which(name)
-        if found:
-            return found
-    return None
-
-
 #: After load: per table row (of the reproduction tables) its verdict cell's text, and the
 #: page's scroll width against the window's.
 PROBE = """<script>
@@ -170,13 +162,13 @@ window.addEventListener('load', function () {
 def _browser(page: Path, *args: str) -> subprocess.CompletedProcess:
     with tempfile.TemporaryDirectory() as profile:
         return subprocess.run(
-            [_chromium(), "--headless", "--no-sandbox", "--disable-gpu",
+            [chromium(), "--headless", "--no-sandbox", "--disable-gpu",
              "--disable-dev-shm-usage", "--no-first-run", f"--user-data-dir={profile}",
              "--window-size=1400,3000", "--virtual-time-budget=5000", *args, page.as_uri()],
             capture_output=True, text=True, timeout=180, check=False)
 
 
-@pytest.mark.skipif(_chromium() is None, reason="no chromium binary")
+@pytest.mark.skipif(chromium() is None, reason="no chromium binary")
 def test_page_renders_every_row_with_its_verdict(cheap_run: reproduce.Result,
                                                  tmp_path: Path) -> None:
     page = Path(cheap_run.config.out) / PAGE_NAME
