@@ -10,6 +10,7 @@ from typing import Any
 
 from hypate.scaling.cli.arguments import output_directory
 from hypate.scaling.cli.jsonout import dumps
+from hypate.scaling.cli.progress import StepProgress
 from hypate.scaling.report.figures import plot_sweep
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.study import load_study
@@ -18,6 +19,7 @@ from hypate.scaling.workflow.whatif import (
     MISMATCH,
     evaluate_whatif,
     load_base,
+    scatter_whatif,
     sweep_whatif,
 )
 from hypate.solvers.errors import InputError
@@ -39,8 +41,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--base", metavar="RUN_DIR", help="unset variables take the design point "
                    "of this run directory (or design_point.json) instead of their midpoints")
     p.add_argument("--out", help="output directory of --sweep (default: current directory)")
+    p.add_argument("--scatter", action="store_true", help="propagate the study's "
+                   "[uncertainty] at the design (polynomial chaos on the simulator): "
+                   "mean, std, quantiles and Sobol indices of J_u, J_T")
+    p.add_argument("--samples", type=int, help="simulator runs of --scatter (default: the "
+                   "study's [robust] samples, else twice the chaos terms)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=run, field_flags={"set": "--set", "sweep": "--sweep", "base": "--base"})
+    p.set_defaults(func=run, field_flags={"set": "--set", "sweep": "--sweep", "base": "--base",
+                                          "scatter": "--scatter", "samples": "--samples"})
 
 
 # -- parsing --------------------------------------------------------------------------------
@@ -135,9 +143,34 @@ def _print_sweep(sw: dict[str, Any]) -> None:
     print(f"wrote {sw['csv']}")
 
 
+def _print_scatter(res: dict[str, Any]) -> None:
+    print(f"scatter: {res['samples']} simulator runs ({res['failed']} failed), order-"
+          f"{res['order']} chaos (leave-one-out error {100 * res['chaos_error']:.3g} % of the "
+          f"std); statistics from the {'chaos' if res['method'] == 'chaos' else 'samples'}")
+    for name, dist in res["inputs"].items():
+        print(f"  {name:<22s} {dist}")
+    print(f"  {'':<6s} {'mean':>9s} {'std':>9s} {'q10':>9s} {'q50':>9s} {'q90':>9s}  "
+          f"{res['statistic']}")
+    for k, st in res["objectives"].items():
+        print(f"  {k:<6s} " + " ".join(f"{_pct(st[q]):>9s}" for q in
+                                       ("mean", "std", "q10", "q50", "q90"))
+              + f"  {_pct(st['robust'])}")
+    print("first-order Sobol indices:")
+    names = list(res["inputs"])
+    print(f"  {'':<22s} " + " ".join(f"{k:>7s}" for k in res["sobol"]))
+    for n in names:
+        print(f"  {n:<22s} " + " ".join(f"{res['sobol'][k][n]:>7.3f}" for k in res["sobol"]))
+    for msg in res["failures"]:
+        print(f"  failed: {msg}")
+
+
 def run(args: argparse.Namespace) -> int:
     values = parse_set(args.set_values)
     sweep = parse_sweep(args.sweep) if args.sweep else None
+    if args.samples is not None and not args.scatter:
+        raise InputError("--samples", "only used with --scatter")
+    if args.scatter and sweep is not None:
+        raise InputError("--scatter", "cannot be combined with --sweep")
     study = load_study(resolve(args.study, "study"))
     base = load_base(args.base) if args.base else None
     if args.out and not sweep:
@@ -146,6 +179,18 @@ def run(args: argparse.Namespace) -> int:
     with warnings.catch_warnings():
         # material tables clamped outside their range etc.: noise for a what-if answer
         warnings.simplefilter("ignore", RuntimeWarning)
+        if args.scatter:
+            bar = StepProgress("whatif")  # stderr: --json stdout stays clean
+            try:
+                result = scatter_whatif(study, values, base=base, samples=args.samples,
+                                        progress=lambda d, t: bar("scatter", d, t))
+            finally:
+                bar.close()
+            if args.json:
+                print(dumps(result, indent=2))
+            else:
+                _print_scatter(result)
+            return 0
         if sweep is not None:
             name, lo, hi, n = sweep
             result: dict[str, Any] = {"study": study.name,

@@ -214,25 +214,40 @@ def _field_series(resp: Response) -> np.ndarray:
     return U
 
 
+def response_series(resp: Response, projection: str = "center") -> dict[str, np.ndarray]:
+    """The nondimensional histories J compares, by name: ``"u"`` (centre w / h or modal
+    coordinates; for ``"fields"`` one entry per :data:`FIELD_GROUPS` group instead) and
+    ``"T"`` (volume-mean temperature / stagnation temperature), each (n_t, ...)."""
+    if projection == "fields":
+        U = _field_series(resp)
+        out = {g: U[..., list(k)] for g, k in FIELD_GROUPS.items()}
+    else:
+        out = {"u": _series(resp, projection)}
+    out["T"] = np.asarray(resp.mean_temperature) / resp.stagnation_temperature
+    return out
+
+
+def series_errors(model: dict[str, np.ndarray], prototype: dict[str, np.ndarray], n: int
+                  ) -> dict[str, float]:
+    """J_u, J_T, J_s (Eqs. 6.4, 9.8) of :func:`response_series` over steps 1 .. n - 1."""
+    if "u" in prototype:
+        J_u = relative_rms(model["u"][1:n], prototype["u"][1:n])
+    else:
+        errs = [relative_rms(model[g][1:n], prototype[g][1:n]) for g in FIELD_GROUPS]
+        J_u = float(np.sqrt(np.mean(np.square(errs))))
+    J_T = relative_rms(model["T"][1:n], prototype["T"][1:n])
+    return {"J_u": J_u, "J_T": J_T, "J_s": math.hypot(J_u, J_T)}
+
+
 def response_errors(model: Response, prototype: Response, projection: str = "center"
                     ) -> dict[str, float]:
     """J_u, J_T, J_s (Eqs. 6.4, 9.8) at matched nondimensional times (same step index)."""
     n = min(len(model.times), len(prototype.times))
-    if projection == "fields":
-        Um, Up = _field_series(model), _field_series(prototype)
-        if Um.shape[1:] != Up.shape[1:]:
-            raise ModelFailure(f"'fields' projection: model and prototype meshes differ "
-                               f"({Um.shape[1]} and {Up.shape[1]} nodes)")
-        errs = [relative_rms(Um[1:n][..., list(k)], Up[1:n][..., list(k)])
-                for k in FIELD_GROUPS.values()]
-        J_u = float(np.sqrt(np.mean(np.square(errs))))
-    else:
-        um, up = _series(model, projection), _series(prototype, projection)
-        J_u = relative_rms(um[1:n], up[1:n])
-    Tm = np.asarray(model.mean_temperature) / model.stagnation_temperature
-    Tp = np.asarray(prototype.mean_temperature) / prototype.stagnation_temperature
-    J_T = relative_rms(Tm[1:n], Tp[1:n])
-    return {"J_u": J_u, "J_T": J_T, "J_s": math.hypot(J_u, J_T)}
+    sm, sp = response_series(model, projection), response_series(prototype, projection)
+    if projection == "fields" and sm["in-plane"].shape[1:] != sp["in-plane"].shape[1:]:
+        raise ModelFailure(f"'fields' projection: model and prototype meshes differ "
+                           f"({sm['in-plane'].shape[1]} and {sp['in-plane'].shape[1]} nodes)")
+    return series_errors(sm, sp, n)
 
 
 # -- the pymoo problem ----------------------------------------------------------------------
@@ -295,7 +310,15 @@ class ScalingProblem(Problem):
     def errors(self, x: Sequence[float]) -> dict[str, float]:
         """J_u, J_T, J_s of one design; raises :class:`ModelFailure` when not comparable."""
         proto = self.prototype_response
-        _, resp = self.simulate_model(x, keep_fields=self.spec.projection == "fields")
+        resp = self.checked_response(self.model_configuration(x))
+        return response_errors(resp, proto, self.spec.projection)
+
+    def checked_response(self, config: Configuration) -> Response:
+        """Simulate a model configuration; :class:`ModelFailure` unless its response is
+        comparable with the prototype's (as long, stable while the prototype is, within
+        the moderate-rotation model)."""
+        proto = self.prototype_response
+        resp = simulate_configuration(config, keep_fields=self.spec.projection == "fields")
         n_p = len(proto.times)
         if resp.status == "failed" or len(resp.times) < 2:
             raise ModelFailure(f"model simulation failed: {resp.message}")
@@ -310,7 +333,7 @@ class ScalingProblem(Problem):
                 and np.all(np.isfinite(modal)) and modal.max() <= MAX_DEFLECTION):
             raise ModelFailure(f"model response diverged (deflection beyond {MAX_DEFLECTION:g} "
                                "thicknesses: outside the moderate-rotation shell model)")
-        return response_errors(resp, proto, self.spec.projection)
+        return resp
 
     def _evaluate(self, X: np.ndarray, out: dict[str, Any], *args: Any, **kwargs: Any) -> None:
         F = np.empty((X.shape[0], self.n_obj))

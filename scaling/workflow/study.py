@@ -44,6 +44,7 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
                                          prediction (needs 2 finished scales)
                    initial_samples, iterations   budget of every point after the first
                                          (default: [optimizer]'s; Table 9.11 uses 0 / 20)
+    [uncertainty], [robust]   scatter of the model and tunnel (scaling.workflow.uncertainty)
     [laws]         refined scaling laws of a sweep (``hypate laws``, scaling.laws):
                    analytical.NAME = k        analytical exponent override (xi^k)
                    exponent_bounds.NAME = [lo, hi]    constrain the fitted exponent (cvxpy)
@@ -59,10 +60,12 @@ import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
+from hypate.scaling.workflow import uncertainty as scatter
 from hypate.scaling.workflow.configuration import Configuration
 from hypate.scaling.workflow.problem import (
     EQUALITY_CONSTRAINTS,
     OBJECTIVES,
+    ScalingProblem,
     ScalingSpec,
     Variable,
 )
@@ -229,6 +232,8 @@ class StudyFile(InputModel):
     sweep: SweepSection | None = None
     laws: LawsSection = LawsSection()
     materials: dict[str, MaterialConfig] = {}
+    uncertainty: dict[str, scatter.UncertainEntry] = {}
+    robust: scatter.RobustSection | None = None
 
     @model_validator(mode="after")
     def _check(self) -> StudyFile:
@@ -250,6 +255,8 @@ class StudyFile(InputModel):
                              f"study has {n_obj}")
         if self.optimizer.weights is not None and len(self.optimizer.weights) != n_obj:
             raise ValueError(f"optimizer.weights: need {n_obj} values")
+        if self.robust is not None and not self.uncertainty:
+            raise ValueError("robust: needs an [uncertainty] table")  # nothing to be robust to
         return self
 
 
@@ -264,6 +271,7 @@ class Study:
     tunnel: TunnelEnvelope | None
     optimizer: OptimizerSection
     raw: StudyFile
+    uncertainty: scatter.Uncertainty | None = None  # [uncertainty] / [robust]; None: nominal
 
     @property
     def sweep(self) -> SweepSection | None:
@@ -292,6 +300,9 @@ class Study:
         sweep = f", {len(sweep_points(self))} sweep points" if self.sweep is not None else ""
         lines.append(f"optimizer: {self.acquisition}, {self.budget} evaluations{sweep}, "
                      f"seed {self.optimizer.seed}")
+        if (unc := self.uncertainty) is not None:
+            lines += [f"uncertain {u.name}: {u.describe()}" for u in unc.inputs] + [
+                f"robust: {unc.statistic}, order-{unc.order} chaos, {unc.n_samples} runs"]
         return lines
 
     @property
@@ -454,8 +465,12 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
                        objectives=tuple(cfg.study.objectives),
                        time_scaling=cfg.study.time_scaling, projection=cfg.study.projection,
                        equalities=tuple(cfg.constraints.equality), xi=xi)
+    uncertainty = scatter.parse_uncertainty(cfg.uncertainty,
+                                            cfg.robust or scatter.RobustSection(),
+                                            ScalingProblem(spec))
     return Study(path=str(path), name=cfg.study.name, description=cfg.study.description,
-                 spec=spec, tunnel=tunnel, optimizer=cfg.optimizer, raw=cfg)
+                 spec=spec, tunnel=tunnel, optimizer=cfg.optimizer, raw=cfg,
+                 uncertainty=uncertainty)
 
 
 def load_study(path: str | Path) -> Study:

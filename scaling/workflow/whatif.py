@@ -23,7 +23,9 @@ Rules (documented in ``--help`` and the README):
 Printed: J_u, J_T, J_s (relative RMS errors, Eq. 6.4 / 9.8), the similarity-parameter table
 (prototype / model / relative difference, ``*`` above 10 %), and the constraint activity:
 bounds hit or left and the residuals of the study's cheap equality constraints (Eq. 9.7).
-``--json`` prints one JSON object instead (fields in :func:`evaluate_whatif`). A model that
+``--json`` prints one JSON object instead (fields in :func:`evaluate_whatif`).
+``--scatter [--samples N]`` propagates the study's ``[uncertainty]`` at the design instead
+(:func:`scatter_whatif`; JSON: the ``robust`` block's fields). A model that
 fails (e.g. flutters before the prototype's end) is a valid answer: status ``"failed"``
 with the reason, exit code 0.
 """
@@ -42,6 +44,7 @@ from typing import Any
 import numpy as np
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON
+from hypate.scaling.workflow.uncertainty import propagate_design
 from hypate.scaling.workflow.variables import DESIGN_VARIABLES, HARD_LIMITS
 from hypate.solvers.errors import InputError
 
@@ -222,6 +225,33 @@ def evaluate_whatif(study: Any, values: Mapping[str, float],
     return result
 
 
+def scatter_whatif(study: Any, values: Mapping[str, float],
+                   base: Mapping[str, float] | None = None, samples: int | None = None,
+                   progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+    """Propagate the study's ``[uncertainty]`` at one what-if design (``--scatter``).
+
+    Returns
+    -------
+    dict
+        The ``robust`` block of :func:`hypate.scaling.workflow.uncertainty.propagate_design`
+        (``statistic``, ``samples``, ``objectives``, ``sobol`` ...) for the design of
+        :func:`evaluate_whatif` (same ``values`` / ``base`` rules); seed: the study's.
+    """
+    if study.uncertainty is None:
+        raise InputError("scatter", f"study {study.name} has no [uncertainty] table")
+    if samples is not None:
+        terms = math.comb(len(study.uncertainty.inputs) + study.uncertainty.order,
+                          study.uncertainty.order)
+        if not terms <= samples <= 4096:
+            raise InputError("samples", f"must be in [{terms}, 4096] (the order-"
+                             f"{study.uncertainty.order} chaos has {terms} terms); got {samples}")
+    w = WhatIf(study, values, base=base)
+    x = w.design_vector()
+    w.check(x)
+    return propagate_design(w.problem, x, study.uncertainty, samples=samples,
+                            seed=study.optimizer.seed, progress=progress)
+
+
 def sweep_whatif(study: Any, values: Mapping[str, float], name: str, low: float, high: float,
                  n: int, out_dir: str | Path = ".", base: Mapping[str, float] | None = None,
                  plot: SweepPlot | None = None) -> dict[str, Any]:
@@ -294,4 +324,4 @@ def load_base(path: str | Path) -> dict[str, float]:
     return {str(k): float(v) for k, v in design.items()}
 
 
-__all__ = ["WhatIf", "evaluate_whatif", "load_base", "sweep_whatif"]
+__all__ = ["WhatIf", "evaluate_whatif", "load_base", "scatter_whatif", "sweep_whatif"]
