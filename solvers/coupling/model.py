@@ -35,6 +35,7 @@ from hypate.solvers.flow import FlowCondition
 from hypate.solvers.numerics.sparse import (
     DeferredMatrix,
     FreePattern,
+    csr_rows,
     gmres,
 )
 from hypate.solvers.panel import PanelSpec
@@ -119,6 +120,17 @@ class PanelModel:
         st = self.structure
         return FreePattern(st.pattern.indptr, st.pattern.indices, st.n_dof, st.free_dofs)
 
+    @cached_property
+    def _mass_block(self) -> tuple[Array, Array, Array]:
+        """The free block of the mass pattern (:attr:`StructuralModel.mass_slots`) inside the
+        free block of the structural pattern: positions in the block's CSR data, column
+        indices and row pointers (the LSA's M_ff without its structural zeros)."""
+        fp = self.free_pattern
+        keep = np.isin(fp.sel, self.structure.mass_slots)
+        counts = np.bincount(csr_rows(fp.indptr)[keep], minlength=fp.n)
+        indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
+        return np.flatnonzero(keep), fp.indices[keep], indptr
+
     def _aero_stiffness_data(self, loads: FluidLoads) -> Array | None:
         """K_A as data on the structural CSR pattern when the pressure Jacobian has the
         pointwise form (:meth:`~hypate.solvers.aero.base.FluidJacobians.pressure_coefficients`),
@@ -198,6 +210,25 @@ class PanelModel:
         self.timer.fluid += time.perf_counter() - t0
         return out
 
+    def _wall_loads(self, u: Array) -> Callable[[Array], FluidLoads]:
+        """``T_w -> fluid_loads(u, T_w, jacobians=True)`` at a fixed deflection ``u`` (the
+        thermal Newton of one step): the wall geometry on the fluid points (Eq. 5.1c) is
+        transferred once, not at every thermal residual. Same numbers as fluid_loads."""
+        tr = self.transfer
+        w, slope = tr.H_FS @ u, tr.H_FS_slope @ u
+        vel = np.zeros(self.points.n)
+        for a in (w, slope, vel):
+            a.flags.writeable = False  # shared by every evaluation of the step
+
+        def loads(T_w: Array) -> FluidLoads:
+            t0 = time.perf_counter()
+            out = self.fluid.evaluate(self.points, SurfaceState(w, slope, vel, T_w), self.flow,
+                                      jacobians=True)
+            self.timer.fluid += time.perf_counter() - t0
+            return out
+
+        return loads
+
     def structural_temperature(self, T: Array) -> Array:
         """Thermal nodal field -> per-shell-node through-thickness profile (n_nodes, n_levels)."""
         return self.thermal.profile(T)
@@ -246,6 +277,7 @@ class PanelModel:
         plus the external heat flux (Eq. 6.1d) and radiation to ``T_rad``; lower surface
         insulated."""
         H_FT, H_TF = self._H_FT_top, self._H_TF_top
+        wall_loads = self._wall_loads(u)
         cache: list = []
 
         def flux(T_top: Array) -> tuple[Array, DeferredMatrix]:
@@ -253,7 +285,7 @@ class PanelModel:
             # the Newton asks twice at the same T (residual, then Jacobian): cached
             if cache and np.array_equal(cache[0], T_top):
                 return cache[1], cache[2]
-            loads = self.fluid_loads(u, H_FT @ T_top, jacobians=True)
+            loads = wall_loads(H_FT @ T_top)
             J = loads.jacobians
             n_top = T_top.size
 
@@ -448,14 +480,16 @@ class PanelModel:
         free block built by index maps; its factor becomes the Newton preconditioner."""
         fp = self.free_pattern
         Kb, Mb = K.data[fp.sel], M.data[fp.sel]
-        Mff = sp.csr_matrix((Mb, fp.indices, fp.indptr), shape=(fp.n, fp.n))
         scale = float(np.mean(np.abs(Kb[fp.diag]) / np.maximum(np.abs(Mb[fp.diag]), 1e-300)))
         sigma = -1e-9 * scale  # as gep's default shift
         lu = fp.factor((Kb - sigma * Mb) - KA_data[fp.sel])
         self._keep_precond(lu)
         # the mass couples like DOFs only: 80 % of the shell pattern's entries are zero, and
         # each Arnoldi step multiplies by M (3.5x faster without them)
-        Mff = Mff.copy()  # (it shares the index arrays of the free pattern)
+        # (its structural zeros dropped by the kept pattern, then the exact zeros of this
+        # mass, e.g. the u-psi couplings I2 of a symmetric stack: the same M_ff as before)
+        msel, m_indices, m_indptr = self._mass_block
+        Mff = sp.csr_matrix((Mb[msel], m_indices.copy(), m_indptr.copy()), shape=(fp.n, fp.n))
         Mff.eliminate_zeros()
         k = self.settings.lsa_modes
 

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -500,11 +501,29 @@ class StructuralModel:
         else:
             lam = laminate(self.panel, self._at_points(Tn, self.q3), parts="inertia")
             I1, I2, I3 = lam.I1, lam.I2, lam.I3
-        M = self.assemble_matrix(mass_kernel(self.q3, I1, I2, I3))
+        # assembled from the entries the kernel can make nonzero only (the rest are exact
+        # zeros: the same sums)
+        Me = mass_kernel(self.q3, I1, I2, I3).ravel()
+        sel, slots = self._mass_entries
+        M = self._csr(np.bincount(slots, weights=Me[sel], minlength=self._nnz))
         if len(self._mass_cache) > 8:
             self._mass_cache.clear()
         self._mass_cache[key] = M
         return M
+
+    @cached_property
+    def _mass_entries(self) -> tuple[NDArray[np.intp], NDArray[np.int64]]:
+        """Where the element mass of Eq. (3.38) can be nonzero -- like DOFs, u-psi_x and
+        v-psi_y, a fifth of the 45 x 45 entries -- as flat positions in the (n_elem, 45, 45)
+        kernel and their CSR slots; every other entry is an exact zero for any inertia."""
+        ones = np.ones(self.q3.wdet.shape)
+        sel = np.flatnonzero(mass_kernel(self.q3, ones, ones, ones).ravel())
+        return sel, self._map[sel]
+
+    @cached_property
+    def mass_slots(self) -> NDArray[np.int64]:
+        """The CSR slots of the pattern where the mass matrix can be nonzero, sorted."""
+        return np.unique(self._mass_entries[1])
 
     def damping(self, T: TemperatureLike = None) -> sp.csr_matrix:
         """Proportional damping ``C = zeta_M M + zeta_K K_L`` (Eq. 3.44), CSR."""

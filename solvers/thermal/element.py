@@ -56,5 +56,11 @@ def rotate_conductivity(kd: Array, c: float, s: float) -> Array:
     ndarray of shape (..., 4)
     """
     k1, k2, k3 = kd[..., 0], kd[..., 1], kd[..., 2]
+    if c == 1.0 and s == 0.0:
+        # an unrotated layer (the usual case, every thermal residual): k1 c^2 + k2 s^2 is k1
+        # exactly, and (k1 - k2) c s is zero
+        out = np.empty(kd.shape[:-1] + (4,))
+        out[..., 0], out[..., 1], out[..., 2], out[..., 3] = k1, k2, 0.0, k3
+        return out
     return np.stack([k1 * c * c + k2 * s * s, k1 * s * s + k2 * c * c, (k1 - k2) * c * s, k3],
                     axis=-1)

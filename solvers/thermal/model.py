@@ -373,9 +373,12 @@ class ThermalModel:
                 for prop in (mat.k1, mat.k2, mat.k3):
                     if id(prop) not in vals:
                         vals[id(prop)] = prop(Tl)
-                kd = np.stack([vals[id(p)] for p in (mat.k1, mat.k2, mat.k3)], axis=-1)
+                k1, k2, k3 = (vals[id(p)] for p in (mat.k1, mat.k2, mat.k3))
                 rc[sl] = mat.density(Tl) * mat.specific_heat(Tl)
-                k[sl] = rotate_conductivity(kd, c, s)
+                if c == 1.0 and s == 0.0:  # unrotated: rotate_conductivity's numbers, in place
+                    k[sl, :, 0], k[sl, :, 1], k[sl, :, 2], k[sl, :, 3] = k1, k2, 0.0, k3
+                else:
+                    k[sl] = rotate_conductivity(np.stack([k1, k2, k3], axis=-1), c, s)
                 continue
             kd, dkd = mat.conductivity(Tl)
             r, dr = mat.heat_capacity(Tl)
