@@ -5,28 +5,14 @@ lists."""
 from __future__ import annotations
 
 import json
-import math
 from typing import Any
 
-import numpy as np
-
-
-def finite(obj: Any) -> Any:
-    """A copy of ``obj`` (dicts, lists, tuples, numpy values) with every non-finite float
-    replaced by None."""
-    if isinstance(obj, dict):
-        return {str(k): finite(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [finite(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return finite(obj.tolist())
-    if isinstance(obj, np.generic):
-        obj = obj.item()
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
+from hypate.scaling.workflow.rundir import finite
 
 
 def dumps(obj: Any, **kwargs: Any) -> str:
     """``json.dumps`` of :func:`finite` ``(obj)``, refusing NaN/Infinity (``allow_nan=False``)."""
     return json.dumps(finite(obj), allow_nan=False, **kwargs)
+
+
+__all__ = ["dumps", "finite"]

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 from hypate.scaling.cli import jsonout
+from hypate.scaling.cli.progress import StepProgress
 from hypate.scaling.engine.executors import LOST_AFTER
 from hypate.scaling.engine.faults import InfrastructureError
 from hypate.scaling.engine.pareto import hypervolume
@@ -259,7 +260,8 @@ def _summary(out: Path, point: dict[str, Any], before: int, seconds: float) -> d
     return {"directory": str(out), "report": str(report) if report.is_file() else None,
             "evaluations": n, "new_evaluations": n - before, "seconds": seconds,
             "design_point": {k: point.get(k) for k in ("design", "objectives",
-                                                       "active_constraints")}}
+                                                       "active_constraints", "scatter")
+                             if k != "scatter" or k in point}}
 
 
 def _print_summary(summary: dict[str, Any], before: int) -> None:
@@ -275,6 +277,15 @@ def _print_summary(summary: dict[str, Any], before: int) -> None:
             print(f"  {name:>10s} = {value:.6g}")
         if point["active_constraints"]:
             print(f"  active: {', '.join(point['active_constraints'])}")
+        scatter = point.get("scatter")
+        if scatter and "objectives" in scatter:
+            st = scatter["objectives"]["J_max"]
+            pct = (lambda v: "inf" if v is None else f"{100 * v:.3g} %")  # noqa: E731
+            print(f"  under the study's scatter ({scatter['samples']} simulator runs, "
+                  f"{scatter['failed']} failed): max(J_u, J_T) mean {pct(st['mean'])}, "
+                  f"q90 {pct(st['q90'])}")
+        elif scatter:
+            print(f"  under the study's scatter: {scatter.get('status')}")
     else:
         print("no successful evaluation: see evaluations.csv for the reasons")
     if summary["report"]:
@@ -322,13 +333,22 @@ def _run_one(args: argparse.Namespace, study, out: Path, t0: float, say) -> int:
         return 0
     say("simulating the prototype ...")
     bar = Progress(quiet=args.quiet, verbose=args.verbose, first_id=before)
+    steps: list[StepProgress] = []  # made when the scatter starts: its clock starts there
+
+    def on_scatter(done: int, total: int) -> None:
+        if not steps:
+            bar.close()  # the evaluations are over: the scatter gets its own line
+            steps.append(StepProgress("run", quiet=args.quiet))
+        steps[0]("scatter at the design point", done, total)
+
     try:
         with collected_warnings(args.verbose) as caught:
             outcome = run_study(study, out, resume=args.resume, workers=args.workers,
                                 scheduler=args.scheduler, seed=args.seed, progress=bar,
                                 seed_runs=args.seed_from, on_written=write_report_safely,
                                 lost_after=args.cluster_timeout,
-                                on_warnings=print_warnings if args.verbose else None)
+                                on_warnings=print_warnings if args.verbose else None,
+                                on_scatter=on_scatter)
     except KeyboardInterrupt:
         bar.close()
         return interrupted(args, out)
@@ -337,6 +357,8 @@ def _run_one(args: argparse.Namespace, study, out: Path, t0: float, say) -> int:
         return infrastructure_lost(args, out, exc)
     finally:
         bar.close()
+        for step in steps:
+            step.close()
     if not args.quiet and not args.verbose:
         for line in warning_summary(caught, run_warnings(out, before),
                                     outcome.prototype_warnings):

@@ -465,3 +465,20 @@ def plot_sweep(rows: Sequence[dict[str, Any]], name: str, path: str | Path,
     plt.close(fig)
     return path
 
+
+def sobol_figure(sobol: dict[str, dict[str, float]]) -> Figure:
+    """First-order Sobol indices of each objective (grouped bars, one group per uncertain
+    input): which tolerance matters (``design_point.json`` ``scatter.sobol``)."""
+    names = list(next(iter(sobol.values())))
+    objs = list(sobol)
+    fig, ax = plt.subplots(figsize=(6.4, 3.4), layout="constrained")
+    width = 0.8 / len(objs)
+    pos = np.arange(len(names))
+    for k, obj in enumerate(objs):
+        ax.bar(pos + (k - (len(objs) - 1) / 2) * width, [sobol[obj][n] for n in names],
+               width, label=obj)
+    ax.set_xticks(pos, names, rotation=20, ha="right")
+    ax.set_ylim(0.0, 1.0)
+    ax.set_ylabel("first-order Sobol index")
+    ax.legend(fontsize="small")
+    return fig

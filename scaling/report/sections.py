@@ -7,6 +7,7 @@ constraints and the surrogates' leave-one-out prediction), *Across seeds* (one s
 ``--seeds`` run: the spread of the design point; left out otherwise), *Similarity
 parameters* (prototype / model / relative difference; > 10 % highlighted), *Glossary*
 (symbol, formula, equation and meaning of each parameter),
+*Robustness* (a study with ``[uncertainty]``: the design point under its scatter),
 *Figures*, *Pareto set* (the design point's row marked), *Run statistics* (evaluations,
 failures grouped by reason, wall time), *Warnings* (the distinct solver warnings, where
 they occurred and how often; left out without any) and *Scaling laws* (a sweep's refined
@@ -33,6 +34,7 @@ from hypate.scaling.report.figures import (
     history_figure,
     pareto_figure,
     response_figure,
+    sobol_figure,
     variable_unit,
 )
 from hypate.scaling.report.glossary import glossary_rows
@@ -407,6 +409,42 @@ def _seeds_section(run: RunData) -> Section | None:
     return Section("Across seeds", body)
 
 
+def _robustness_section(run: RunData) -> Section | None:
+    """A study with ``[uncertainty]``: the design point under the study's scatter
+    (``design_point.json`` ``scatter``): statistics of J and the Sobol indices."""
+    scatter = (run.point or {}).get("scatter")
+    if not scatter:
+        return None
+    if "objectives" not in scatter:
+        return Section("Robustness", f"<p>The scatter could not be propagated at the design "
+                       f"point: {html.escape(str(scatter.get('status')))}</p>")
+    inputs = ", ".join(f"{n}: {d}" for n, d in scatter["inputs"].items())
+    how = ("a polynomial chaos (degree {order}) of the response histories, "
+           "leave-one-out error {err} of the std".format(
+               order=scatter["order"], err=_pct(scatter["chaos_error"]))
+           if scatter["method"] == "chaos" else
+           "the simulator samples themselves (the chaos does not hold here: "
+           "a scattered model failed or the leave-one-out error is "
+           f"{_pct(scatter['chaos_error'])} of the std), a failed model counting as "
+           "J = infinity (shown as -)")
+    body = (f"<p>The design point as the tunnel would test it, under the study's scatter "
+            f"({html.escape(inputs)}): {scatter['samples']} simulator runs at scrambled-"
+            f"Sobol samples ({scatter['failed']} failed), on the nominal design's time "
+            f"mapping; statistics from {html.escape(how)}. The optimization itself is "
+            "nominal.</p>")
+    rows = [(name, *(_Raw(_pct(st[q])) for q in ("mean", "std", "q10", "q50", "q90")))
+            for name, st in scatter["objectives"].items()]
+    body += html_table(["objective", "mean", "std", "q10", "q50", "q90"], rows)
+    for msg in dict.fromkeys(scatter.get("failures") or []):
+        body += f"<p class='note'>failed: {html.escape(msg)}</p>"
+    caveat = ("" if scatter["method"] == "chaos" else
+              " (from the chaos, which does not hold here: indicative only)")
+    body += figure_html(sobol_figure(scatter["sobol"]), run, "sobol",
+                        "First-order Sobol indices at the design point: the share of each "
+                        f"input's scatter in the variance of J{caveat}")
+    return Section("Robustness", body)
+
+
 def describe_environment(env: dict[str, Any]) -> str:
     """``Python 3.11.7, numpy 2.4.6, ..., BLAS openblas 0.3.31 Haswell`` (one line)."""
     pkgs = ", ".join(f"{k} {v}" for k, v in (env.get("packages") or {}).items() if v)
@@ -463,4 +501,5 @@ def _laws_section(run: RunData) -> Section | None:
 #: The built-in section builders, in page order (registered plug-ins follow them).
 BUILTIN_SECTIONS: tuple[Callable[[RunData], Section | None], ...] = (
     _study_section, _design_section, _seeds_section, _similarity_section, _glossary_section,
-    _figures_section, _pareto_section, _statistics_section, _warnings_section, _laws_section)
+    _robustness_section, _figures_section, _pareto_section, _statistics_section,
+    _warnings_section, _laws_section)

@@ -49,7 +49,7 @@ from hypate.scaling.workflow.classical import (
     similarity_basis,
     similarity_exponents,
 )
-from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem
 from hypate.scaling.workflow.rundir import (
     CLASSICAL_JSON,
     DESIGN_POINT_JSON,
@@ -61,14 +61,18 @@ from hypate.scaling.workflow.rundir import (
     PROTOTYPE_WARNINGS,
     STORE,
     design_point_index,
+    finite,
     finite_or_none,
     rank_designs,
     write_json,
 )
 from hypate.scaling.workflow.study import Study
+from hypate.scaling.workflow.uncertainty import propagate_design
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
+#: Store metadata key of the design point's propagated scatter (:func:`design_point_scatter`).
+SCATTER_META = "design_point_scatter"
 #: Parameters matched by the classical baseline (Eqs. 9.1, 6.3), per study kind.
 CLASSICAL_MATCH = {"aeroelastic": ["h/L", "lambda_F", "DeltaT_NTx_L2/Dxx"],
                    "quasi_steady": ["h/L", "lambda_F", "Re_0", "Bi_F"]}
@@ -240,7 +244,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
               seed_runs: Sequence[str | Path] = (),
               on_written: Callable[[Path], object] | None = None,
               lost_after: float = LOST_AFTER,
-              on_warnings: Callable[[str, tuple[str, ...]], None] | None = None
+              on_warnings: Callable[[str, tuple[str, ...]], None] | None = None,
+              on_scatter: Callable[[int, int], None] | None = None
               ) -> RunOutcome:
     """Run (or resume) a study into ``out``.
 
@@ -285,6 +290,9 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
         warnings (they are not printed; also stored in the store's metadata and on the
         :class:`RunOutcome`). Each evaluation records its own (``Evaluation.warnings``,
         the ``warnings`` column), handed to ``progress`` with it.
+    on_scatter : callable, optional
+        ``on_scatter(done, total)`` while a study with ``[uncertainty]`` propagates its
+        scatter at the design point (:func:`design_point_scatter`).
     """
     out = Path(out)
     store_path = out / STORE
@@ -336,7 +344,7 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
             result = optimizer.run()
             wall = time.perf_counter() - t0
             point = write_outputs(study, problem, result, out, wall_seconds=wall,
-                                  optimizer=optimizer)
+                                  optimizer=optimizer, store=store, on_scatter=on_scatter)
             if on_written is not None:
                 on_written(out)
     finally:
@@ -387,12 +395,37 @@ def surrogate_record(optimizer: BayesianOptimizer, result: OptimizationResult, r
             "transform": check.transform, "objectives": per}
 
 
+def design_point_scatter(study: Study, problem: ScalingProblem, x: np.ndarray,
+                         store: EvaluationStore | None = None,
+                         progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+    """The study's ``[uncertainty]`` propagated at the design point
+    (:func:`~hypate.scaling.workflow.uncertainty.propagate_design`, seed: the run's study
+    seed): once per design point, kept in the store's metadata so that a resumed run does
+    not simulate it again. A propagation that cannot be fitted is ``{"status": "failed: ..."}``.
+    """
+    key = [float(v) for v in x]
+    cached = store.get_meta(SCATTER_META) if store is not None else None
+    if isinstance(cached, dict) and cached.get("x") == key:
+        return cached["block"]
+    try:
+        block = finite(propagate_design(problem, x, study.uncertainty,
+                                           seed=study.optimizer.seed, progress=progress))
+    except ModelFailure as exc:
+        block = {"status": f"failed: {exc}"}
+    if store is not None:
+        store.set_meta(SCATTER_META, {"x": key, "block": block}, replace=True)
+    return block
+
+
 def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationResult,
                   out: Path, wall_seconds: float = float("nan"),
-                  optimizer: BayesianOptimizer | None = None) -> dict[str, Any]:
+                  optimizer: BayesianOptimizer | None = None,
+                  store: EvaluationStore | None = None,
+                  on_scatter: Callable[[int, int], None] | None = None) -> dict[str, Any]:
     """evaluations.csv, pareto.csv, design_point.json (+ design_point.npz); with the run's
     ``optimizer``, the surrogates' leave-one-out prediction of the design point
-    (:func:`surrogate_record`)."""
+    (:func:`surrogate_record`); for a study with ``[uncertainty]``, the design point's
+    ``scatter`` (:func:`design_point_scatter`)."""
     table = evaluations_table(study, result)
     tmp = out / "evaluations.csv.tmp"
     table.to_csv(tmp, index=False)
@@ -424,6 +457,8 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
             point["surrogate"] = surrogate_record(optimizer, result, row,
                                                   study.spec.objectives)
         point["bounds"] = {v.name: [v.lower, v.upper] for v in study.spec.variables}
+        if study.uncertainty is not None:
+            point["scatter"] = design_point_scatter(study, problem, x, store, on_scatter)
         try:
             config, resp = problem.simulate_model(x, keep_fields=False)
             resp.save(out / DESIGN_POINT_NPZ)
@@ -444,6 +479,6 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     return point
 
 
-__all__ = ["RunOutcome", "run_study", "surrogate_coordinates", "surrogate_record",
+__all__ = ["RunOutcome", "design_point_scatter", "run_study", "surrogate_coordinates", "surrogate_record",
            "seeds_from_runs",
            "write_outputs", "classical_baseline", "evaluations_table", "choose_design_point"]

@@ -83,6 +83,22 @@ def json_default(obj: Any) -> Any:
     raise TypeError(f"not JSON serializable: {type(obj).__name__}")
 
 
+def finite(obj: Any) -> Any:
+    """A copy of ``obj`` (dicts, lists, tuples, numpy values) with every non-finite float
+    replaced by None (JSON has no NaN or Infinity: a missing value is ``null``)."""
+    if isinstance(obj, dict):
+        return {str(k): finite(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [finite(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return finite(obj.tolist())
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
 def write_json(path: Path, data: dict[str, Any]) -> None:
     """Write ``data`` to ``path`` atomically (no NaN: non-finite values must be None)."""
     tmp = path.with_name(path.name + ".tmp")

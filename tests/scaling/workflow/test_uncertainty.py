@@ -193,3 +193,33 @@ def test_chaos_agrees_with_a_256_point_monte_carlo_on_the_simulator():
         c, m = chaos["objectives"][k], mc["objectives"][k]
         assert c["mean"] == pytest.approx(m["mean"], rel=0.03)
         assert c["std"] == pytest.approx(m["std"], rel=0.10)
+
+
+def test_run_propagates_the_scatter_at_the_design_point_once(tmp_path, monkeypatch, capsys):
+    # design_point.json gains the design point's `scatter` (the robust block's fields),
+    # the report its Robustness section, and the block is kept in the store: writing the
+    # outputs again (a resumed run) does not simulate the scatter again.
+    import hypate.scaling.workflow.run as run_mod
+    from hypate.scaling.engine.store import EvaluationStore
+    from hypate.scaling.workflow.rundir import STORE
+
+    path = _tiny(tmp_path)
+    out = tmp_path / "run"
+    assert main(["run", str(path), "--out", str(out), "-q"]) == 0
+    point = json.loads((out / "design_point.json").read_text())
+    block = point["scatter"]
+    assert {"statistic", "samples", "objectives", "sobol", "method"} <= set(block)
+    assert block["samples"] == 16  # order 1 in 6 inputs: 7 terms -> 14 -> 16
+    assert "Robustness" in (out / "report.html").read_text()
+    assert (out / "figures" / "sobol.png").is_file()
+
+    def no_simulation(*args, **kwargs):
+        raise AssertionError("the scatter was simulated again")
+
+    monkeypatch.setattr(run_mod, "propagate_design", no_simulation)
+    study = load_study(path)
+    pb = ScalingProblem(study.spec)
+    x = np.array([point["design"][n] for n in study.spec.names])
+    with EvaluationStore(out / STORE) as store:
+        again = run_mod.design_point_scatter(study, pb, x, store)
+    assert again == block
