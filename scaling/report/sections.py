@@ -450,8 +450,12 @@ def describe_environment(env: dict[str, Any]) -> str:
     pkgs = ", ".join(f"{k} {v}" for k, v in (env.get("packages") or {}).items() if v)
     blas = "; ".join(f"{b.get('internal_api')} {b.get('version')} {b.get('architecture')}"
                      for b in env.get("blas") or [])
+    simd = env.get("simd")
+    cpu = (f"; CPU {env['cpu']}" + ("" if simd is None else
+                                    " (AVX-512)" if "AVX512F" in simd else " (no AVX-512)")
+           if env.get("cpu") else "")
     return (f"Python {env.get('python')}, hypate {env.get('hypate')}, {pkgs}"
-            + (f"; BLAS {blas}" if blas else ""))
+            + (f"; BLAS {blas}" if blas else "") + cpu)
 
 
 #: Distinct warnings listed in the Warnings section (the rest are counted below it).

@@ -72,9 +72,34 @@ def runtime_environment() -> dict[str, Any]:
                                        "threading_layer", "filepath")}
             for lib in threadpool_info() if lib.get("user_api") == "blas"]
     return {"python": platform.python_version(), "machine": platform.machine(),
+            "cpu": cpu_model(), "simd": numpy_simd(),
             "hypate": package_version(),
             "packages": {name: _installed(name) for name in NUMERICAL_PACKAGES},
             "blas": blas}
+
+
+def cpu_model() -> str:
+    """The processor's model name (Linux ``/proc/cpuinfo``; else ``platform.processor()``)."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor()
+
+
+def numpy_simd() -> list[str]:
+    """The SIMD extensions numpy dispatches to on this CPU (numpy's own runtime report, as
+    ``numpy.show_runtime``). The same code and package versions gave the quick-start's
+    design point J_u 8.84 % on an earlier machine (CPU not recorded then) and 16.8 % on an
+    AMD EPYC without AVX-512 (presumably last bits of the first evaluations sending the
+    optimizer down another path); this record is where to trace such a difference."""
+    try:
+        from numpy._core._multiarray_umath import __cpu_features__ as features
+    except ImportError:  # another numpy layout: the record says so
+        return []
+    return sorted(name for name, found in features.items() if found)
 
 
 def _file_sha256(path: Path) -> str | None:

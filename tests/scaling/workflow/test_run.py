@@ -157,6 +157,10 @@ def test_each_run_records_its_numerical_environment(
     kernels = {(lib["internal_api"], lib["version"], lib["architecture"])
                for lib in threadpoolctl.threadpool_info() if lib["user_api"] == "blas"}
     assert {(b["internal_api"], b["version"], b["architecture"]) for b in env["blas"]} == kernels
+    # the CPU and numpy's SIMD dispatch (AVX-512 or not changes last bits): numpy's own report
+    from numpy._core._multiarray_umath import __cpu_features__
+    assert env["simd"] == sorted(k for k, found in __cpu_features__.items() if found)
+    assert isinstance(env["cpu"], str)
     # resumed unchanged: nothing appended; resumed on another numpy: appended, not replaced
     run_study(load_study(path), tmp_path / "run", resume=True)
     other = {**env, "packages": {**env["packages"], "numpy": "0.0-elsewhere"}}
