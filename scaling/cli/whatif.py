@@ -144,6 +144,9 @@ def _print_sweep(sw: dict[str, Any]) -> None:
 
 
 def _print_scatter(res: dict[str, Any]) -> None:
+    if res["status"] != "ok":
+        print(f"scatter: {res['samples']} simulator runs; {res['status']}")
+        return
     print(f"scatter: {res['samples']} simulator runs ({res['failed']} failed), order-"
           f"{res['order']} chaos (leave-one-out error {100 * res['chaos_error']:.3g} % of the "
           f"std); statistics from the {'chaos' if res['method'] == 'chaos' else 'samples'}")
@@ -155,7 +158,9 @@ def _print_scatter(res: dict[str, Any]) -> None:
         print(f"  {k:<6s} " + " ".join(f"{_pct(st[q]):>9s}" for q in
                                        ("mean", "std", "q10", "q50", "q90"))
               + f"  {_pct(st['robust'])}")
-    print("first-order Sobol indices:")
+    print("first-order Sobol indices" + ("" if res["sobol_valid"] else
+                                         " (from the chaos, which does not hold here: "
+                                         "indicative only)") + ":")
     names = list(res["inputs"])
     print(f"  {'':<22s} " + " ".join(f"{k:>7s}" for k in res["sobol"]))
     for n in names:

@@ -9,8 +9,8 @@ of the factors, ``f(F) -> (n, m)`` for ``F`` of shape ``(n, d)``.
 * :func:`collocation_nodes` -- scrambled Sobol points mapped through the inverse CDF of the
   joint distribution (point collocation: the simulator runs at these);
 * :class:`Expansion` -- an orthonormal polynomial chaos expansion of a vector output fitted
-  by least squares on the nodes (``chaospy.fit_regression``); its moments are closed forms
-  of the coefficients, its first-order Sobol indices ``chaospy.Sens_m``;
+  by least squares on the nodes (``chaospy.fit_regression``); its moments and first-order
+  Sobol indices are closed forms of the coefficients (what ``chaospy.Sens_m`` integrates);
 * :func:`summary` -- mean, standard deviation and quantiles of samples of a scalar output.
 """
 from __future__ import annotations
@@ -22,14 +22,19 @@ from dataclasses import dataclass
 
 import chaospy
 import numpy as np
+from scipy.special import ndtr
 from scipy.stats import qmc
 
 #: Distribution families of an uncertain factor and what their width means.
 DISTRIBUTIONS = {"normal": "relative standard deviation",
                  "uniform": "relative half-width",
                  "lognormal": "standard deviation of the log"}
-#: Largest width per family: the factor stays positive (normal: 4 standard deviations).
-MAX_WIDTH = {"normal": 0.25, "uniform": 0.9, "lognormal": 1.0}
+#: Largest width per family: the factor stays positive (normal: the nodes lie within
+#: :data:`NORMAL_TAIL` standard deviations, so the factor is at least 1 - 4 x 0.2 = 0.2).
+MAX_WIDTH = {"normal": 0.2, "uniform": 0.9, "lognormal": 1.0}
+#: Standard deviations a normal node may lie from its mean (the inverse CDF of the Sobol
+#: points is clipped there: a truncation of probability 6e-5, and no negative thickness).
+NORMAL_TAIL = 4.0
 #: Quantiles reported with the mean and the standard deviation.
 QUANTILES = {"q10": 0.10, "q50": 0.50, "q90": 0.90}
 #: What a robust design minimizes per objective.
@@ -76,8 +81,9 @@ def collocation_nodes(inputs: Sequence[Uncertain], n: int, seed: int = 0) -> np.
     with warnings.catch_warnings():  # any n is a valid design; a power of two is balanced
         warnings.filterwarnings("ignore", "The balance properties", UserWarning)
         u = qmc.Sobol(d, scramble=True, seed=seed).random(n)
-    # keep away from 0 and 1, where a normal's inverse CDF is infinite
-    u = np.clip(u, 1e-12, 1.0 - 1e-12)
+    # within NORMAL_TAIL standard deviations (the same clip for every family: u is uniform)
+    tail = float(ndtr(-NORMAL_TAIL))
+    u = np.clip(u, tail, 1.0 - tail)
     return np.atleast_2d(joint(inputs).inv(u.T)).T.reshape(n, d)
 
 

@@ -437,7 +437,7 @@ def _robustness_section(run: RunData) -> Section | None:
     body += html_table(["objective", "mean", "std", "q10", "q50", "q90"], rows)
     for msg in dict.fromkeys(scatter.get("failures") or []):
         body += f"<p class='note'>failed: {html.escape(msg)}</p>"
-    caveat = ("" if scatter["method"] == "chaos" else
+    caveat = ("" if scatter.get("sobol_valid") else
               " (from the chaos, which does not hold here: indicative only)")
     body += figure_html(sobol_figure(scatter["sobol"]), run, "sobol",
                         "First-order Sobol indices at the design point: the share of each "

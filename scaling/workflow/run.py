@@ -49,7 +49,7 @@ from hypate.scaling.workflow.classical import (
     similarity_basis,
     similarity_exponents,
 )
-from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem
+from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.rundir import (
     CLASSICAL_JSON,
     DESIGN_POINT_JSON,
@@ -67,7 +67,7 @@ from hypate.scaling.workflow.rundir import (
     write_json,
 )
 from hypate.scaling.workflow.study import Study
-from hypate.scaling.workflow.uncertainty import propagate_design
+from hypate.scaling.workflow.uncertainty import propagate_or_failure
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
@@ -399,19 +399,17 @@ def design_point_scatter(study: Study, problem: ScalingProblem, x: np.ndarray,
                          store: EvaluationStore | None = None,
                          progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
     """The study's ``[uncertainty]`` propagated at the design point
-    (:func:`~hypate.scaling.workflow.uncertainty.propagate_design`, seed: the run's study
-    seed): once per design point, kept in the store's metadata so that a resumed run does
-    not simulate it again. A propagation that cannot be fitted is ``{"status": "failed: ..."}``.
+    (:func:`~hypate.scaling.workflow.uncertainty.propagate_or_failure`; its seed is the
+    study file's ``[optimizer] seed``, so ``--seed`` runs of one study see the same scatter
+    samples): once per design point, kept in the store's metadata so that a resumed run does
+    not simulate it again. Too many failed scattered models give ``{"status": "failed: ..."}``.
     """
     key = [float(v) for v in x]
     cached = store.get_meta(SCATTER_META) if store is not None else None
     if isinstance(cached, dict) and cached.get("x") == key:
         return cached["block"]
-    try:
-        block = finite(propagate_design(problem, x, study.uncertainty,
-                                           seed=study.optimizer.seed, progress=progress))
-    except ModelFailure as exc:
-        block = {"status": f"failed: {exc}"}
+    block = finite(propagate_or_failure(problem, x, study.uncertainty,
+                                        seed=study.optimizer.seed, progress=progress))
     if store is not None:
         store.set_meta(SCATTER_META, {"x": key, "block": block}, replace=True)
     return block

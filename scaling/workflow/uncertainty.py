@@ -35,7 +35,6 @@ first-order Sobol indices come from a degree-4 chaos of those samples.
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -49,6 +48,7 @@ from hypate.scaling.engine.propagation import (
     Uncertain,
     collocation_nodes,
     default_samples,
+    expansion_terms,
     robust_value,
     summary,
 )
@@ -87,6 +87,11 @@ MODEL_PREFIX = "model."
 SURROGATE_SAMPLES = 8192
 #: Degree of the chaos of J fitted for its Sobol indices.
 SOBOL_ORDER = 4
+#: Most uncertain inputs of a study (C(12 + 4, 4) = 1820 terms in the chaos of J).
+MAX_INPUTS = 12
+#: What a scattered model may raise instead of a response: counted as a failed node (a
+#: scattered value outside its valid range -- emissivity above 1 -- or a solver failure).
+NODE_FAILURES = (ModelFailure, InputError, ArithmeticError, RuntimeError)
 #: Objective statistics reported: J_u, J_T and their maximum (the design-point rule).
 REPORTED = ("J_u", "J_T", "J_max")
 #: Largest leave-one-out error of the chaos's J at the nodes (RMS, relative to the nodes'
@@ -158,7 +163,11 @@ def parse_uncertainty(entries: dict[str, UncertainEntry], robust: RobustSection,
     configuration (so that nothing fails later); ``None`` without entries."""
     if not entries:
         return None
-    design = problem.design([0.5 * (v.lower + v.upper) for v in problem.spec.variables])
+    if len(entries) > MAX_INPUTS:
+        raise InputError("uncertainty", f"at most {MAX_INPUTS} uncertain inputs (the chaos of "
+                         f"J grows as C(d + 4, 4) terms); got {len(entries)}")
+    x0 = np.array([0.5 * (v.lower + v.upper) for v in problem.spec.variables])
+    design = problem.design(x0)
     inputs = []
     for name, entry in entries.items():
         if name.startswith(MODEL_PREFIX):
@@ -171,9 +180,13 @@ def parse_uncertainty(entries: dict[str, UncertainEntry], robust: RobustSection,
                              + ", " + ", ".join(MODEL_PREFIX + k for k in MATERIAL_FACTORS))
         inputs.append(entry.uncertain(name))
     unc = Uncertainty(tuple(inputs), robust.statistic, robust.order, robust.samples)
+    terms = expansion_terms(len(inputs), robust.order)
+    if robust.samples is not None and robust.samples < terms:
+        raise InputError("robust.samples", f"must be at least {terms}, the number of terms of "
+                         f"an order-{robust.order} chaos in {len(inputs)} inputs; got "
+                         f"{robust.samples}")
     try:
-        scattered_configuration(problem, np.array(list(design.values())[:problem.n_var]),
-                                unc.names, np.ones(len(inputs)))
+        scattered_configuration(problem, x0, unc.names, np.ones(len(inputs)))
     except InputError as exc:
         raise InputError(f"uncertainty ({exc.field})", exc.message) from None
     return unc
@@ -240,7 +253,7 @@ def simulate_scatter(problem: ScalingProblem, x: Sequence[float], unc: Uncertain
     for i, f in enumerate(nodes):
         try:
             resp = problem.checked_response(scattered_configuration(problem, x, unc.names, f))
-        except ModelFailure as exc:
+        except NODE_FAILURES as exc:
             failed.append(str(exc))
         else:
             for k, v in response_series(resp, projection).items():
@@ -248,7 +261,7 @@ def simulate_scatter(problem: ScalingProblem, x: Sequence[float], unc: Uncertain
             ok.append(i)
         if progress is not None:
             progress(i + 1, len(nodes))
-    series = {k: np.array(v).reshape(len(ok), -1) for k, v in rows.items()}
+    series = {k: np.array(v, float).reshape(len(ok), sp[k].size) for k, v in rows.items()}
     return Samples(nodes[ok], series, sp, failed, time.perf_counter() - t0)
 
 
@@ -277,6 +290,7 @@ class HistoryChaos:
 
     def __init__(self, samples: Samples, unc: Uncertainty) -> None:
         self.unc = unc
+        self.n_nodes = len(samples.nodes)
         self.parts = {}
         for k, Y in samples.series.items():
             mu = Y.mean(axis=0)
@@ -295,10 +309,8 @@ class HistoryChaos:
 
     def leave_one_out(self) -> dict[str, np.ndarray]:
         """J at each node from the chaos fitted without that node."""
-        n = len(next(iter(self.parts.values()))[4].nodes) if any(
-            p[4] is not None for p in self.parts.values()) else 0
         return self._errors({k: None if part[4] is None else part[4].leave_one_out()
-                             for k, part in self.parts.items()}, n)
+                             for k, part in self.parts.items()}, self.n_nodes)
 
     def _errors(self, coefficients: dict[str, np.ndarray | None], n: int
                 ) -> dict[str, np.ndarray]:
@@ -325,7 +337,8 @@ def propagate_design(problem: ScalingProblem, x: Sequence[float], unc: Uncertain
         (objective -> input -> first-order index, from the chaos), plus ``inputs`` (name ->
         distribution), ``order``, ``failed`` (count), ``failures`` (first messages),
         ``chaos_error`` (leave-one-out, :data:`CHAOS_TOLERANCE`), ``method`` (``"chaos"``,
-        or ``"samples"`` when the chaos does not stand), ``seconds``.
+        or ``"samples"`` when the chaos does not stand), ``sobol_valid`` (the Sobol indices
+        come from the chaos: False with ``"samples"``), ``seconds``.
     """
     n = int(samples or unc.n_samples)
     nodes = collocation_nodes(unc.inputs, n, seed)
@@ -334,15 +347,18 @@ def propagate_design(problem: ScalingProblem, x: Sequence[float], unc: Uncertain
                            "inputs": {u.name: u.describe() for u in unc.inputs},
                            "order": unc.order, "failed": len(sim.failed),
                            "failures": sim.failed[:3], "seconds": sim.seconds}
-    if len(sim.nodes) < math.comb(len(unc.inputs) + unc.order, unc.order):
+    if len(sim.nodes) < expansion_terms(len(unc.inputs), unc.order):
         raise ModelFailure(f"{len(sim.failed)} of {n} scattered models failed ("
                            f"{sim.failed[0] if sim.failed else ''}): too few for an order-"
                            f"{unc.order} chaos")
     chaos = HistoryChaos(sim, unc)
     J_nodes = sample_errors(sim.series, sim.prototype)
     J_loo = chaos.leave_one_out()
+    # relative to J's spread at the nodes (floored: an objective the scatter does not move
+    # must not fail the check on rounding)
     error = max(float(np.sqrt(np.mean((J_loo[k] - J_nodes[k]) ** 2)))
-                / max(float(np.std(J_nodes[k])), 1e-300) for k in REPORTED)
+                / max(float(np.std(J_nodes[k])), 1e-9 * abs(float(np.mean(J_nodes[k]))), 1e-300)
+                for k in REPORTED)
     out["chaos_error"] = error
     out["method"] = "chaos" if error <= CHAOS_TOLERANCE and not sim.failed else "samples"
     F = collocation_nodes(unc.inputs, SURROGATE_SAMPLES, seed + 1)
@@ -360,7 +376,22 @@ def propagate_design(problem: ScalingProblem, x: Sequence[float], unc: Uncertain
                       SOBOL_ORDER).first_order_sobol()
     out["sobol"] = {k: {u.name: float(max(sobol[i, j], 0.0)) for i, u in enumerate(unc.inputs)}
                     for j, k in enumerate(REPORTED)}
+    # from the chaos: indicative only where the chaos does not hold
+    out["sobol_valid"] = out["method"] == "chaos"
     return out
+
+
+def propagate_or_failure(problem: ScalingProblem, x: Sequence[float], unc: Uncertainty,
+                         samples: int | None = None, seed: int = 0,
+                         progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+    """:func:`propagate_design`, or ``{"status": "failed: ...", "samples", "statistic"}``
+    when too many scattered models fail for a chaos: a design on a stability boundary is
+    an answer, not a crash."""
+    try:
+        return {"status": "ok", **propagate_design(problem, x, unc, samples, seed, progress)}
+    except ModelFailure as exc:
+        return {"status": f"failed: {exc}", "statistic": unc.statistic,
+                "samples": int(samples or unc.n_samples)}
 
 
 def monte_carlo_design(problem: ScalingProblem, x: Sequence[float], unc: Uncertainty,
@@ -377,4 +408,4 @@ def monte_carlo_design(problem: ScalingProblem, x: Sequence[float], unc: Uncerta
 
 __all__ = ["MATERIAL_FACTORS", "NOMINAL", "RobustSection", "UncertainEntry", "Uncertainty",
            "monte_carlo_design", "parse_uncertainty", "propagate_design",
-           "scattered_configuration"]
+           "propagate_or_failure", "scattered_configuration"]

@@ -42,9 +42,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from hypate.scaling.engine.propagation import expansion_terms
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON
-from hypate.scaling.workflow.uncertainty import propagate_design
+from hypate.scaling.workflow.uncertainty import propagate_or_failure
 from hypate.scaling.workflow.variables import DESIGN_VARIABLES, HARD_LIMITS
 from hypate.solvers.errors import InputError
 
@@ -235,21 +236,21 @@ def scatter_whatif(study: Any, values: Mapping[str, float],
     dict
         The ``robust`` block of :func:`hypate.scaling.workflow.uncertainty.propagate_design`
         (``statistic``, ``samples``, ``objectives``, ``sobol`` ...) for the design of
-        :func:`evaluate_whatif` (same ``values`` / ``base`` rules); seed: the study's.
+        :func:`evaluate_whatif` (same ``values`` / ``base`` rules), with ``status`` ``"ok"``,
+        or ``"failed: ..."`` when too many scattered models fail; seed: the study's.
     """
     if study.uncertainty is None:
         raise InputError("scatter", f"study {study.name} has no [uncertainty] table")
     if samples is not None:
-        terms = math.comb(len(study.uncertainty.inputs) + study.uncertainty.order,
-                          study.uncertainty.order)
+        terms = expansion_terms(len(study.uncertainty.inputs), study.uncertainty.order)
         if not terms <= samples <= 4096:
             raise InputError("samples", f"must be in [{terms}, 4096] (the order-"
                              f"{study.uncertainty.order} chaos has {terms} terms); got {samples}")
     w = WhatIf(study, values, base=base)
     x = w.design_vector()
     w.check(x)
-    return propagate_design(w.problem, x, study.uncertainty, samples=samples,
-                            seed=study.optimizer.seed, progress=progress)
+    return propagate_or_failure(w.problem, x, study.uncertainty, samples=samples,
+                                seed=study.optimizer.seed, progress=progress)
 
 
 def sweep_whatif(study: Any, values: Mapping[str, float], name: str, low: float, high: float,

@@ -94,7 +94,7 @@ def test_default_samples_oversample_the_terms_twice_as_a_power_of_two():
 def test_too_few_samples_and_bad_widths_are_refused():
     with pytest.raises(ValueError, match="needs at least"):
         expand(lambda F: F[:, 0], [Uncertain("a", "normal", 0.1)] * 2, order=3, samples=5)
-    with pytest.raises(ValueError, match=r"must be in \(0, 0.25\]"):
+    with pytest.raises(ValueError, match=r"must be in \(0, 0.2\]"):
         Uncertain("p0", "normal", 0.5)
     with pytest.raises(ValueError, match="must be one of"):
         Uncertain("p0", "gamma", 0.1)

@@ -10,13 +10,14 @@ import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.propagation import collocation_nodes
-from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem
 from hypate.scaling.workflow.shipped import shipped
 from hypate.scaling.workflow.study import load_study, parse_study, study_data
 from hypate.scaling.workflow.uncertainty import (
     HistoryChaos,
     monte_carlo_design,
     propagate_design,
+    propagate_or_failure,
     sample_errors,
     scattered_configuration,
     simulate_scatter,
@@ -54,7 +55,7 @@ def test_shipped_robust_study_keys():
 @pytest.mark.parametrize("entry, field, message", [
     ('p0 = { gamma = 0.1 }', "uncertainty.p0", "gamma"),
     ('p0 = { normal = 0.0 }', "uncertainty.p0", "> 0"),
-    ('p0 = { normal = 0.4 }', "uncertainty.p0", r"(0, 0.25]"),
+    ('p0 = { normal = 0.4 }', "uncertainty.p0", r"(0, 0.2]"),
     ('p0 = { normal = 0.1, uniform = 0.1 }', "uncertainty.p0", "exactly one"),
     ('L_xx = { normal = 0.1 }', "uncertainty.L_xx", "not a design value"),
     ('"model.poisson" = { normal = 0.1 }', "uncertainty.model.poisson", "unknown material"),
@@ -64,6 +65,42 @@ def test_bad_uncertainty_entries_name_the_key(tmp_path, entry, field, message):
     with pytest.raises(InputError) as err:
         load_study(path)
     assert field in err.value.field and message in str(err.value)
+
+
+def test_samples_below_the_chaos_terms_are_refused(tmp_path):
+    with pytest.raises(InputError, match="robust.samples: must be at least 7"):
+        load_study(_tiny(tmp_path, UNCERTAINTY + "[robust]\norder = 1\nsamples = 4\n"))
+
+
+def test_a_fixed_value_is_scattered_about_its_own_value(tmp_path):
+    # [fixed] values come first in a design dict: the check must still build the midpoint
+    study = load_study(_tiny(tmp_path, '\n[fixed]\nemissivity = 0.9\n[uncertainty]\n'
+                             'emissivity = { uniform = 0.05 }\n'))
+    pb = ScalingProblem(study.spec)
+    cfg = scattered_configuration(pb, X, ["emissivity"], [1.05])
+    assert cfg.panel.emissivity == pytest.approx(0.945, rel=1e-12)
+    assert cfg.flow.mach == pytest.approx(6.0)
+
+
+def test_out_of_range_scatter_and_failing_models_are_counted_not_raised(tmp_path, monkeypatch):
+    # emissivity 0.85 +- 20 %: about a third of the nodes ask for emissivity > 1 (an
+    # InputError of the scattered model) -> failed nodes, statistics from the samples
+    study = load_study(_tiny(tmp_path, '\n[uncertainty]\nemissivity = { uniform = 0.2 }\n'
+                             '[robust]\norder = 1\n'))
+    pb = ScalingProblem(study.spec)
+    block = propagate_or_failure(pb, X, study.uncertainty, samples=16)
+    assert block["status"] == "ok" and 0 < block["failed"] < 16
+    assert block["method"] == "samples" and not block["sobol_valid"]
+    assert "emissivity" in block["failures"][0]
+    assert block["objectives"]["J_max"]["mean"] == float("inf")
+    # every scattered model failing: a failed answer, not a traceback
+
+    def diverges(config):
+        raise ModelFailure("model divergence at step 1")
+
+    monkeypatch.setattr(pb, "checked_response", diverges)
+    failed = propagate_or_failure(pb, X, study.uncertainty, samples=8)
+    assert failed["status"].startswith("failed:") and "8 of 8" in failed["status"]
 
 
 def test_robust_without_uncertainty_and_a_bad_statistic_are_refused(tmp_path):
@@ -136,6 +173,8 @@ def test_whatif_scatter_json_is_the_robust_block(tmp_path, capsys):
     res = json.loads(capsys.readouterr().out)
     assert {"statistic", "samples", "objectives", "sobol"} <= set(res)
     assert res["statistic"] == "q90" and res["samples"] == 12 and res["order"] == 1
+    assert res["status"] == "ok" and res["method"] in ("chaos", "samples")
+    assert res["sobol_valid"] == (res["method"] == "chaos")
     for k in ("J_u", "J_T", "J_max"):
         st = res["objectives"][k]
         assert set(st) == {"mean", "std", "q10", "q50", "q90", "robust"}
@@ -216,7 +255,7 @@ def test_run_propagates_the_scatter_at_the_design_point_once(tmp_path, monkeypat
     def no_simulation(*args, **kwargs):
         raise AssertionError("the scatter was simulated again")
 
-    monkeypatch.setattr(run_mod, "propagate_design", no_simulation)
+    monkeypatch.setattr(run_mod, "propagate_or_failure", no_simulation)
     study = load_study(path)
     pb = ScalingProblem(study.spec)
     x = np.array([point["design"][n] for n in study.spec.names])
