@@ -32,6 +32,11 @@ from hypate.solvers.config import read_toml
 from hypate.solvers.errors import InputError
 from threadpoolctl import threadpool_info
 
+try:  # numpy's runtime record of the SIMD extensions it dispatches to (numpy.show_runtime)
+    from numpy._core._multiarray_umath import __cpu_features__ as NUMPY_CPU_FEATURES
+except ImportError:  # another numpy layout: the environment record then lists none
+    NUMPY_CPU_FEATURES: dict[str, bool] = {}
+
 __all__ = ["ENVIRONMENTS", "MAX_SEED", "campaign_identity", "changed_keys", "check_resume",
            "fingerprint", "check_run_settings", "package_version", "preflight",
            "record_campaign", "refuse_changes", "run_lock", "runtime_environment",
@@ -95,11 +100,7 @@ def numpy_simd() -> list[str]:
     design point J_u 8.84 % on an earlier machine (CPU not recorded then) and 16.8 % on an
     AMD EPYC without AVX-512 (presumably last bits of the first evaluations sending the
     optimizer down another path); this record is where to trace such a difference."""
-    try:
-        from numpy._core._multiarray_umath import __cpu_features__ as features
-    except ImportError:  # another numpy layout: the record says so
-        return []
-    return sorted(name for name, found in features.items() if found)
+    return sorted(name for name, found in NUMPY_CPU_FEATURES.items() if found)
 
 
 def _file_sha256(path: Path) -> str | None:
