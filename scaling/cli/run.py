@@ -23,6 +23,7 @@ from hypate.scaling.engine.problem import summarize_warnings, tally_warnings
 from hypate.scaling.engine.store import EvaluationStore, StoreError
 from hypate.scaling.report.html import write_report_safely
 from hypate.scaling.workflow.campaign import preflight
+from hypate.scaling.workflow.robust import robust_budget, run_robust_study
 from hypate.scaling.workflow.run import run_study
 from hypate.scaling.workflow.rundir import (
     DESIGN_POINT_JSON,
@@ -260,8 +261,10 @@ def _summary(out: Path, point: dict[str, Any], before: int, seconds: float) -> d
     return {"directory": str(out), "report": str(report) if report.is_file() else None,
             "evaluations": n, "new_evaluations": n - before, "seconds": seconds,
             "design_point": {k: point.get(k) for k in ("design", "objectives",
-                                                       "active_constraints", "scatter")
-                             if k != "scatter" or k in point}}
+                                                       "active_constraints", "scatter",
+                                                       "robust", "nominal")
+                             if k in ("design", "objectives", "active_constraints")
+                             or k in point}}
 
 
 def _print_summary(summary: dict[str, Any], before: int) -> None:
@@ -277,19 +280,28 @@ def _print_summary(summary: dict[str, Any], before: int) -> None:
             print(f"  {name:>10s} = {value:.6g}")
         if point["active_constraints"]:
             print(f"  active: {', '.join(point['active_constraints'])}")
-        scatter = point.get("scatter")
-        if scatter and "objectives" in scatter:
-            st = scatter["objectives"]["J_max"]
-            pct = (lambda v: "inf" if v is None else f"{100 * v:.3g} %")  # noqa: E731
-            print(f"  under the study's scatter ({scatter['samples']} simulator runs, "
-                  f"{scatter['failed']} failed): max(J_u, J_T) mean {pct(st['mean'])}, "
-                  f"q90 {pct(st['q90'])}")
-        elif scatter:
-            print(f"  under the study's scatter: {scatter.get('status')}")
+        nominal = point.get("nominal")
+        if nominal:
+            _print_scatter("robust design", point.get("robust"))
+            _print_scatter(f"nominal optimum ({nominal['directory']}/)", nominal.get("robust"))
+        else:
+            _print_scatter("design point", point.get("scatter"))
     else:
         print("no successful evaluation: see evaluations.csv for the reasons")
     if summary["report"]:
         print(f"report: {summary['report']}")
+
+
+def _print_scatter(what: str, scatter: dict[str, Any] | None) -> None:
+    """One line: max(J_u, J_T) under the study's scatter at a design."""
+    if scatter and "objectives" in scatter:
+        st = scatter["objectives"]["J_max"]
+        pct = (lambda v: "inf" if v is None else f"{100 * v:.3g} %")
+        print(f"  {what} under the study's scatter ({scatter['samples']} simulator runs, "
+              f"{scatter['failed']} failed): max(J_u, J_T) mean {pct(st['mean'])}, "
+              f"q90 {pct(st['q90'])}")
+    elif scatter:
+        print(f"  {what} under the study's scatter: {scatter.get('status')}")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -320,8 +332,13 @@ def _run_one(args: argparse.Namespace, study, out: Path, t0: float, say) -> int:
     # refuse a bad setting or another campaign before anything is simulated or written
     preflight(study, out, resume=args.resume, seed=args.seed, workers=args.workers,
               scheduler=args.scheduler)
+    robust = study.uncertainty is not None and study.uncertainty.optimize
+    if robust and args.seed_from:
+        raise InputError("--seed-from", "not available for a robust study ([robust]: its "
+                         "search starts from its nominal campaign)")
     before = stored_evaluations(out) if args.resume else 0
-    if args.resume and (out / DESIGN_POINT_JSON).is_file() and before >= study.budget:
+    budget = robust_budget(study) - study.budget if robust else study.budget
+    if args.resume and (out / DESIGN_POINT_JSON).is_file() and before >= budget:
         point = json.loads((out / DESIGN_POINT_JSON).read_text())
         summary = _summary(out, point, before, 0.0)
         if args.json:
@@ -335,20 +352,30 @@ def _run_one(args: argparse.Namespace, study, out: Path, t0: float, say) -> int:
     bar = Progress(quiet=args.quiet, verbose=args.verbose, first_id=before)
     steps: list[StepProgress] = []  # made when the scatter starts: its clock starts there
 
-    def on_scatter(done: int, total: int) -> None:
+    def on_scatter(done: int, total: int, which: str = "the design point",
+                   last: bool = True) -> None:
         if not steps:
-            bar.close()  # the evaluations are over: the scatter gets its own line
+            if last:
+                bar.close()  # the evaluations are over: the scatter gets its own line
             steps.append(StepProgress("run", quiet=args.quiet))
-        steps[0]("scatter at the design point", done, total)
+        steps[0](f"scatter at {which}", done, total)
 
     try:
         with collected_warnings(args.verbose) as caught:
-            outcome = run_study(study, out, resume=args.resume, workers=args.workers,
-                                scheduler=args.scheduler, seed=args.seed, progress=bar,
-                                seed_runs=args.seed_from, on_written=write_report_safely,
-                                lost_after=args.cluster_timeout,
-                                on_warnings=print_warnings if args.verbose else None,
-                                on_scatter=on_scatter)
+            if robust:
+                outcome = run_robust_study(
+                    study, out, resume=args.resume, workers=args.workers,
+                    scheduler=args.scheduler, seed=args.seed, progress=bar,
+                    on_written=write_report_safely, lost_after=args.cluster_timeout,
+                    on_scatter=lambda which, done, total: on_scatter(
+                        done, total, f"the {which} design", last=which == "robust"))
+            else:
+                outcome = run_study(study, out, resume=args.resume, workers=args.workers,
+                                    scheduler=args.scheduler, seed=args.seed, progress=bar,
+                                    seed_runs=args.seed_from, on_written=write_report_safely,
+                                    lost_after=args.cluster_timeout,
+                                    on_warnings=print_warnings if args.verbose else None,
+                                    on_scatter=on_scatter)
     except KeyboardInterrupt:
         bar.close()
         return interrupted(args, out)

@@ -66,6 +66,13 @@ class Uncertain:
             return chaospy.Uniform(1.0 - self.width, 1.0 + self.width)
         return chaospy.LogNormal(0.0, self.width)
 
+    def support(self) -> tuple[float, float]:
+        """The range every node lies in (:func:`collocation_nodes`: the distribution
+        clipped at the probabilities of +-:data:`NORMAL_TAIL` standard normal deviations)."""
+        tail = float(ndtr(-NORMAL_TAIL))
+        lo, hi = self.distribution().inv(np.array([tail, 1.0 - tail]))
+        return float(lo), float(hi)
+
     def describe(self) -> str:
         return f"{self.kind} {self.width:g} ({DISTRIBUTIONS[self.kind]})"
 

@@ -482,3 +482,21 @@ def sobol_figure(sobol: dict[str, dict[str, float]]) -> Figure:
     ax.set_ylabel("first-order Sobol index")
     ax.legend(fontsize="small")
     return fig
+
+
+def distribution_figure(blocks: dict[str, dict[str, Any]]) -> Figure:
+    """Cumulative distributions of J_u, J_T and max(J_u, J_T) under the study's scatter,
+    one line per design (``design_point.json`` ``robust`` / ``nominal.robust``
+    ``distribution``: quantiles at 50 probabilities), overlaid per objective."""
+    objs = [("J_u", "J_u"), ("J_T", "J_T"), ("J_max", "max(J_u, J_T)")]
+    fig, axes = plt.subplots(1, 3, figsize=(9.6, 3.2), layout="constrained", sharey=True)
+    for ax, (key, label) in zip(axes, objs):
+        for name, block in blocks.items():
+            dist = block["distribution"]
+            q = np.array([np.inf if v is None else v for v in dist[key]], float)
+            ax.step(100.0 * q, dist["probabilities"], where="post", label=name)
+        ax.set_xlabel(f"{label} [%]")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("probability J <= x")
+    axes[0].legend(fontsize="small")
+    return fig

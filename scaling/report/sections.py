@@ -30,6 +30,7 @@ from hypate.scaling.engine.pareto import non_dominated_mask
 from hypate.scaling.report.figures import (
     MISMATCH_THRESHOLD,
     close_figures,
+    distribution_figure,
     figure_html,
     history_figure,
     pareto_figure,
@@ -53,7 +54,7 @@ from hypate.scaling.workflow.laws import (
 )
 from hypate.scaling.workflow.rundir import describe_occurrences, describe_rule
 
-__all__ = ["Section", "html_table", "BUILTIN_SECTIONS"]
+__all__ = ["BUILTIN_SECTIONS", "Section", "html_table"]
 
 
 @dataclass(frozen=True)
@@ -409,32 +410,68 @@ def _seeds_section(run: RunData) -> Section | None:
     return Section("Across seeds", body)
 
 
+def _scatter_how(block: dict[str, Any]) -> str:
+    """How a propagation's statistics were obtained (one sentence part)."""
+    if block["method"] == "chaos":
+        return (f"a polynomial chaos (degree {block['order']}) of the response histories, "
+                f"leave-one-out error {_pct(block['chaos_error'])} of the std")
+    return ("the simulator samples themselves (the chaos does not hold here: a scattered "
+            f"model failed or the leave-one-out error is {_pct(block['chaos_error'])} of the "
+            "std), a failed model counting as J = infinity (shown as -)")
+
+
+def _statistics_rows(label: str | None, block: dict[str, Any]) -> list[tuple[Any, ...]]:
+    lead = () if label is None else (label,)
+    return [(*lead, name, *(_Raw(_pct(st[q])) for q in ("mean", "std", "q10", "q50", "q90")))
+            for name, st in block["objectives"].items()]
+
+
 def _robustness_section(run: RunData) -> Section | None:
     """A study with ``[uncertainty]``: the design point under the study's scatter
-    (``design_point.json`` ``scatter``): statistics of J and the Sobol indices."""
-    scatter = (run.point or {}).get("scatter")
+    (``design_point.json`` ``scatter``, or for a robust study ``robust`` beside
+    ``nominal.robust``): statistics of J, their distributions and the Sobol indices."""
+    point = run.point or {}
+    nominal = point.get("nominal")
+    scatter = point.get("robust") if nominal else point.get("scatter")
     if not scatter:
         return None
     if "objectives" not in scatter:
         return Section("Robustness", f"<p>The scatter could not be propagated at the design "
                        f"point: {html.escape(str(scatter.get('status')))}</p>")
     inputs = ", ".join(f"{n}: {d}" for n, d in scatter["inputs"].items())
-    how = ("a polynomial chaos (degree {order}) of the response histories, "
-           "leave-one-out error {err} of the std".format(
-               order=scatter["order"], err=_pct(scatter["chaos_error"]))
-           if scatter["method"] == "chaos" else
-           "the simulator samples themselves (the chaos does not hold here: "
-           "a scattered model failed or the leave-one-out error is "
-           f"{_pct(scatter['chaos_error'])} of the std), a failed model counting as "
-           "J = infinity (shown as -)")
     body = (f"<p>The design point as the tunnel would test it, under the study's scatter "
             f"({html.escape(inputs)}): {scatter['samples']} simulator runs at scrambled-"
             f"Sobol samples ({scatter['failed']} failed), on the nominal design's time "
-            f"mapping; statistics from {html.escape(how)}. The optimization itself is "
-            "nominal.</p>")
-    rows = [(name, *(_Raw(_pct(st[q])) for q in ("mean", "std", "q10", "q50", "q90")))
-            for name, st in scatter["objectives"].items()]
-    body += html_table(["objective", "mean", "std", "q10", "q50", "q90"], rows)
+            f"mapping; statistics from {html.escape(_scatter_how(scatter))}.")
+    if not nominal:
+        body += " The optimization itself is nominal.</p>"
+        body += html_table(["objective", "mean", "std", "q10", "q50", "q90"],
+                           _statistics_rows(None, scatter))
+    else:
+        stat = scatter["statistic"]
+        body += (f" The design minimizes the {html.escape(stat)} of J_u and J_T under that "
+                 f"scatter ({html.escape(point.get('chosen', 'robust search'))}); the "
+                 f"nominal optimum of the same study (its own campaign, "
+                 f"{html.escape(nominal['directory'])}/) is verified the same way.</p>")
+        rows = _statistics_rows("robust design", scatter)
+        other = nominal.get("robust") or {}
+        if "objectives" in other:
+            rows += _statistics_rows("nominal optimum", other)
+        body += html_table(["design", "objective", "mean", "std", "q10", "q50", "q90"], rows)
+        search = point.get("robust_search") or {}
+        predicted = (search.get("surrogate") or {}).get("objectives") or {}
+        if predicted:
+            body += ("<p>The surrogate's " + html.escape(stat) + " at the robust search's "
+                     "design: " + ", ".join(
+                         f"{html.escape(o)} {_pct(v['predicted'])} (std {_pct(v['std'])})"
+                         for o, v in predicted.items()) + ".</p>")
+        blocks = {"robust design": scatter}
+        if "distribution" in other:
+            blocks["nominal optimum"] = other
+        if "distribution" in scatter:
+            body += figure_html(distribution_figure(blocks), run, "distribution",
+                                "Distributions of J under the study's scatter: the robust "
+                                "design and the nominal optimum")
     for msg in dict.fromkeys(scatter.get("failures") or []):
         body += f"<p class='note'>failed: {html.escape(msg)}</p>"
     caveat = ("" if scatter.get("sobol_valid") else

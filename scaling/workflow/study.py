@@ -465,9 +465,9 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
                        objectives=tuple(cfg.study.objectives),
                        time_scaling=cfg.study.time_scaling, projection=cfg.study.projection,
                        equalities=tuple(cfg.constraints.equality), xi=xi)
-    uncertainty = scatter.parse_uncertainty(cfg.uncertainty, cfg.robust or
-                                            scatter.RobustSection(), ScalingProblem(spec)
-                                            ) if cfg.uncertainty else None
+    uncertainty = scatter.parse_uncertainty(  # without [robust]: a nominal design
+        cfg.uncertainty, cfg.robust or scatter.RobustSection(optimize=False),
+        ScalingProblem(spec)) if cfg.uncertainty else None
     return Study(path=str(path), name=cfg.study.name, description=cfg.study.description,
                  spec=spec, tunnel=tunnel, optimizer=cfg.optimizer, raw=cfg,
                  uncertainty=uncertainty)

@@ -85,6 +85,8 @@ MATERIAL_FACTORS = {
 MODEL_PREFIX = "model."
 #: Chaos samples on which J is evaluated (quantiles, Sobol indices): cheap, the surrogate.
 SURROGATE_SAMPLES = 8192
+#: Probabilities of the quantiles kept as the distribution of J (the report's CDF).
+DISTRIBUTION_PROBABILITIES = np.linspace(0.01, 0.99, 50)
 #: Degree of the chaos of J fitted for its Sobol indices.
 SOBOL_ORDER = 4
 #: Most uncertain inputs of a study (C(12 + 4, 4) = 1820 terms in the chaos of J).
@@ -133,6 +135,10 @@ class RobustSection(InputModel):
     statistic: Literal["mean", "mean+2std", "q90"] = "q90"
     order: Annotated[int, Field(ge=1, le=4)] = 2
     samples: Annotated[int, Field(ge=2, le=4096)] | None = None
+    # robust optimization (scaling.workflow.robust); a study without [robust] is nominal
+    optimize: bool = True
+    initial_samples: Annotated[int, Field(ge=0, le=1000)] = 10
+    iterations: Annotated[int, Field(ge=0, le=10000)] | None = None
 
 
 @dataclass(frozen=True)
@@ -143,6 +149,9 @@ class Uncertainty:
     statistic: str = "q90"
     order: int = 2
     samples: int | None = None
+    optimize: bool = False          # [robust] given: the design minimizes the statistic
+    initial_samples: int = 10       # joint (design, inputs) samples of the robust search
+    iterations: int | None = None   # its BO iterations (None: the study's)
 
     def __post_init__(self) -> None:
         if self.statistic not in ROBUST_STATISTICS:
@@ -179,7 +188,8 @@ def parse_uncertainty(entries: dict[str, UncertainEntry], robust: RobustSection,
                              + ", ".join(dict.fromkeys([*design, *NOMINAL]))
                              + ", " + ", ".join(MODEL_PREFIX + k for k in MATERIAL_FACTORS))
         inputs.append(entry.uncertain(name))
-    unc = Uncertainty(tuple(inputs), robust.statistic, robust.order, robust.samples)
+    unc = Uncertainty(tuple(inputs), robust.statistic, robust.order, robust.samples,
+                      robust.optimize, robust.initial_samples, robust.iterations)
     terms = expansion_terms(len(inputs), robust.order)
     if robust.samples is not None and robust.samples < terms:
         raise InputError("robust.samples", f"must be at least {terms}, the number of terms of "
@@ -338,7 +348,8 @@ def propagate_design(problem: ScalingProblem, x: Sequence[float], unc: Uncertain
         distribution), ``order``, ``failed`` (count), ``failures`` (first messages),
         ``chaos_error`` (leave-one-out, :data:`CHAOS_TOLERANCE`), ``method`` (``"chaos"``,
         or ``"samples"`` when the chaos does not stand), ``sobol_valid`` (the Sobol indices
-        come from the chaos: False with ``"samples"``), ``seconds``.
+        come from the chaos: False with ``"samples"``), ``seconds``, ``distribution``
+        (``probabilities`` and per objective its quantiles there: the CDF).
     """
     n = int(samples or unc.n_samples)
     nodes = collocation_nodes(unc.inputs, n, seed)
@@ -363,15 +374,19 @@ def propagate_design(problem: ScalingProblem, x: Sequence[float], unc: Uncertain
     out["method"] = "chaos" if error <= CHAOS_TOLERANCE and not sim.failed else "samples"
     F = collocation_nodes(unc.inputs, SURROGATE_SAMPLES, seed + 1)
     J = chaos.errors(F)
-    objectives = {}
+    objectives, distribution = {}, {"probabilities": DISTRIBUTION_PROBABILITIES.tolist()}
     for k in REPORTED:
         if out["method"] == "chaos":
-            stats = summary(J[k])
+            values = J[k]
         else:  # the simulator samples; a failed model is J = infinity
-            stats = summary(np.r_[J_nodes[k], np.full(len(sim.failed), np.inf)])
+            values = np.r_[J_nodes[k], np.full(len(sim.failed), np.inf)]
+        stats = summary(values)
         stats["robust"] = robust_value(stats, unc.statistic)
         objectives[k] = stats
+        distribution[k] = np.quantile(values, DISTRIBUTION_PROBABILITIES,
+                                      method="inverted_cdf").tolist()
     out["objectives"] = objectives
+    out["distribution"] = distribution
     sobol = Expansion(unc.inputs, F, np.column_stack([J[k] for k in REPORTED]),
                       SOBOL_ORDER).first_order_sobol()
     out["sobol"] = {k: {u.name: float(max(sobol[i, j], 0.0)) for i, u in enumerate(unc.inputs)}

@@ -242,7 +242,7 @@ def test_run_propagates_the_scatter_at_the_design_point_once(tmp_path, monkeypat
     from hypate.scaling.engine.store import EvaluationStore
     from hypate.scaling.workflow.rundir import STORE
 
-    path = _tiny(tmp_path)
+    path = _tiny(tmp_path, UNCERTAINTY + "[robust]\norder = 1\noptimize = false\n")
     out = tmp_path / "run"
     assert main(["run", str(path), "--out", str(out), "-q"]) == 0
     point = json.loads((out / "design_point.json").read_text())
