@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from hypate.scaling.cli import jsonout
 from hypate.scaling.cli.progress import StepProgress
-from hypate.scaling.engine.executors import LOST_AFTER
+from hypate.scaling.engine.executors import LOST_AFTER, auto_workers
 from hypate.scaling.engine.faults import InfrastructureError
 from hypate.scaling.engine.pareto import hypervolume
 from hypate.scaling.engine.problem import summarize_warnings, tally_warnings
@@ -36,7 +36,7 @@ from hypate.scaling.workflow.rundir import (
 )
 from hypate.scaling.workflow.seeds import seed_directory, seed_list, write_seeds_summary
 from hypate.scaling.workflow.shipped import default_study, resolve
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.study import Study, load_study
 from hypate.scaling.workflow.sweep import run_sweep
 from hypate.solvers.errors import InputError
 from tqdm import tqdm
@@ -73,7 +73,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", help="run directory (default: runs/<study name>, numbered -2, "
                    "-3 ... when it exists)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out")
-    p.add_argument("--workers", type=int, default=1, help="local worker processes (default 1)")
+    p.add_argument("--workers", default="auto", help="local worker processes: a number, or "
+                   "auto (default): the usable cores, capped by the study's [optimizer] "
+                   "batch_size (the designs proposed per iteration; the results depend on "
+                   "the batch, not on the workers)")
     p.add_argument("--scheduler", help="Dask scheduler address tcp://HOST:PORT (tls://HOST:PORT "
                    "for a secured cluster), or local:N to start a cluster of N workers on "
                    "this machine (with Dask's dashboard)")
@@ -262,7 +265,8 @@ def _summary(out: Path, point: dict[str, Any], before: int, seconds: float) -> d
             "evaluations": n, "new_evaluations": n - before, "seconds": seconds,
             "design_point": {k: point.get(k) for k in ("design", "objectives",
                                                        "active_constraints", "scatter",
-                                                       "robust", "nominal")
+                                                       "robust", "robust_search",
+                                                       "nominal", "chosen")
                              if k in ("design", "objectives", "active_constraints")
                              or k in point}}
 
@@ -282,8 +286,10 @@ def _print_summary(summary: dict[str, Any], before: int) -> None:
             print(f"  active: {', '.join(point['active_constraints'])}")
         nominal = point.get("nominal")
         if nominal:
-            _print_scatter("robust design", point.get("robust"))
+            _print_scatter("robust search's design",
+                           (point.get("robust_search") or {}).get("robust"))
             _print_scatter(f"nominal optimum ({nominal['directory']}/)", nominal.get("robust"))
+            print(f"  the design point is the {point.get('chosen')}")
         else:
             _print_scatter("design point", point.get("scatter"))
     else:
@@ -304,9 +310,24 @@ def _print_scatter(what: str, scatter: dict[str, Any] | None) -> None:
         print(f"  {what} under the study's scatter: {scatter.get('status')}")
 
 
+def resolve_workers(value: str | int, study: Study) -> int:
+    """The ``--workers`` count: a number >= 1, or ``auto``
+    (:func:`~hypate.scaling.engine.executors.auto_workers` of the study's batch)."""
+    if value == "auto":
+        return auto_workers(study.optimizer.batch_size)
+    try:
+        workers = int(value)
+    except (TypeError, ValueError):
+        workers = 0
+    if workers < 1:
+        raise InputError("--workers", f"must be >= 1 (a number, or auto); got {value!r}")
+    return workers
+
+
 def run(args: argparse.Namespace) -> int:
     path = resolve(args.study, "study") if args.study else default_study()
     study = load_study(path)
+    args.workers = resolve_workers(args.workers, study)
     out = Path(args.out) if args.out else default_run_dir(study.name, args.resume)
     t0 = time.perf_counter()
     say = (lambda *a: None) if args.quiet else (lambda *a: print(*a, file=sys.stderr))

@@ -299,6 +299,21 @@ def _probe(address: str, seconds: float) -> None:
         raise ExecutorError("scheduler", f"cannot reach {address}: {exc}") from None
 
 
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity; ``os.cpu_count`` where the
+    platform has none)."""
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except AttributeError:  # not on every platform
+        return max(os.cpu_count() or 1, 1)
+
+
+def auto_workers(batch_size: int) -> int:
+    """``--workers auto``: the usable cores, capped by the proposals per iteration (more
+    workers than designs to evaluate at once would idle)."""
+    return max(1, min(usable_cores(), int(batch_size)))
+
+
 def make_executor(workers: int, scheduler: str | None, *, lost_after: float = LOST_AFTER
                   ) -> tuple[Any, Callable[[], None]]:
     """The executor of a run and its closer.

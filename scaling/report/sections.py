@@ -449,29 +449,30 @@ def _robustness_section(run: RunData) -> Section | None:
                            _statistics_rows(None, scatter))
     else:
         stat = scatter["statistic"]
-        body += (f" The design minimizes the {html.escape(stat)} of J_u and J_T under that "
-                 f"scatter ({html.escape(point.get('chosen', 'robust search'))}); the "
-                 f"nominal optimum of the same study (its own campaign, "
-                 f"{html.escape(nominal['directory'])}/) is verified the same way.</p>")
-        rows = _statistics_rows("robust design", scatter)
-        other = nominal.get("robust") or {}
-        if "objectives" in other:
-            rows += _statistics_rows("nominal optimum", other)
-        body += html_table(["design", "objective", "mean", "std", "q10", "q50", "q90"], rows)
         search = point.get("robust_search") or {}
+        candidate = search.get("robust") or {}
+        other = nominal.get("robust") or {}
+        body += (f" The robust search minimizes the {html.escape(stat)} of J_u and J_T under "
+                 "that scatter on its surrogate; its best design and the nominal optimum of "
+                 f"the same study (its own campaign, {html.escape(nominal['directory'])}/) "
+                 "are both verified on the simulator, and the design point is the better "
+                 f"of the two: the {html.escape(point.get('chosen', 'robust search'))}.</p>")
+        blocks = {name: block for name, block in (("robust search's design", candidate),
+                                                  ("nominal optimum", other))
+                  if "objectives" in block}
+        rows = [row for name, block in blocks.items() for row in _statistics_rows(name, block)]
+        body += html_table(["design", "objective", "mean", "std", "q10", "q50", "q90"], rows)
         predicted = (search.get("surrogate") or {}).get("objectives") or {}
         if predicted:
             body += ("<p>The surrogate's " + html.escape(stat) + " at the robust search's "
                      "design: " + ", ".join(
                          f"{html.escape(o)} {_pct(v['predicted'])} (std {_pct(v['std'])})"
                          for o, v in predicted.items()) + ".</p>")
-        blocks = {"robust design": scatter}
-        if "distribution" in other:
-            blocks["nominal optimum"] = other
-        if "distribution" in scatter:
+        blocks = {k: b for k, b in blocks.items() if "distribution" in b}
+        if blocks:
             body += figure_html(distribution_figure(blocks), run, "distribution",
                                 "Distributions of J under the study's scatter: the robust "
-                                "design and the nominal optimum")
+                                "search's design and the nominal optimum")
     for msg in dict.fromkeys(scatter.get("failures") or []):
         body += f"<p class='note'>failed: {html.escape(msg)}</p>"
     caveat = ("" if scatter.get("sobol_valid") else

@@ -105,7 +105,7 @@ def test_each_stored_pair_is_the_scattered_model_at_its_inputs(robust_run):
 def test_report_overlays_the_robust_and_nominal_distributions(robust_run):
     _, out = robust_run
     html = (out / "report.html").read_text()
-    assert "Robustness" in html and "nominal optimum" in html and "robust design" in html
+    assert "Robustness" in html and "nominal optimum" in html and "robust search&#x27;s design" in html
     assert (out / "figures" / "distribution.png").is_file()
     assert (out / "figures" / "sobol.png").is_file()
 
