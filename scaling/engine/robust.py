@@ -241,6 +241,11 @@ class RobustBayesianOptimizer(BayesianOptimizer):
                                      length_scale_bounds=FAILURE_LENGTH_SCALES)
         return model, failure
 
+    def designs(self, records: Sequence[Evaluation]) -> np.ndarray:
+        """The distinct designs (x of the successful evaluations, prior included), sorted."""
+        X, _, _, ok, _ = self._arrays(self.prior + list(records))
+        return np.unique(np.round(X[ok, : self.n_design], 12), axis=0)
+
     def robust_estimates(self, records: Sequence[Evaluation], model: Any | None = None
                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The distinct designs of the prior and ``records`` with their surrogate robust
@@ -251,10 +256,9 @@ class RobustBayesianOptimizer(BayesianOptimizer):
         designs : ndarray (p, n_design)
         statistic, std : ndarray (p, n_obj)
         """
-        X, _, _, ok, _ = self._arrays(self.prior + list(records))
         if model is None:
             model, _ = self.fit(records, self._rng(self.settings.n_iter + 1))
-        designs = np.unique(np.round(X[ok, : self.n_design], 12), axis=0)
+        designs = self.designs(records)
         R, S = RobustModel(model, self.n_design, self.samples, self.statistic
                            ).predict_moments(designs)
         if self.settings.output_transform == "log" and self.statistic != "mean+2std":
@@ -275,7 +279,7 @@ class RobustBayesianOptimizer(BayesianOptimizer):
         constraints = [] if failure is None else [ProbabilisticConstraint(
             RobustModel(failure, self.n_design, self.samples, "mean"), p_min=0.5,
             threshold=FAILURE_THRESHOLD)]
-        designs, _, _ = self.robust_estimates(records, model)
+        designs = self.designs(records)
         R_obs, _ = robust.predict_moments(designs)
         acq = self._build_acquisition(robust, R_obs, np.ones(len(R_obs), bool), R_obs, rng)
         best = designs[non_dominated_mask(R_obs)] if self.n_obj > 1 else \
