@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from hypate.scaling.cli.jsonout import dumps
+from hypate.scaling.workflow.robust import robust_budget
 from hypate.scaling.workflow.shipped import shipped
 from hypate.scaling.workflow.study import load_study, sweep_points
 
@@ -26,8 +27,10 @@ def catalog() -> list[dict[str, object]]:
     for name, path in shipped("study").items():
         study = load_study(path)
         points = len(sweep_points(study)) if study.sweep is not None else 1
+        robust = study.uncertainty is not None and study.uncertainty.optimize
+        budget = robust_budget(study) if robust else study.budget  # both campaigns
         out.append({"name": name, "description": study.description,
-                    "kind": study.raw.study.kind, "evaluations": study.budget * points,
+                    "kind": study.raw.study.kind, "evaluations": budget * points,
                     "sweep_points": points, "duration": study.raw.study.duration or None,
                     "path": str(path)})
     return out
