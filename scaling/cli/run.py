@@ -375,11 +375,12 @@ def _run_one(args: argparse.Namespace, study, out: Path, t0: float, say) -> int:
 
     def on_scatter(done: int, total: int, which: str = "the design point",
                    last: bool = True) -> None:
-        if not steps:
+        if not steps or steps[-1].step != f"scatter at {which}":
             if last:
                 bar.close()  # the evaluations are over: the scatter gets its own line
+            # its own clock: the robust search's evaluations run between two propagations
             steps.append(StepProgress("run", quiet=args.quiet))
-        steps[0](f"scatter at {which}", done, total)
+        steps[-1](f"scatter at {which}", done, total)
 
     try:
         with collected_warnings(args.verbose) as caught:
