@@ -12,12 +12,13 @@ from hypate.scaling.cli import (
     bench_bo,
     bench_rom,
     bench_structure,
+    bench_study,
     bench_thermal,
 )
 
 #: Modules providing benchmark targets (each has ``register_bench(subparsers)``).
 BENCH_MODULES: tuple[ModuleType, ...] = (bench_bo, bench_structure, bench_thermal, bench_ate,
-                                         bench_rom)
+                                         bench_rom, bench_study)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -1,0 +1,154 @@
+"""``hypate bench study STUDY [--target 0.10] [--seeds 3] [--compare single] [--json]``: how
+fast a study's design point gets good (issue 19's benchmark; medians over seeds, never
+pass/fail).
+
+Each seed runs the study (``hypate run``'s workflow, in ``--out/seed-<s>`` or a temporary
+folder) and records, at every committed evaluation, the wall time since the run started
+(prototype simulation included), the simulator seconds spent and the evaluations made. The
+time to target is when the best design so far -- the smallest max(J_u, J_T) over the
+successful evaluations, the design-point rule -- first reaches ``--target``; ``null`` if it
+never does (a median over seeds counts such a seed as infinitely slow). ``--compare single``
+runs the one-worker configuration of the same study side by side in the same invocation
+(the single-fidelity one, the only fidelity a study has today) and prints the ratio.
+
+JSON (public): ``{"study", "target", "seeds", "seconds_to_target": [...],
+"median_seconds_to_target", "final": {"J_u", "J_T", "hypervolume", "evaluations",
+"simulator_seconds"}, "compare": {the same fields} or null, "speedup": median ratio or
+null}``, plus ``workers``, ``evaluations_to_target`` and ``simulator_seconds_to_target``.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from hypate.scaling.cli.jsonout import dumps
+from hypate.scaling.cli.run import resolve_workers
+from hypate.scaling.engine.pareto import hypervolume
+from hypate.scaling.workflow.run import run_study
+from hypate.scaling.workflow.seeds import seed_directory, seed_list
+from hypate.scaling.workflow.shipped import resolve
+from hypate.scaling.workflow.study import Study, load_study
+from hypate.solvers.errors import InputError
+
+#: Hypervolume reference point of the final front (J_u, J_T as fractions).
+REFERENCE = np.array([1.0, 1.0])
+
+
+def register_bench(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("study", help="time to a design point with max(J_u, J_T) <= target",
+                       description="Run a study for several seeds; report the wall time, "
+                       "simulator seconds and evaluations until the design point first "
+                       "reaches max(J_u, J_T) <= --target, and the final values (medians).")
+    p.add_argument("study", help="study TOML file or a shipped study's name")
+    p.add_argument("--target", type=float, default=0.10, help="max(J_u, J_T) to reach (0.10)")
+    p.add_argument("--seeds", type=int, default=3, help="seeds S .. S+N-1 (3)")
+    p.add_argument("--seed", type=int, help="first seed (default: the study's)")
+    p.add_argument("--workers", default="auto", help="as for hypate run (default auto)")
+    p.add_argument("--compare", choices=["single"], help="also run the one-worker, "
+                   "single-fidelity configuration and print the speed-up")
+    p.add_argument("--out", help="keep the run directories here (default: a temporary folder)")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=run)
+
+
+def _trace(study: Study, out: Path, workers: int, seed: int) -> dict[str, Any]:
+    """One run of the study: per committed evaluation (wall s, simulator s, max J)."""
+    rows: list[tuple[float, float, float]] = []
+    spent = [0.0]
+    t0 = time.perf_counter()
+
+    def progress(done: int, budget: int, evaluation: Any) -> None:
+        spent[0] += float(evaluation.seconds)
+        worst = float(np.max(evaluation.F)) if evaluation.ok else math.inf
+        rows.append((time.perf_counter() - t0, spent[0], worst))
+
+    outcome = run_study(study, out, workers=workers, seed=seed, progress=progress)
+    point = outcome.design_point
+    F = outcome.result.F[outcome.result.ok]
+    F = F[np.all(np.isfinite(F), axis=1)]
+    hv = (float(hypervolume(F[np.all(F < REFERENCE, axis=1)], REFERENCE))
+          if F.shape[1:] == (2,) else None)
+    objectives = point.get("objectives") or {}
+    return {"rows": rows, "J_u": objectives.get("J_u"), "J_T": objectives.get("J_T"),
+            "hypervolume": hv, "evaluations": len(outcome.result.F),
+            "simulator_seconds": float(np.sum(outcome.result.data["seconds"]))}
+
+
+def _to_target(rows: list[tuple[float, float, float]], target: float
+               ) -> tuple[float | None, float | None, int | None]:
+    """Wall s, simulator s and evaluations at which the running best first is <= target."""
+    best = math.inf
+    for k, (wall, spent, worst) in enumerate(rows):
+        best = min(best, worst)
+        if best <= target:
+            return wall, spent, k + 1
+    return None, None, None
+
+
+def _median(values: list[float | None]) -> float | None:
+    """Median with None as infinitely slow; None when the median is such a seed."""
+    m = float(np.median([math.inf if v is None else v for v in values]))
+    return m if math.isfinite(m) else None
+
+
+def measure(study: Study, seeds: list[int], target: float, workers: int, root: Path,
+            label: str) -> dict[str, Any]:
+    """The benchmark block of one configuration (module docstring)."""
+    runs = []
+    for s in seeds:
+        print(f"bench study: {label}, seed {s} ...", file=sys.stderr, flush=True)
+        runs.append(_trace(study, seed_directory(root / label, s), workers, s))
+    hits = [_to_target(r["rows"], target) for r in runs]
+    final = {key: _median([r[key] for r in runs]) for key in
+             ("J_u", "J_T", "hypervolume", "simulator_seconds")}
+    final["evaluations"] = int(np.median([r["evaluations"] for r in runs]))
+    return {"study": study.name, "target": target, "seeds": seeds, "workers": workers,
+            "seconds_to_target": [h[0] for h in hits],
+            "median_seconds_to_target": _median([h[0] for h in hits]),
+            "simulator_seconds_to_target": [h[1] for h in hits],
+            "evaluations_to_target": [h[2] for h in hits], "final": final}
+
+
+def run(args: argparse.Namespace) -> int:
+    if not (0.0 < args.target < math.inf):
+        raise InputError("--target", f"must be a positive number; got {args.target}")
+    if not 1 <= args.seeds <= 100:
+        raise InputError("--seeds", f"must be in [1, 100]; got {args.seeds}")
+    study = load_study(resolve(args.study, "study"))
+    if study.sweep is not None or (study.uncertainty is not None and study.uncertainty.optimize):
+        raise InputError("study", "bench study times one optimization: not a sweep or a "
+                         "robust study")
+    workers = resolve_workers(args.workers, study)
+    seeds = seed_list(study.optimizer.seed if args.seed is None else args.seed, args.seeds)
+    with tempfile.TemporaryDirectory(prefix="hypate-bench-") as tmp:
+        root = Path(args.out) if args.out else Path(tmp)
+        main = measure(study, seeds, args.target, workers, root, "main")
+        compare = (measure(study, seeds, args.target, 1, root, "single")
+                   if args.compare else None)
+    speedup = None
+    if compare is not None and main["median_seconds_to_target"] and \
+            compare["median_seconds_to_target"] is not None:
+        speedup = compare["median_seconds_to_target"] / main["median_seconds_to_target"]
+    out = {**main, "compare": compare, "speedup": speedup}
+    if args.json:
+        print(dumps(out, indent=2))
+        return 0
+    for block, name in ((main, f"{workers} worker(s)"), (compare, "single (1 worker)")):
+        if block is None:
+            continue
+        f = block["final"]
+        med = block["median_seconds_to_target"]
+        print(f"{study.name} [{name}]: max(J_u, J_T) <= {args.target:g} after "
+              + ", ".join("-" if v is None else f"{v:.1f} s" for v in block["seconds_to_target"])
+              + f" (median {'not reached' if med is None else f'{med:.1f} s'}); final J_u "
+              f"{f['J_u']:.4g}, J_T {f['J_T']:.4g}, HV {f['hypervolume']}, "
+              f"{f['evaluations']:.0f} evaluations, {f['simulator_seconds']:.1f} simulator s")
+    if speedup is not None:
+        print(f"speed-up (single / {workers} worker(s), median time to target): {speedup:.2f}x")
+    return 0

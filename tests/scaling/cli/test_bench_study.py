@@ -1,0 +1,61 @@
+"""``hypate bench study``: time, simulator seconds and evaluations to a target design point,
+medians over seeds, side by side with the one-worker configuration."""
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+import pytest
+from conftest import tiny_study_text
+from hypate.scaling.cli.main import main
+
+
+@pytest.fixture(scope="module")
+def bench(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("bench")
+    study = folder / "tiny_b2.toml"
+    study.write_text(tiny_study_text(iterations=2, tail="batch_size = 2\n"))
+    return study, folder
+
+
+def test_bench_study_json_fields_and_their_runs(bench, capsys):
+    study, folder = bench
+    out = folder / "runs"
+    assert main(["bench", "study", str(study), "--target", "1e9", "--seeds", "2",
+                 "--compare", "single", "--out", str(out), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    for key in ("study", "target", "seeds", "seconds_to_target", "median_seconds_to_target",
+                "final", "compare", "speedup"):
+        assert key in data
+    assert set(data["final"]) == {"J_u", "J_T", "hypervolume", "evaluations",
+                                  "simulator_seconds"}
+    assert data["seeds"] == [3, 4] and data["compare"]["workers"] == 1
+    # any finite J reaches 1e9: the target is reached at the first successful evaluation
+    for block, label in ((data, "main"), (data["compare"], "single")):
+        for s, n in zip(block["seeds"], block["evaluations_to_target"]):
+            table = pd.read_csv(out / label / f"seed-{s}" / "evaluations.csv")
+            assert n == int((table["status"] == "ok").to_numpy().argmax()) + 1
+            assert block["simulator_seconds_to_target"][block["seeds"].index(s)] == \
+                pytest.approx(table["seconds"].iloc[:n].sum(), rel=1e-9)
+        assert block["final"]["evaluations"] == 1 + 4 + 2 * 2
+    # the campaign depends on the batch, not on the workers: the same final design point
+    assert data["final"]["J_u"] == data["compare"]["final"]["J_u"]
+    assert data["speedup"] == pytest.approx(data["compare"]["median_seconds_to_target"]
+                                            / data["median_seconds_to_target"])
+
+
+def test_an_unreached_target_is_null(bench, capsys):
+    study, _ = bench
+    assert main(["bench", "study", str(study), "--target", "1e-9", "--seeds", "1",
+                 "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["seconds_to_target"] == [None] and data["median_seconds_to_target"] is None
+    assert data["compare"] is None and data["speedup"] is None
+
+
+@pytest.mark.parametrize("argv, field", [(["--target", "0"], "--target"),
+                                         (["--seeds", "0"], "--seeds")])
+def test_bad_bench_study_options_exit_2(bench, capsys, argv, field):
+    study, _ = bench
+    assert main(["bench", "study", str(study), *argv]) == 2
+    assert field in capsys.readouterr().err
