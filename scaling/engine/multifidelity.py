@@ -24,7 +24,7 @@ import numpy as np
 from hypate.solvers.numerics.kriging import KrigingRegressor
 from scipy.optimize import minimize_scalar
 
-__all__ = ["MultiFidelityKriging"]
+__all__ = ["MultiFidelityKriging", "MultiFidelityModel"]
 
 #: Search range of ``rho`` in units of std(y_t) / std(mu_{t-1}(X_t)).
 RHO_RANGE = 5.0
@@ -119,3 +119,40 @@ class MultiFidelityKriging:
         safe = std > 1e-12
         dstd = np.where(safe[:, None], 0.5 * dvar / np.where(safe, std, 1.0)[:, None], 0.0)
         return mean, std, dmean, dstd
+
+
+class MultiFidelityModel:
+    """The objectives' top-level co-kriging as an acquisition model (shapes (N, m) and
+    (N, m, d), :class:`~hypate.scaling.engine.acquisition.Model`), one
+    :class:`MultiFidelityKriging` per objective."""
+
+    def __init__(self, models: Sequence[MultiFidelityKriging],
+                 levels: Sequence[int] | None = None) -> None:
+        self.models = list(models)
+        # the fidelity level of each model level (all of them unless some were left out)
+        self.levels = list(range(len(self.models[0].levels))) if levels is None else \
+            list(levels)
+
+    def predict_moments(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        parts = [m.predict(X, return_std=True) for m in self.models]
+        return (np.column_stack([p[0] for p in parts]), np.column_stack([p[1] for p in parts]))
+
+    def predict_with_gradients(self, X: np.ndarray):
+        parts = [m.predict_with_gradients(X) for m in self.models]
+        return (np.column_stack([p[0] for p in parts]), np.column_stack([p[1] for p in parts]),
+                np.stack([p[2] for p in parts], axis=1), np.stack([p[3] for p in parts], axis=1))
+
+    def level_variances(self, x: np.ndarray) -> np.ndarray:
+        """Per objective and level ``l``, the share of the top-level predictive variance at
+        ``x`` carried by level ``l``'s own model, ``(prod_{j > l} rho_j)^2 sigma_l^2``
+        (what a simulation of level ``l`` at ``x`` would remove): shape (m, s)."""
+        out = []
+        for m in self.models:
+            s = len(m.levels)
+            row = np.empty(s)
+            for t in range(s):
+                std = m.levels[t].predict_moments(np.atleast_2d(x))[1][0, 0]
+                gain = float(np.prod(m.rho[t + 1:])) if t + 1 < s else 1.0
+                row[t] = (gain * std) ** 2
+            out.append(row)
+        return np.array(out)

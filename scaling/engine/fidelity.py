@@ -1,0 +1,191 @@
+"""Multi-fidelity Bayesian optimization: cheaper versions of the simulation inform the
+search, the designs and the Pareto front are the top fidelity's (issue 19; beyond the
+dissertation's single-fidelity Sec. 6.3).
+
+The problem's last variable is the fidelity level ``l = 0 .. s - 1`` (cheapest first, the
+top level the study's own simulation; an integer-valued float, so that the store keeps it
+with the design and a resumed run replays it). One recursive co-kriging model per objective
+(:class:`~hypate.scaling.engine.multifidelity.MultiFidelityKriging`) is fitted on every
+level's successful evaluations; the acquisition (HVLCB, ...) is that of its top-level
+prediction against the top level's observed front. Each iteration
+
+1. maximizes the acquisition over the design (the cheap constraints, SLSQP multistart);
+2. chooses the level by expected gain per measured second: the share of the top-level
+   predictive variance at the design that level ``l``'s own model carries
+   (:meth:`~hypate.scaling.engine.multifidelity.MultiFidelityModel.level_variances`, each
+   objective scaled by its top-level spread), divided by the median simulator seconds of
+   level ``l`` so far (the given ``costs`` until a level has run);
+3. simulates the design at that level.
+
+The initial design is nested (Le Gratiet's recursive form is exact on nested designs): the
+top level's ``n_init`` OLH designs are simulated at every level, each lower level ``l``
+adds ``low_samples[l]`` OLH designs of its own.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from hypate.scaling.engine.inner import optimize_acquisition
+from hypate.scaling.engine.multifidelity import MultiFidelityKriging, MultiFidelityModel
+from hypate.scaling.engine.optimizer import BayesianOptimizer
+from hypate.scaling.engine.problem import project_unit, scipy_constraints
+from hypate.scaling.engine.settings import OptimizerSettings, SettingError
+from hypate.scaling.engine.store import Evaluation
+from hypate.solvers.numerics.random import latin_hypercube
+
+#: Fewest successful evaluations of a level for it to enter the fit.
+MIN_LEVEL_SAMPLES = 2
+
+
+class MultiFidelityOptimizer(BayesianOptimizer):
+    """Bayesian optimization over the design with fidelity levels (module docstring).
+
+    Parameters
+    ----------
+    problem : pymoo.core.problem.Problem
+        Variables ``(x, level)``; the last one's bounds are ``[0, s - 1]``; no expensive
+        constraints.
+    settings : OptimizerSettings
+        ``n_init``: top-level initial designs; one proposal per iteration; no polish, no
+        surrogate coordinates.
+    costs : sequence of float
+        Prior seconds per simulation of each level (cheapest first), used until a level
+        has run.
+    low_samples : sequence of int
+        Extra initial designs of each lower level (``s - 1`` numbers).
+    """
+
+    def __init__(self, problem: Any, settings: OptimizerSettings, *, costs: Sequence[float],
+                 low_samples: Sequence[int]) -> None:
+        super().__init__(problem, settings)
+        self.n_levels = len(costs)
+        if self.n_levels < 2:
+            raise SettingError("costs", "one positive number per fidelity level (at least 2)",
+                               list(costs))
+        if not all(np.isfinite(c) and c > 0 for c in costs):
+            raise SettingError("costs", "positive seconds per level", list(costs))
+        if len(low_samples) != self.n_levels - 1 or any(int(n) < 0 for n in low_samples):
+            raise SettingError("low_samples", f"{self.n_levels - 1} counts >= 0",
+                               list(low_samples))
+        if not np.allclose(self.bounds[-1], [0.0, self.n_levels - 1]):
+            raise SettingError("problem", f"the last variable is the level, bounds [0, "
+                               f"{self.n_levels - 1}]", self.bounds[-1].tolist())
+        s = self.settings
+        if self.n_constr or s.batch_size != 1 or s.polish or s.coordinates is not None:
+            raise SettingError("settings", "no expensive constraints, batch_size 1, no "
+                               "polish and no surrogate coordinates for multi-fidelity BO",
+                               (self.n_constr, s.batch_size, s.polish))
+        self.costs = np.asarray(costs, float)
+        self.low_samples = [int(n) for n in low_samples]
+        self.n_design = self.n_var - 1
+        self.design_bounds = self.bounds[: self.n_design]
+        self.top = self.n_levels - 1
+
+    # -------------------------------------------------------------- designs
+    def _project(self, X: np.ndarray) -> np.ndarray:
+        cheap = self.settings.cheap_constraints
+        if not cheap or not len(X):
+            return X
+        lo = self.design_bounds[:, 0]
+        span = self.design_bounds[:, 1] - lo
+        cons = scipy_constraints(cheap, lo, span)
+        return np.array([lo + project_unit((x - lo) / span, cons) * span for x in X])
+
+    def initial_design(self) -> np.ndarray:
+        """Nested OLH: the top designs at every level, cheapest level first, plus each lower
+        level's own designs."""
+        top = self._project(latin_hypercube(self.settings.n_init, self.design_bounds,
+                                            self._rng(0)))
+        rows = []
+        for level in range(self.n_levels):
+            extra = (self._project(latin_hypercube(self.low_samples[level], self.design_bounds,
+                                                   np.random.default_rng([self.settings.seed,
+                                                                          0, level])))
+                     if level < self.top and self.low_samples[level] else
+                     np.zeros((0, self.n_design)))
+            X = np.vstack([top, extra])
+            rows.append(np.hstack([X, np.full((len(X), 1), float(level))]))
+        return np.vstack(rows)
+
+    def _by_level(self, records: Sequence[Evaluation]):
+        X, F, _, ok, _ = self._arrays(list(records))
+        level = np.rint(X[:, -1]).astype(int)
+        return X[:, :-1], self._model_space(F), ok, level
+
+    def costs_now(self, records: Sequence[Evaluation]) -> np.ndarray:
+        """Median simulator seconds per level so far (the prior cost until a level ran)."""
+        _, _, _, level = self._by_level(records)
+        seconds = np.array([r.seconds for r in records], float)
+        return np.array([float(np.median(seconds[level == t])) if np.any(level == t)
+                         else self.costs[t] for t in range(self.n_levels)])
+
+    def fit(self, records: Sequence[Evaluation], rng: np.random.Generator
+            ) -> MultiFidelityModel | None:
+        """Co-kriging per objective on the levels with enough successful evaluations
+        (None if the top level has fewer than :data:`MIN_LEVEL_SAMPLES`)."""
+        X, F, ok, level = self._by_level(records)
+        use = [t for t in range(self.n_levels)
+               if np.count_nonzero(ok & (level == t)) >= MIN_LEVEL_SAMPLES]
+        if self.top not in use:
+            return None
+        seed = int(rng.integers(2**31))
+        models = []
+        for j in range(self.n_obj):
+            mf = MultiFidelityKriging(self.design_bounds, n_restarts=self.settings.n_restarts,
+                                      rng=seed)
+            mf.fit([X[ok & (level == t)] for t in use], [F[ok & (level == t), j] for t in use])
+            models.append(mf)
+        return MultiFidelityModel(models, use)
+
+    # ------------------------------------------------------------ proposal
+    def propose(self, records: list[Evaluation], iteration: int) -> np.ndarray:
+        """One ``(x, level)``: the top level's acquisition over ``x``, then the level of the
+        largest expected gain per second (module docstring)."""
+        st = self.settings
+        rng = self._rng(iteration)
+        X, F, ok, level = self._by_level(records)
+        model = self.fit(records, rng)
+        if model is None:  # nothing to model at the top yet: explore it
+            x = self._project(latin_hypercube(1, self.design_bounds, rng))[0]
+            return np.r_[x, float(self.top)][None]
+        top = ok & (level == self.top)
+        F_top = F[top]
+        acq = self._build_acquisition(model, F_top, np.ones(len(F_top), bool), F_top, rng)
+        span = self.design_bounds[:, 1] - self.design_bounds[:, 0]
+        best = X[top][np.argsort(np.max(F_top, axis=1))[:3]]
+        extra = best + 1e-3 * span * rng.standard_normal(best.shape)
+        try:
+            x, _ = optimize_acquisition(
+                acq, self.design_bounds, n_raw=st.n_raw, n_starts=st.n_starts,
+                cheap_constraints=st.cheap_constraints, X_avoid=X[level == self.top],
+                min_distance=st.min_distance, extra_starts=extra, rng=rng)
+        except RuntimeError:
+            x = self._project(latin_hypercube(1, self.design_bounds, rng))[0]
+            return np.r_[x, float(self.top)][None]
+        return np.r_[x, float(self.choose_level(model, x, records))][None]
+
+    def choose_level(self, model: MultiFidelityModel, x: np.ndarray,
+                     records: Sequence[Evaluation]) -> int:
+        """The level of the largest variance share per second at ``x``; a level that has
+        already simulated ``x`` (within ``min_distance`` of the unit box) is skipped."""
+        X, F, ok, level = self._by_level(records)
+        use = model.levels
+        shares = model.level_variances(x)                    # (m, len(use))
+        top = F[ok & (level == self.top)]
+        spread = np.std(top, axis=0) if len(top) > 1 else np.ones(self.n_obj)
+        gain = np.sum(shares / np.maximum(spread, 1e-300)[:, None] ** 2, axis=0)
+        cost = self.costs_now(records)[use]
+        span = self.design_bounds[:, 1] - self.design_bounds[:, 0]
+        order = np.argsort(-(gain / cost), kind="stable")
+        for k in order:
+            t = use[k]
+            near = np.linalg.norm((X[level == t] - x) / span, axis=1) if np.any(level == t) \
+                else np.array([np.inf])
+            if t == self.top or near.min() > self.settings.min_distance:
+                return int(t)
+        return self.top
+
+
+__all__ = ["MultiFidelityOptimizer"]
