@@ -125,10 +125,11 @@ from hypate.scaling.workflow.study import load_study
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
-__all__ = ["COLUMNS", "COVERAGE", "HISTORIES", "UNITS", "BandParts", "Basis", "Measured",
-           "PredictedHistory", "Prediction", "Scaling", "band_parts", "design_point_basis",
-           "predict", "prediction_summary", "prediction_table", "read_measured",
-           "sweep_basis", "write_prediction"]
+__all__ = ["ACCEPTED", "COLUMNS", "COVERAGE", "HISTORIES", "UNITS", "BandParts", "Basis",
+           "Measured", "PredictedHistory", "Prediction", "Scaling", "band_parts",
+           "check_clock", "check_span", "design_point_basis", "predict",
+           "prediction_summary", "prediction_table", "read_measured", "scatter_sigma",
+           "study_time_step", "sweep_basis", "sweep_root", "write_prediction"]
 
 #: The field of every error about the measured file (the CLI's ``--measured``).
 FIELD = "measured"
