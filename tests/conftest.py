@@ -60,6 +60,24 @@ def tiny_study_text(name: str = "tiny", xi: float = 4.0, mesh: int = 2, steps: i
                              iterations=iterations, seed=seed, sections=sections, tail=tail)
 
 
+#: The tiny run of the prediction tests: 20 steps of 8 s (21 matched time points, so one
+#: point outside a band is under 5 % of them); a run takes about 10 s.
+PREDICTION_RUN = {"steps": 20, "time_step": 8.0, "initial": 3, "iterations": 1}
+
+
+@pytest.fixture(scope="session")
+def prediction_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A finished tiny run directory (``hypate run STUDY --out DIR -q``), shared by the
+    prediction tests: read it, copy it before writing into it."""
+    from hypate.scaling.cli.main import main
+
+    root = tmp_path_factory.mktemp("prediction")
+    study = root / "tiny_predict.toml"
+    study.write_text(tiny_study_text(name="tiny_predict", **PREDICTION_RUN))
+    assert main(["run", str(study), "--out", str(root / "run"), "-q"]) == 0
+    return root / "run"
+
+
 #: Names of a headless-capable browser binary, in the order they are looked for.
 BROWSERS = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 

@@ -19,6 +19,7 @@ from hypate.scaling.cli import (
     flutter,
     init,
     laws,
+    predict,
     report,
     reproduce,
     rom,
@@ -36,8 +37,8 @@ from hypate.solvers.errors import InputError
 #: The command registry: modules providing subcommands (each has ``register(subparsers)``),
 #: in ``--help`` order.
 COMMAND_MODULES: tuple[ModuleType, ...] = (run, studies, reproduce, init, validate, report,
-                                           whatif, laws, condition, structure, thermal,
-                                           simulate, flutter, rom, bench)
+                                           whatif, laws, predict, condition, structure,
+                                           thermal, simulate, flutter, rom, bench)
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130

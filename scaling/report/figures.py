@@ -28,6 +28,7 @@ import numpy as np  # noqa: E402
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask  # noqa: E402
 from hypate.scaling.report.numbers import format_percent, percent  # noqa: E402
 from hypate.scaling.report.rundata import RunData  # noqa: E402
+from hypate.scaling.workflow.predict import Prediction  # noqa: E402
 from hypate.scaling.workflow.variables import variable_unit  # noqa: E402
 from hypate.solvers.coupling.response import Response  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
@@ -35,7 +36,7 @@ from matplotlib.figure import Figure  # noqa: E402
 __all__ = ["MISMATCH_THRESHOLD", "HV_REFERENCE", "ZOOM_MARGIN", "ZOOM_MIN_MARGIN", "embed_png",
            "figure_html", "fit_labels", "label_overflows", "zoom_limits", "clip_to_box",
            "pareto_figure", "history_figure", "response_figure", "plot_sweep",
-           "close_figures"]
+           "close_figures", "png_bytes", "prediction_figure"]
 
 #: Relative difference above which a similarity parameter is highlighted (10 %); also the
 #: dotted 10 % error lines of the Pareto and what-if figures.
@@ -112,18 +113,24 @@ def fit_labels(fig: Figure, min_chars: int = 12, passes: int = 3) -> Figure:
     return fig
 
 
+def png_bytes(fig: Figure) -> bytes:
+    """``fig`` as PNG bytes (labels wrapped to their axes by :func:`fit_labels`, 110 dpi,
+    tight box); the figure is closed afterwards."""
+    fit_labels(fig)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return buf.getvalue()
+
+
 def figure_html(fig: Figure, run: RunData, name: str, caption: str) -> str:
     """Save ``fig`` as ``figures/<name>.png`` and return it embedded with a caption.
 
     Labels are wrapped to their axes first (:func:`fit_labels`). The figure is closed
     afterwards.
     """
-    fit_labels(fig)
     path = run.figure_path(name)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    data = buf.getvalue()
+    data = png_bytes(fig)
     path.write_bytes(data)
     return (f'<figure>{embed_png(data, caption)}<figcaption>{html.escape(caption)}'
             f"</figcaption></figure>")
@@ -499,4 +506,35 @@ def distribution_figure(blocks: dict[str, dict[str, Any]]) -> Figure:
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("probability J <= x")
     axes[0].legend(fontsize="small")
+    return fig
+
+
+#: Axis labels of the predicted histories.
+PREDICTION_LABELS = {"center_deflection": "center deflection  w [m]",
+                     "mean_temperature": "mean temperature  T [K]"}
+
+
+def prediction_figure(pred: Prediction) -> Figure:
+    """Predicted prototype histories over prototype time (``hypate predict``): the measured
+    model test mapped through the design point's nondimensionalization, its band (shaded)
+    and the simulated prototype (dashed), one panel per measured history."""
+    names = list(pred.histories)
+    fig, axes = plt.subplots(1, len(names), figsize=(5.2 * len(names), 3.9),
+                             layout="constrained", squeeze=False)
+    for ax, name in zip(axes[0], names):
+        h = pred.histories[name]
+        ax.fill_between(pred.time, h.lower, h.upper, color="tab:blue", alpha=0.2,
+                        label=f"band ±{h.half_width:.3g} {h.unit}")
+        ax.plot(pred.time, h.predicted, "-", color="tab:blue", marker="o", ms=2.5,
+                label="predicted from the model test")
+        ax.plot(pred.time, h.simulated, "--", color="k", label="simulated prototype")
+        out = ~h.inside
+        if out.any():
+            ax.plot(pred.time[out], h.simulated[out], "x", color="tab:red", ms=6,
+                    label="simulated prototype outside the band")
+        ax.set_xlabel("prototype time  t [s]")
+        ax.set_ylabel(PREDICTION_LABELS[name])
+        ax.set_title(f"{name.replace('_', ' ')}: {100.0 * h.in_band:.3g} % in band")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
     return fig

@@ -11,11 +11,14 @@ file                        content                                     written 
 ``pareto.csv``              the Pareto set (best designs of one         ``write_outputs`` / users
                             objective)
 ``design_point.json``       public fields ``design``, ``objectives``,   ``write_outputs`` / report,
-                            ``similarity``, ``active_constraints``,     laws, what-if ``--base``
-                            ``rule`` (:data:`DESIGN_POINT_RULES`)
+                            ``similarity``, ``active_constraints``,     laws, what-if ``--base``,
+                            ``rule`` (:data:`DESIGN_POINT_RULES`),      predict
+                            ``model_time_step``, ``study_path``
 ``classical.json``          the classical GP baseline                   ``run_study`` / report
-``prototype.npz``           the prototype's response                    ``run_study`` / report
-``design_point.npz``        the design point's response                 ``write_outputs`` / report
+``prototype.npz``           the prototype's response                    ``run_study`` / report,
+                                                                        predict
+``design_point.npz``        the design point's response                 ``write_outputs`` / report,
+                                                                        predict
 ``report.html``,            the self-contained report and its figures   the report
 ``figures/``
 ``sweep.json``,             a sweep's points and their records          :mod:`.sweep` / laws,
@@ -24,6 +27,10 @@ file                        content                                     written 
 ``seeds.csv``               each seed's design point and the spread
 ``run.lock``                the pid of the run holding the directory    :mod:`.campaign`
                             (an exclusive POSIX record lock)
+``prediction/``             ``hypate predict``: ``prediction.csv``      :mod:`.predict` and
+                            (prototype histories with their band),      the CLI / users
+                            ``prediction.json`` (summary),
+                            ``prediction.png``, ``prediction.html``
 ==========================  ==========================================  ======================
 
 Writers replace files atomically (write ``NAME.tmp``, then rename), so a killed run never
@@ -60,6 +67,11 @@ SWEEP_CSV = "sweep.csv"
 SEEDS_JSON = "seeds.json"
 SEEDS_CSV = "seeds.csv"
 LOCK_FILE = "run.lock"
+PREDICTION_DIR = "prediction"
+PREDICTION_CSV = "prediction.csv"
+PREDICTION_JSON = "prediction.json"
+PREDICTION_PNG = "prediction.png"
+PREDICTION_HTML = "prediction.html"
 #: The id column of ``evaluations.csv``: the 0-based row number in the store order, the
 #: number every report cites ("evaluation 37").
 ID_COLUMN = "id"

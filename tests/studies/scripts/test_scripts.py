@@ -17,7 +17,7 @@ import pytest
 from conftest import REPO
 
 SCRIPTS = ("ch7_table7_3_modes", "ch7_flutter", "ch7_benchmark", "ch7_time_accuracy",
-           "ch8_effects", "ch9_table9_3", "ch9_tables", "reproduce")
+           "ch8_effects", "ch9_table9_3", "ch9_tables", "reproduce", "make_model_test")
 
 
 def test_scripts_import_quietly_and_expose_run() -> None:
