@@ -430,7 +430,9 @@ def design_schedule(design: dict[str, Any] | None) -> dict[str, np.ndarray]:
 def schedule_figure(run: RunData) -> str:
     """The design point's heater schedule ``T_rad(t / t_end)`` (control points and the
     piecewise-linear law between them) next to the wall (upper-surface mean) temperature
-    histories of the prototype and the design-point model, over nondimensional time.
+    histories of the prototype and the design-point model over nondimensional time: in K
+    beside the schedule (where ``T_rad > T_w`` the heater heats), and as ``T_w / T0`` (the
+    nondimensional wall temperature similarity asks to match, Sec. 9.2.1.1).
 
     Returns
     -------
@@ -442,31 +444,38 @@ def schedule_figure(run: RunData) -> str:
     if not schedules:
         return ""
     steps, dt_p = _matched_steps(run)
-    fig, ax = plt.subplots(figsize=(7.0, 4.2), layout="constrained")
+    fig, axes = plt.subplots(1, 2, figsize=(10.0, 3.9), layout="constrained")
     for name, values in schedules.items():
         tau = np.linspace(0.0, 1.0, values.size)
-        ax.plot(tau, values, "-s", color="tab:orange", lw=2, ms=6,
-                label=f"heater {name}(t), {values.size} control points (model)")
-    for resp, label, color, style in ((run.prototype, "prototype wall temperature", "k", "-"),
-                                      (run.model, "model wall temperature (design point)",
-                                       "tab:red", "--")):
+        axes[0].plot(tau, values, "-s", color="tab:orange", lw=2, ms=6,
+                     label=f"heater {name}(t), {values.size} control points")
+    for resp, label, color, style in ((run.prototype, "prototype", "k", "-"),
+                                      (run.model, "model (design point)", "tab:red", "--")):
         if resp is None or not resp.top_temperature:
             continue
         dt = dt_p if resp is run.prototype else run.model_time_step
-        ax.plot(_nondimensional_time(resp, dt, steps), resp.top_temperature, style,
-                color=color, marker="o", ms=3, label=label)
-    ax.set_xlabel("nondimensional time  t / t_end")
-    ax.set_ylabel("temperature (K)")
-    ax.set_title("radiant heater schedule and wall temperatures")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+        tau = _nondimensional_time(resp, dt, steps)
+        T_w = np.asarray(resp.top_temperature)
+        axes[0].plot(tau, T_w, style, color=color, marker="o", ms=2, label=f"{label} T_w")
+        axes[1].plot(tau, T_w / resp.stagnation_temperature, style, color=color, marker="o",
+                     ms=2, label=f"{label} T_w/T0")
+        axes[1].plot(tau, resp.temperature_over_stagnation, style, color=color, lw=0.8,
+                     alpha=0.5, label=f"{label} mean T/T0 (J_T)")
+    axes[0].set_ylabel("temperature (K)")
+    axes[0].set_title("heater schedule and wall temperatures")
+    axes[1].set_ylabel("temperature / stagnation temperature  T/T0")
+    axes[1].set_title("nondimensional wall and mean temperatures")
+    for ax in axes:
+        ax.set_xlabel("nondimensional time  t / t_end")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
     return figure_html(fig, run, "schedule",
                        "Optimized radiant-heater temperature T_rad(t) (piecewise linear between "
-                       "its control points, equally spaced over the model's test) and the "
-                       "upper-surface mean temperature of the prototype and of the design-point "
-                       "model at matched nondimensional time. The heater adds the absorbed "
-                       "flux emissivity sigma T_rad^4 and the wall emits emissivity sigma "
-                       "T_w^4: while T_rad > T_w the heater heats the model.")
+                       "its control points, equally spaced over the model's test) with the "
+                       "upper-surface mean temperature T_w of the prototype and of the "
+                       "design-point model at matched nondimensional time (left, K; right, "
+                       "T_w/T0, with the volume-mean T/T0 that J_T compares). The model absorbs the heater flux emissivity sigma T_rad^4 and "
+                       "emits emissivity sigma T_w^4: while T_rad > T_w the heater heats it.")
 
 
 def plot_sweep(rows: Sequence[dict[str, Any]], name: str, path: str | Path,
