@@ -281,7 +281,8 @@ def apply_design(template: Configuration, design: Mapping[str, float]) -> Config
 
 def heater_schedule(design: Mapping[str, float]) -> tuple[float, ...] | None:
     """The control temperatures ``T_rad[0] .. T_rad[n-1]`` of a design (K), in order, or
-    None without any.
+    None without any: the heater of the radiation condition (Eq. 4.24) scheduled over the
+    test, Sec. 9.2.3 Case 2 with ``T_rad(t)`` for the constant ``T_rad`` of Table 9.7.
 
     Raises
     ------

@@ -45,7 +45,6 @@ from typing import Any
 import numpy as np
 from hypate.scaling.engine.problem import CheapConstraint
 from hypate.scaling.workflow.configuration import Configuration, apply_design
-from hypate.scaling.workflow.variables import base_name, schedule_point
 from hypate.scaling.workflow.similarity import (
     TIME_SCALINGS,
     compare,
@@ -53,6 +52,7 @@ from hypate.scaling.workflow.similarity import (
     reference_quantities,
     time_scale,
 )
+from hypate.scaling.workflow.variables import base_name, schedule_point
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.coupling.lc import run_lc
 from hypate.solvers.coupling.model import PanelModel

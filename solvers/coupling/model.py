@@ -107,9 +107,11 @@ class PanelModel:
         # heater schedule over this article's own duration (nondimensional time t / t_end)
         self.heater = (None if s.radiation_schedule is None
                        else HeaterSchedule(s.radiation_schedule, s.duration))
-        self.T_rad = float(flow.temperature if s.radiation_temperature is None
-                           else s.radiation_temperature) if self.heater is None \
-            else float(self.heater(0.0))
+        if self.heater is not None:
+            self.T_rad = float(self.heater(0.0))  # the schedule's start (radiation_temperature)
+        else:
+            self.T_rad = float(flow.temperature if s.radiation_temperature is None
+                               else s.radiation_temperature)
         self._F_ext = (self.structure.pressure_load(s.external_pressure)
                        if s.external_pressure != 0.0 else np.zeros(self.structure.n_dof))
         self.modes = sinusoidal_modes(panel, self.points)
