@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 from hypate.solvers.aero.factory import AERO_NAMES, is_aero_name
 from hypate.solvers.errors import InputError
+from hypate.solvers.thermal.schedule import check_schedule
 
 #: Coupled schemes: tightly coupled quasi-steady, loosely coupled S1 and S2.
 SCHEMES: tuple[str, ...] = ("tc", "s1", "s2")
@@ -37,6 +38,12 @@ class SimulationSettings:
     radiation_temperature : float or None
         Surroundings of the upper-surface radiation (K); None = free-stream temperature.
         A radiant heater of the scaling problem sets this to T_rad.
+    radiation_schedule : tuple of float or None
+        A time-scheduled heater instead (Sec. 9.2.3 Case 2 with ``T_rad(t)``): control
+        temperatures (K) at the equally spaced fractions ``0 .. 1`` of ``duration``,
+        interpolated linearly in time
+        (:class:`hypate.solvers.thermal.schedule.HeaterSchedule`); None: the constant
+        ``radiation_temperature``. The two cannot both be set.
     external_pressure : float
         Uniform pressure on the panel's lower surface minus p_inf (Pa): positive pushes
         the panel towards +z (into the flow).
@@ -81,6 +88,7 @@ class SimulationSettings:
     time_step: float = 1.0
     duration: float = 160.0
     radiation_temperature: float | None = None
+    radiation_schedule: tuple[float, ...] | None = None
     external_pressure: float = 0.0
     external_heat_flux: float = 0.0
     lsa_modes: int = 6
@@ -118,6 +126,12 @@ class SimulationSettings:
             raise InputError("simulation.unstable_steps", "must be >= 1")
         if self.passes < 1:
             raise InputError("simulation.passes", "must be >= 1")
+        if self.radiation_schedule is not None:
+            if self.radiation_temperature is not None:
+                raise InputError("simulation.radiation_schedule", "a heater schedule and a "
+                                 "constant radiation_temperature cannot both be set")
+            object.__setattr__(self, "radiation_schedule",
+                               check_schedule(self.radiation_schedule))
         if not math.isfinite(self.external_heat_flux):
             raise InputError("simulation.external_heat_flux", "must be finite (W/m^2)")
 

@@ -129,6 +129,8 @@ def _print_result(res: dict[str, Any]) -> None:
     for eq in con["equalities"]:
         print(f"  equality {eq['name']}: residual {eq['residual']:.3g} "
               f"({'satisfied' if eq['satisfied'] else 'NOT satisfied'})")
+    for ineq in con.get("inequalities", []):
+        print(f"  {ineq['name']}: {'satisfied' if ineq['satisfied'] else 'NOT satisfied'}")
 
 
 def _print_sweep(sw: dict[str, Any]) -> None:

@@ -5,7 +5,9 @@ Run figures take a :class:`~hypate.scaling.report.rundata.RunData` and return an
 ``figures/<name>.png`` too: the Pareto front with the classical baseline (Fig. 9.9 / 9.13
 style; zoomed on the front, J in %, the full view behind a ``<details>`` toggle), the hypervolume history (two objectives) or best-J history (one objective), and the
 nondimensional response of the prototype vs the design-point model (Figs. 9.10, 9.11, 9.14,
-9.15 style). :func:`plot_sweep` draws the what-if sweep of ``hypate whatif --sweep``.
+9.15 style) and, for a study with a heater schedule, the optimized ``T_rad(t)`` next to the
+prototype's and the model's wall temperatures. :func:`plot_sweep` draws the what-if sweep
+of ``hypate whatif --sweep``.
 
 Every figure's labels are wrapped to fit its axes (:func:`fit_labels`) before it is saved.
 This is the one module of the report that imports pyplot (Agg backend: no display needed).
@@ -29,14 +31,14 @@ from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask  # noqa
 from hypate.scaling.report.numbers import format_percent, percent  # noqa: E402
 from hypate.scaling.report.rundata import RunData  # noqa: E402
 from hypate.scaling.workflow.predict import Prediction  # noqa: E402
-from hypate.scaling.workflow.variables import variable_unit  # noqa: E402
+from hypate.scaling.workflow.variables import schedule_point, variable_unit  # noqa: E402
 from hypate.solvers.coupling.response import Response  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 __all__ = ["MISMATCH_THRESHOLD", "HV_REFERENCE", "ZOOM_MARGIN", "ZOOM_MIN_MARGIN", "embed_png",
            "figure_html", "fit_labels", "label_overflows", "zoom_limits", "clip_to_box",
-           "pareto_figure", "history_figure", "response_figure", "plot_sweep",
-           "close_figures", "png_bytes", "prediction_figure"]
+           "pareto_figure", "history_figure", "response_figure", "schedule_figure",
+           "plot_sweep", "close_figures", "png_bytes", "prediction_figure"]
 
 #: Relative difference above which a similarity parameter is highlighted (10 %); also the
 #: dotted 10 % error lines of the Pareto and what-if figures.
@@ -376,14 +378,7 @@ def response_figure(run: RunData) -> str:
     proto, model = run.prototype, run.model
     if proto is None and model is None:
         return ""
-    steps = None
-    dt_p = None
-    if run.study is not None:
-        steps = run.study.spec.simulation.n_steps
-        dt_p = run.study.spec.simulation.time_step
-    elif proto is not None and len(proto.times) > 1:
-        steps = len(proto.times) - 1
-        dt_p = proto.times[1] - proto.times[0]
+    steps, dt_p = _matched_steps(run)
     fig, axes = plt.subplots(1, 2, figsize=(10.0, 3.9), layout="constrained")
     seen: set[str] = set()
     for resp, label, color, style in ((proto, "prototype", "k", "-"),
@@ -416,6 +411,78 @@ def response_figure(run: RunData) -> str:
                        "at matched nondimensional time (Figs. 9.10, 9.11); triangles mark "
                        "steps where the linearized stability analysis reports flutter or "
                        f"divergence{note}.")
+
+
+def _matched_steps(run: RunData) -> tuple[int | None, float | None]:
+    """Steps of both runs and the prototype time step (s): the study's, else the prototype
+    response's own (None when neither is known)."""
+    if run.study is not None:
+        return run.study.spec.simulation.n_steps, run.study.spec.simulation.time_step
+    proto = run.prototype
+    if proto is not None and len(proto.times) > 1:
+        return len(proto.times) - 1, proto.times[1] - proto.times[0]
+    return None, None
+
+
+def design_schedule(design: dict[str, Any] | None) -> dict[str, np.ndarray]:
+    """The heater schedules of a design: ``{"T_rad": control temperatures (K) in the
+    order of k}`` for every scheduled variable (``T_rad[k]``); empty without one."""
+    points: dict[str, dict[int, float]] = {}
+    for name, value in (design or {}).items():
+        if (p := schedule_point(name)) is not None:
+            points.setdefault(p[0], {})[p[1]] = float(value)
+    return {n: np.array([pts[k] for k in sorted(pts)]) for n, pts in points.items()}
+
+
+def schedule_figure(run: RunData) -> str:
+    """The design point's heater schedule ``T_rad(t / t_end)`` (control points and the
+    piecewise-linear law between them) next to the wall (upper-surface mean) temperature
+    histories of the prototype and the design-point model over nondimensional time: in K
+    beside the schedule (where ``T_rad > T_w`` the heater heats), and as ``T_w / T0`` (the
+    nondimensional wall temperature similarity asks to match, Sec. 9.2.1.1).
+
+    Returns
+    -------
+    str
+        The embedded ``figures/schedule.png``; ``""`` when the design point has no
+        schedule.
+    """
+    schedules = design_schedule((run.point or {}).get("design"))
+    if not schedules:
+        return ""
+    steps, dt_p = _matched_steps(run)
+    fig, axes = plt.subplots(1, 2, figsize=(10.0, 3.9), layout="constrained")
+    for name, values in schedules.items():
+        tau = np.linspace(0.0, 1.0, values.size)
+        axes[0].plot(tau, values, "-s", color="tab:orange", lw=2, ms=6,
+                     label=f"heater {name}(t), {values.size} control points")
+    for resp, label, color, style in ((run.prototype, "prototype", "k", "-"),
+                                      (run.model, "model (design point)", "tab:red", "--")):
+        if resp is None or not resp.top_temperature:
+            continue
+        dt = dt_p if resp is run.prototype else run.model_time_step
+        tau = _nondimensional_time(resp, dt, steps)
+        T_w = np.asarray(resp.top_temperature)
+        axes[0].plot(tau, T_w, style, color=color, marker="o", ms=2, label=f"{label} T_w")
+        axes[1].plot(tau, T_w / resp.stagnation_temperature, style, color=color, marker="o",
+                     ms=2, label=f"{label} T_w/T0")
+        axes[1].plot(tau, resp.temperature_over_stagnation, style, color=color, lw=0.8,
+                     alpha=0.5, label=f"{label} mean T/T0 (J_T)")
+    axes[0].set_ylabel("temperature (K)")
+    axes[0].set_title("heater schedule and wall temperatures")
+    axes[1].set_ylabel("temperature / stagnation temperature  T/T0")
+    axes[1].set_title("nondimensional wall and mean temperatures")
+    for ax in axes:
+        ax.set_xlabel("nondimensional time  t / t_end")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    return figure_html(fig, run, "schedule",
+                       "Optimized radiant-heater temperature T_rad(t) (piecewise linear between "
+                       "its control points, equally spaced over the model's test) with the "
+                       "upper-surface mean temperature T_w of the prototype and of the "
+                       "design-point model at matched nondimensional time (left, K; right, "
+                       "T_w/T0, with the volume-mean T/T0 that J_T compares). The model absorbs the heater flux emissivity sigma T_rad^4 and "
+                       "emits emissivity sigma T_w^4: while T_rad > T_w the heater heats it.")
 
 
 def plot_sweep(rows: Sequence[dict[str, Any]], name: str, path: str | Path,

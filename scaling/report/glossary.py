@@ -52,7 +52,7 @@ MEANINGS: dict[str, str] = {
              "the recovery temperature drives the skin.",
     "TF/TS": "Fluid reference temperature over the structural one.",
     "Bi_ext": "External heat-flux Biot number: an applied heat flux against conduction "
-              "through the skin.",
+              "through the skin (a scheduled heater: its time-mean absorbed flux).",
     "lambda_ext": "External pressure load against bending stiffness.",
 }
 

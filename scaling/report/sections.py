@@ -8,7 +8,7 @@ constraints and the surrogates' leave-one-out prediction), *Across seeds* (one s
 parameters* (prototype / model / relative difference; > 10 % highlighted), *Glossary*
 (symbol, formula, equation and meaning of each parameter),
 *Robustness* (a study with ``[uncertainty]``: the design point under its scatter),
-*Figures*, *Pareto set* (the design point's row marked), *Run statistics* (evaluations,
+*Figures* (with a heater schedule: the optimized ``T_rad(t)`` next to the wall temperatures), *Pareto set* (the design point's row marked), *Run statistics* (evaluations,
 failures grouped by reason, wall time), *Warnings* (the distinct solver warnings, where
 they occurred and how often; left out without any) and *Scaling laws* (a sweep's refined
 laws, Fig. 9.12). :mod:`.html` renders them into the page.
@@ -35,6 +35,7 @@ from hypate.scaling.report.figures import (
     history_figure,
     pareto_figure,
     response_figure,
+    schedule_figure,
     sobol_figure,
     variable_unit,
 )
@@ -301,7 +302,7 @@ def _glossary_section(run: RunData) -> Section | None:
 
 def _figures_section(run: RunData) -> Section:
     parts = []
-    for make in (pareto_figure, history_figure, response_figure):
+    for make in (pareto_figure, history_figure, response_figure, schedule_figure):
         try:
             parts.append(make(run))
         except (ValueError, RuntimeError, KeyError, IndexError, TypeError) as exc:

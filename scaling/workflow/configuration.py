@@ -14,13 +14,16 @@ from typing import Any
 from hypate.scaling.workflow.variables import (
     DESIGN_VARIABLES,
     LAYER_PATTERN,
+    SCHEDULE_POINTS,
     is_design_variable,
+    schedule_point,
 )
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.materials import STEFAN_BOLTZMANN
 from hypate.solvers.panel import PanelSpec
 from hypate.solvers.settings import SimulationSettings
+from hypate.solvers.thermal.schedule import HeaterSchedule
 
 
 # -- inputs ----------------------------------------------------------------------------------
@@ -82,8 +85,10 @@ class Configuration:
         How this article is simulated -- scheme, fluid model, time step, and the external
         loads the similarity parameters see: ``external_pressure`` p_ext (Pa, Eq. 6.1e),
         ``external_heat_flux`` q_ext (W/m^2, Eq. 6.1d), ``radiation_temperature`` T_rad (K,
-        a radiant heater). The configuration keeps no copy of them (its properties of those
-        names read these), so what the similarity table sees is what the simulator runs.
+        a radiant heater) or ``radiation_schedule`` (a heater scheduled over the test's
+        nondimensional time). The configuration keeps no copy of them (its properties of
+        those names read these), so what the similarity table sees is what the simulator
+        runs.
     """
 
     panel: PanelSpec
@@ -105,8 +110,15 @@ class Configuration:
 
     @property
     def radiation_temperature(self) -> float | None:
-        """Radiant heater temperature T_rad (K), None without a heater."""
+        """Radiant heater temperature T_rad (K), None without a constant heater."""
         return self.simulation.radiation_temperature
+
+    @property
+    def radiation_schedule(self) -> HeaterSchedule | None:
+        """The heater schedule ``T_rad(t)`` over this article's duration, None without one."""
+        sim = self.simulation
+        return (None if sim.radiation_schedule is None
+                else HeaterSchedule(sim.radiation_schedule, sim.duration))
 
     def with_time_step(self, time_step: float) -> Configuration:
         """This configuration simulated with ``time_step`` (same number of steps) and with
@@ -123,10 +135,15 @@ class Configuration:
 
     @property
     def heat_flux(self) -> float:
-        """Total external heat flux q_ext (W/m^2) absorbed by the upper surface."""
+        """Total external heat flux q_ext (W/m^2) absorbed by the upper surface (Eq. 6.1d):
+        with a heater schedule, its time mean over the test (``emissivity sigma`` times
+        :meth:`HeaterSchedule.mean_fourth_power`)."""
         q = float(self.external_heat_flux)
         if self.radiation_temperature is not None:
             q += self.panel.emissivity * STEFAN_BOLTZMANN * self.radiation_temperature**4
+        schedule = self.radiation_schedule
+        if schedule is not None:
+            q += self.panel.emissivity * STEFAN_BOLTZMANN * schedule.mean_fourth_power()
         return q
 
     def resolved_temperatures(self) -> ReferenceTemperatures:
@@ -185,6 +202,9 @@ def apply_design(template: Configuration, design: Mapping[str, float]) -> Config
           ``M`` or the template); the two groups ``p0``/``T0`` and ``p_inf``/``T_inf``
           cannot be mixed;
         * ``delta_T``, ``time``, ``p_ext``, ``q_ext``, ``T_rad``;
+        * ``T_rad[0]`` .. ``T_rad[n-1]`` (all of them, 2 <= n <= 12, not with ``T_rad``):
+          a heater schedule, the control temperatures at the nondimensional times
+          ``k / (n - 1)`` of the test (``SimulationSettings.radiation_schedule``);
         * ``T_w`` sets ``T_w = T_S = T_T`` (Eq. 9.7).
 
     Raises
@@ -194,7 +214,7 @@ def apply_design(template: Configuration, design: Mapping[str, float]) -> Config
     """
 
     panel = template.panel
-    unknown = [n for n in design if not is_design_variable(n)]
+    unknown = [n for n in design if not is_design_variable(n) or n.endswith("[k]")]
     if unknown:
         raise InputError(f"design.{unknown[0]}", "unknown design variable; known: "
                          f"{', '.join(DESIGN_VARIABLES)}")
@@ -251,9 +271,42 @@ def apply_design(template: Configuration, design: Mapping[str, float]) -> Config
         loads["external_heat_flux"] = float(design["q_ext"])
     if "T_rad" in design:
         loads["radiation_temperature"] = positive("T_rad", design["T_rad"], "K")
+    schedule = heater_schedule(design)
+    if schedule is not None:
+        loads.update(radiation_schedule=schedule, radiation_temperature=None)
     if loads:
         changes["simulation"] = dataclasses.replace(template.simulation, **loads)
     return dataclasses.replace(template, **changes)
 
 
-__all__ = ["Configuration", "ReferenceTemperatures", "apply_design", "positive", "scaled_panel"]
+def heater_schedule(design: Mapping[str, float]) -> tuple[float, ...] | None:
+    """The control temperatures ``T_rad[0] .. T_rad[n-1]`` of a design (K), in order, or
+    None without any: the heater of the radiation condition (Eq. 4.24) scheduled over the
+    test, Sec. 9.2.3 Case 2 with ``T_rad(t)`` for the constant ``T_rad`` of Table 9.7.
+
+    Raises
+    ------
+    InputError
+        ``design.T_rad[k]``: a missing point, fewer than 2 or more than 12 points, a
+        temperature that is not positive, or a constant ``T_rad`` as well.
+    """
+    points = {p[1]: float(v) for n, v in design.items() if (p := schedule_point(n)) is not None}
+    if not points:
+        return None
+    n = max(points) + 1
+    lo, hi = SCHEDULE_POINTS
+    if "T_rad" in design:
+        raise InputError("design.T_rad", "a constant T_rad and a schedule T_rad[k] cannot "
+                         "both be set")
+    missing = [k for k in range(n) if k not in points]
+    if missing:
+        raise InputError(f"design.T_rad[{missing[0]}]", f"a schedule of {n} points needs "
+                         f"T_rad[0] .. T_rad[{n - 1}]")
+    if not lo <= n <= hi:
+        raise InputError(f"design.T_rad[{n - 1}]", f"a schedule has {lo} to {hi} control "
+                         f"points; got {n}")
+    return tuple(positive(f"T_rad[{k}]", points[k], "K") for k in range(n))
+
+
+__all__ = ["Configuration", "ReferenceTemperatures", "apply_design", "heater_schedule",
+           "positive", "scaled_panel"]

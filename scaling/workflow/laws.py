@@ -26,7 +26,8 @@ delta_T         0      Eq. 9.2c, ``xi^2 (D_m/D_p)(N_Tp/N_Tm)`` with ``N_T ~ h``
 M, p0, T0,      0      flow similarity at every scale (tunnel / radiant-heater settings are
 T_inf, T_rad,          intensive), unless ``[laws] analytical.NAME`` says otherwise
 emissivity,
-p_ext
+p_ext,                 (``T_rad[k]``, the control points of a heater schedule: each is
+T_rad[k]               T_rad at a matched nondimensional time, its own law with k = 0)
 time_step       -2     model time step, Fourier number (Eq. 9.5/9.6, ``t ~ L^2 rho c/k``);
                 -1     with structural time scaling (Eq. 9.3: ``L^2 sqrt(I/D) ~ L^2/h``)
 ==============  =====  ===================================================================
@@ -70,6 +71,7 @@ from hypate.scaling.workflow.similarity import (
     time_scale,
 )
 from hypate.scaling.workflow.study import load_study, study_at, study_data
+from hypate.scaling.workflow.variables import base_name
 from hypate.solvers.errors import InputError
 from scipy import stats
 
@@ -300,10 +302,11 @@ def fit_laws(points: Sequence[DesignPoint], *, variables: Sequence[str] | None =
                                   fit.exponent_high, fit.n, fit.method,
                                   (f"{sum(pins)} bound-pinned point(s) not fitted; "
                                    + fit.note).rstrip("; "))
-        if analytical is not None and name in analytical:
-            a_coef, a_exp = analytical[name]
+        key = base_name(name)  # a schedule's T_rad[k] has T_rad's analytical law
+        if analytical is not None and key in analytical:
+            a_coef, a_exp = analytical[key]
         else:
-            a_coef, a_exp = None, (ANALYTICAL_EXPONENTS.get(name))
+            a_coef, a_exp = None, (ANALYTICAL_EXPONENTS.get(key))
         laws.append(ScalingLaw(variable=name, fit=fit, analytical_exponent=a_exp,
                                analytical_coefficient=a_coef, at_bound=any(pins),
                                xi=tuple(xs), values=tuple(ys), pinned=tuple(pins)))

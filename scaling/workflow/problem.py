@@ -26,7 +26,9 @@ reads "10 %":
 Cheap equality constraints (Eq. 9.7), e.g. ``"T_inf"``: the model's free-stream temperature
 ratio ``T_w / T_inf`` equals the prototype's, are analytic functions of the design vector
 and are handed to the optimizer as :class:`~scaling.optimizer.CheapConstraint` with exact
-gradients (log space).
+gradients (log space). A heater schedule of shape ``"increasing"``
+(:mod:`hypate.scaling.workflow.design_space`) adds the linear inequalities
+``T_rad[k] - T_rad[k+1] <= 0`` the same way.
 
 A failed model simulation (no equilibrium, instability before the prototype's end, solver
 divergence) raises :class:`ModelFailure`; the optimizer records it as a failed evaluation
@@ -50,6 +52,7 @@ from hypate.scaling.workflow.similarity import (
     reference_quantities,
     time_scale,
 )
+from hypate.scaling.workflow.variables import base_name, schedule_point
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.coupling.lc import run_lc
 from hypate.solvers.coupling.model import PanelModel
@@ -113,6 +116,9 @@ class ScalingSpec:
         Cheap equality constraints (:data:`EQUALITY_CONSTRAINTS`).
     xi : float
         Geometric scale L_p / L_m (for reports and laws).
+    increasing : tuple of str
+        Scheduled variables (``"T_rad"``) whose control points ``NAME[k]`` may not
+        decrease with k (``shape = "increasing"``): cheap linear inequalities.
     """
 
     prototype: Configuration
@@ -124,6 +130,7 @@ class ScalingSpec:
     projection: str = "center"
     equalities: tuple[str, ...] = ()
     xi: float = 1.0
+    increasing: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if not self.variables:
@@ -143,9 +150,20 @@ class ScalingSpec:
         names = [v.name for v in self.variables]
         if len(set(names)) != len(names):
             raise InputError("variables", "a design variable is listed twice")
-        both = set(names) & set(self.fixed)
+        both = set(map(base_name, names)) & set(map(base_name, self.fixed))
         if both:
             raise InputError(f"fixed.{sorted(both)[0]}", "is also a design variable")
+        for name in self.increasing:
+            if len(self.schedule_indices(name)) < 2:
+                raise InputError(f"variables.{name}", "an increasing shape needs a schedule "
+                                 "of at least 2 control points")
+
+    def schedule_indices(self, name: str) -> list[int]:
+        """Positions of the control points ``NAME[0], NAME[1], ...`` in the design vector,
+        in the order of k (empty when ``name`` is not scheduled)."""
+        found = {p[1]: i for i, v in enumerate(self.variables)
+                 if (p := schedule_point(v.name)) is not None and p[0] == name}
+        return [found[k] for k in sorted(found)]
 
     @property
     def simulation(self) -> SimulationSettings:
@@ -344,12 +362,36 @@ class ScalingProblem(Problem):
 
     # -- cheap constraints ------------------------------------------------------------------
     def cheap_constraints(self) -> list[CheapConstraint]:
-        """Eq. (9.7) equalities as exact analytic constraints on the design vector."""
+        """Eq. (9.7) equalities as exact analytic constraints on the design vector, in the
+        order of ``spec.equalities``, then one monotonicity constraint per increasing
+        schedule (:meth:`_increasing_constraint`)."""
         out = []
         for name in self.spec.equalities:
             if name == "T_inf":
                 out.append(self._t_inf_constraint())
+        out += [self._increasing_constraint(name) for name in self.spec.increasing]
         return out
+
+    def _increasing_constraint(self, name: str) -> CheapConstraint:
+        """``(x[k] - x[k+1]) / span <= 0`` for the control points of schedule ``name``:
+        ``T_rad`` does not decrease from one control point to the next. Linear, so the
+        Jacobian is a constant matrix (rows scaled by the bounds' span, violations
+        comparable to the unit-box tolerance of the optimizer)."""
+        idx = self.spec.schedule_indices(name)
+        D = np.zeros((len(idx) - 1, self.n_var))
+        rows = np.arange(len(idx) - 1)
+        span = np.asarray(self.xu, float)[idx] - np.asarray(self.xl, float)[idx]
+        D[rows, idx[:-1]] = 1.0 / span[:-1]
+        D[rows, idx[1:]] = -1.0 / span[:-1]
+        D.flags.writeable = False
+
+        def fun(x: np.ndarray) -> np.ndarray:
+            return D @ np.asarray(x, float)
+
+        def jac(x: np.ndarray) -> np.ndarray:
+            return D
+
+        return CheapConstraint(fun=fun, jac=jac, kind="ineq")
 
     def _t_inf_constraint(self) -> CheapConstraint:
         """``ln(T_inf^m / T_w^m) - ln(T_inf^p / T_w^p) = 0`` with

@@ -68,6 +68,7 @@ from hypate.scaling.workflow.rundir import (
 )
 from hypate.scaling.workflow.study import Study
 from hypate.scaling.workflow.uncertainty import propagate_or_failure
+from hypate.scaling.workflow.variables import schedule_point
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
@@ -156,6 +157,9 @@ def _template_values(study: Study) -> dict[str, float]:
     if m.delta_T is not None:
         vals["delta_T"] = m.delta_T
     vals.update(study.spec.fixed)
+    for name in study.spec.names:  # a heater schedule's points: the constant heater's value
+        if (point := schedule_point(name)) is not None and point[0] in vals:
+            vals[name] = vals[point[0]]
     return vals
 
 
@@ -167,8 +171,10 @@ def seeds_from_runs(study: Study, problem: ScalingProblem, run_dirs: Sequence[st
     heater to Case 1's variables): each design keeps the values of the variables the runs
     share; a variable the earlier run did not optimize takes the model template's value
     (emissivity, no heater, no external pressure, template size), and every point is
-    clipped to the bounds and projected onto the cheap equalities. "Best" is the
-    design-point criterion: the smallest max over objectives of successful evaluations.
+    clipped to the bounds and projected onto the cheap constraints. A heater schedule's
+    control points ``T_rad[k]`` missing from a run that optimized a constant ``T_rad`` all
+    take its value (the constant heater as a flat schedule). "Best" is the design-point
+    criterion: the smallest max over objectives of successful evaluations.
     """
     names = list(problem.spec.names)
     bounds = np.c_[problem.xl, problem.xu]
@@ -190,6 +196,8 @@ def seeds_from_runs(study: Study, problem: ScalingProblem, run_dirs: Sequence[st
         df = df.iloc[rank_designs(df[objectives].to_numpy(float))]
         for idx, row in df.head(k).iterrows():
             design = {n: float(row[n]) for n in names if n in df.columns}
+            design.update({n: float(row[p[0]]) for n in names if n not in design
+                           and (p := schedule_point(n)) is not None and p[0] in df.columns})
             x = design_vector(design, names, defaults=defaults, bounds=bounds)
             out.append((project_cheap(problem, x),
                         f"seed: {Path(run_dir).name} evaluation {idx}"))

@@ -47,6 +47,10 @@ Definitions and deviations from the literal text
 * External heating ``q_ext`` is the explicit ``external_heat_flux`` plus, with a radiant
   heater at ``T_rad``, the absorbed incident flux ``emissivity sigma T_rad^4``;
   ``Bi_ext = q_ext h / (k T_T)`` (Eq. 6.1d), ``lambda_ext = p_ext L^3 / D_xx`` (Eq. 6.1e).
+  A heater scheduled over the test (``T_rad[k]`` design variables) has no single q_ext:
+  ``Bi_ext`` takes the time mean of its absorbed flux, ``emissivity sigma <T_rad(t)^4>``
+  (the heat the heater delivers over the test, divided by its duration); how that heat is
+  spread in time is what the schedule's J_T and J_u see, not the table.
 """
 from __future__ import annotations
 

@@ -17,7 +17,9 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
     [materials.NAME]  user materials, the schema of case files (solvers.config)
     [tunnel]       name (shipped: ideal, WT5, WT6, WT7) or an inline envelope (mach /
                    mach_values, p0, T0 ...), mach (the nozzle to use)
-    [variables]    NAME = [lower, upper] or "tunnel" (the envelope's bounds)
+    [variables]    NAME = [lower, upper] or "tunnel" (the envelope's bounds), or a heater
+                   schedule T_rad = { schedule = n, range = [lo, hi], shape = "free" |
+                   "increasing" } (scaling.workflow.design_space)
     [fixed]        NAME = value (design values that are not optimized)
     [constraints]  equality = ["T_inf"]
     [optimizer]    approach, acquisition, v, weights, initial_samples, iterations,
@@ -62,12 +64,12 @@ from typing import Annotated, Any, Literal
 
 from hypate.scaling.workflow import uncertainty as scatter
 from hypate.scaling.workflow.configuration import Configuration
+from hypate.scaling.workflow.design_space import VariableEntry, study_variables
 from hypate.scaling.workflow.problem import (
     EQUALITY_CONSTRAINTS,
     OBJECTIVES,
     ScalingProblem,
     ScalingSpec,
-    Variable,
 )
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.tunnels import TunnelEnvelope, resolve_tunnel
@@ -225,7 +227,7 @@ class StudyFile(InputModel):
     simulation: SimulationSection = SimulationSection()
     model: ModelSection = ModelSection()
     tunnel: dict[str, Any] | None = None
-    variables: dict[str, list[float] | str]
+    variables: dict[str, VariableEntry]
     fixed: dict[str, float] = {}
     constraints: ConstraintsSection = ConstraintsSection()
     optimizer: OptimizerSection = OptimizerSection()
@@ -334,36 +336,6 @@ def _freeze(panel: PanelSpec, T: float) -> PanelSpec:
     return dataclasses.replace(panel, layers=layers)
 
 
-def _bounds(name: str, value: list[float] | str, tunnel: TunnelEnvelope | None
-            ) -> tuple[float, float]:
-    field = f"variables.{name}"
-    if isinstance(value, str):
-        if value != "tunnel":
-            raise InputError(field, "bounds must be [lower, upper] or \"tunnel\"")
-        if tunnel is None:
-            raise InputError(field, "\"tunnel\" bounds need a [tunnel] table")
-        b = tunnel.bounds()
-        if name not in b:
-            raise InputError(field, f"the tunnel {tunnel.name!r} gives no bounds for {name} "
-                             f"(it bounds {', '.join(b)})")
-        return b[name]
-    if len(value) != 2:
-        raise InputError(field, "bounds must be [lower, upper]")
-    lo, hi = float(value[0]), float(value[1])
-    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-        raise InputError(field, f"bounds must be finite with lower < upper; got [{lo:g}, {hi:g}]")
-    hard = HARD_LIMITS[name]
-    if lo < hard[0] or hi > hard[1]:
-        raise InputError(field, f"bounds [{lo:g}, {hi:g}] leave the allowed range "
-                         f"[{hard[0]:g}, {hard[1]:g}]")
-    if tunnel is not None and name in tunnel.bounds():
-        tlo, thi = tunnel.bounds()[name]
-        if lo < tlo * (1 - 1e-9) or hi > thi * (1 + 1e-9):
-            raise InputError(field, f"bounds [{lo:g}, {hi:g}] leave the tunnel envelope "
-                             f"{tunnel.name} [{tlo:g}, {thi:g}]")
-    return lo, hi
-
-
 def simulation_settings(kind: str, sim: SimulationSection) -> SimulationSettings:
     """The one settings type from a study's ``[simulation]``: the prototype's time step and
     step count; ``kind`` picks the scheme (quasi-steady: TC with LSA, aeroelastic: S2)."""
@@ -443,8 +415,7 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
     model = Configuration(panel=model_panel, flow=model_flow, delta_T=cfg.prototype.delta_T,
                           simulation=simulation)
 
-    variables = tuple(Variable(name, *_bounds(name, value, tunnel))
-                      for name, value in cfg.variables.items())
+    variables, increasing = study_variables(cfg.variables, tunnel)
     if tunnel is not None and tunnel.mach_values and len(tunnel.mach_values) > 1 \
             and "M" not in cfg.fixed:
         raise InputError("fixed.M", f"tunnel {tunnel.name} has several nozzles "
@@ -464,7 +435,8 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
     spec = ScalingSpec(prototype=prototype, model=model, variables=variables, fixed=fixed,
                        objectives=tuple(cfg.study.objectives),
                        time_scaling=cfg.study.time_scaling, projection=cfg.study.projection,
-                       equalities=tuple(cfg.constraints.equality), xi=xi)
+                       equalities=tuple(cfg.constraints.equality), xi=xi,
+                       increasing=increasing)
     uncertainty = scatter.parse_uncertainty(  # without [robust]: a nominal design
         cfg.uncertainty, cfg.robust or scatter.RobustSection(optimize=False),
         ScalingProblem(spec)) if cfg.uncertainty else None

@@ -13,6 +13,13 @@ from dataclasses import dataclass
 Bounds = tuple[float, float]
 #: A layer thickness ``h[k]`` (k = 0 at the bottom).
 LAYER_PATTERN = re.compile(r"^h\[(\d+)\]$")
+#: A control point ``T_rad[k]`` of a time-scheduled variable (k = 0 at t = 0).
+SCHEDULE_PATTERN = re.compile(r"^(T_rad)\[(\d+)\]$")
+#: Variables a study may schedule over nondimensional time (``[variables] NAME = { schedule
+#: = n, range = [lo, hi], shape = ... }``): the radiant heater (Sec. 9.2.3 Case 2).
+SCHEDULABLE: tuple[str, ...] = ("T_rad",)
+#: Fewest and most control points of a schedule.
+SCHEDULE_POINTS: tuple[int, int] = (2, 12)
 
 
 @dataclass(frozen=True)
@@ -53,6 +60,8 @@ DESIGN_VARIABLES: dict[str, DesignVariable] = {v.name: v for v in (
     DesignVariable("emissivity", "-", "upper-surface emissivity of the model", (0.0, 1.0), True),
     DesignVariable("T_rad", "K", "radiant heater temperature (incomplete testing)",
                    (1.0, 5000.0), True),
+    DesignVariable("T_rad[k]", "K", "radiant heater temperature at control point k of a "
+                   "schedule: nondimensional time k/(n-1) of the test, linear in between"),
     DesignVariable("p_ext", "Pa", "external (cavity) pressure (incomplete testing)",
                    (-1e7, 1e7), True),
     DesignVariable("q_ext", "W/m^2", "external heat flux (incomplete testing)", (-1e7, 1e7), True),
@@ -69,11 +78,33 @@ HARD_LIMITS: dict[str, Bounds] = {n: v.limits for n, v in DESIGN_VARIABLES.items
 
 
 def is_design_variable(name: str) -> bool:
-    """Whether ``name`` is in the table (a layer thickness ``h[k]`` included)."""
-    return name in DESIGN_VARIABLES or LAYER_PATTERN.match(name) is not None
+    """Whether ``name`` is in the table (a layer thickness ``h[k]`` and a schedule's control
+    point ``T_rad[k]`` included)."""
+    return (name in DESIGN_VARIABLES or LAYER_PATTERN.match(name) is not None
+            or SCHEDULE_PATTERN.match(name) is not None)
+
+
+def schedule_point(name: str) -> tuple[str, int] | None:
+    """``("T_rad", k)`` for a schedule's control point ``"T_rad[k]"``, else None."""
+    m = SCHEDULE_PATTERN.match(name)
+    return None if m is None else (m.group(1), int(m.group(2)))
+
+
+def schedule_names(name: str, points: int) -> list[str]:
+    """The control-point variables ``NAME[0] .. NAME[points - 1]`` of a schedule."""
+    return [f"{name}[{k}]" for k in range(points)]
+
+
+def base_name(name: str) -> str:
+    """The table entry a name stands for: ``"T_rad"`` for ``"T_rad[2]"``, ``"h[k]"`` for
+    ``"h[1]"``, the name itself otherwise."""
+    point = schedule_point(name)
+    if point is not None:
+        return point[0]
+    return "h[k]" if LAYER_PATTERN.match(name) else name
 
 
 def variable_unit(name: str) -> str:
     """SI unit of a design variable (``"-"`` when dimensionless or unknown)."""
-    var = DESIGN_VARIABLES.get("h[k]" if LAYER_PATTERN.match(name) else name)
+    var = DESIGN_VARIABLES.get(base_name(name))
     return var.unit if var is not None else "-"

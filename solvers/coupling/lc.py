@@ -24,11 +24,13 @@ from numpy.typing import NDArray
 Array = NDArray[np.float64]
 
 
-def explicit_thermal_loads(model: PanelModel, q_fluid: Array) -> ThermalLoads:
+def explicit_thermal_loads(model: PanelModel, q_fluid: Array, t: float = 0.0) -> ThermalLoads:
     """Thermal loads with a given (estimated) fluid heat flux plus the external heat flux
-    (Eq. 6.1d) and radiation (S1/S2)."""
+    (Eq. 6.1d) and radiation to the surroundings at time ``t`` (S1/S2; a scheduled
+    heater's ``T_rad(t)``, :meth:`PanelModel.radiation_temperature`)."""
     top = SurfaceCondition(flux=model.upper_heat_input(q_fluid),
-                           emissivity=model.panel.emissivity, T_rad=model.T_rad, nodal_load=True)
+                           emissivity=model.panel.emissivity,
+                           T_rad=model.radiation_temperature(t), nodal_load=True)
     return ThermalLoads(top=top)
 
 
@@ -130,7 +132,8 @@ def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float | None = None,
             if not model.thermal_frozen:
                 q_est = 1.5 * q_hist[0] - 0.5 * q_hist[1]
                 t0 = time.perf_counter()
-                res = model.thermal.step(T, dt, explicit_thermal_loads(model, q_est),
+                t_load = t - dt + s.thermal_alpha * dt  # Eq. (4.28) collocation time
+                res = model.thermal.step(T, dt, explicit_thermal_loads(model, q_est, t_load),
                                          alpha=s.thermal_alpha)
                 model.timer.thermal += time.perf_counter() - t0
                 if not res.converged:

@@ -42,6 +42,7 @@ from hypate.solvers.panel import PanelSpec
 from hypate.solvers.settings import SimulationSettings
 from hypate.solvers.structure.model import StructuralModel
 from hypate.solvers.thermal.model import SurfaceCondition, ThermalLoads, ThermalModel
+from hypate.solvers.thermal.schedule import HeaterSchedule
 from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
@@ -102,8 +103,15 @@ class PanelModel:
         self._H_TF_top = tr.H_TF[top, :].tocsr()
         self.timer = StepTimer()
         s = self.settings
-        self.T_rad = float(flow.temperature if s.radiation_temperature is None
-                           else s.radiation_temperature)
+        # radiation surroundings: a constant T_rad (the free stream without a heater), or a
+        # heater schedule over this article's own duration (nondimensional time t / t_end)
+        self.heater = (None if s.radiation_schedule is None
+                       else HeaterSchedule(s.radiation_schedule, s.duration))
+        if self.heater is not None:
+            self.T_rad = float(self.heater(0.0))  # the schedule's start (radiation_temperature)
+        else:
+            self.T_rad = float(flow.temperature if s.radiation_temperature is None
+                               else s.radiation_temperature)
         self._F_ext = (self.structure.pressure_load(s.external_pressure)
                        if s.external_pressure != 0.0 else np.zeros(self.structure.n_dof))
         self.modes = sinusoidal_modes(panel, self.points)
@@ -272,10 +280,16 @@ class PanelModel:
         ``settings.external_heat_flux`` (Eq. 6.1d), both W/m^2."""
         return self._H_TF_top @ (q_fluid + self.settings.external_heat_flux)
 
-    def thermal_loads(self, u: Array) -> ThermalLoads:
+    def radiation_temperature(self, t: float) -> float:
+        """Temperature of the radiation surroundings at time ``t`` (s): the constant
+        :attr:`T_rad`, or the heater schedule ``T_rad(t)`` (its control points at the
+        fractions of ``settings.duration``)."""
+        return self.T_rad if self.heater is None else float(self.heater(t))
+
+    def thermal_loads(self, u: Array, t: float = 0.0) -> ThermalLoads:
         """Upper surface: aerodynamic heat flux implicit in the wall temperature (Eq. 5.31a)
-        plus the external heat flux (Eq. 6.1d) and radiation to ``T_rad``; lower surface
-        insulated."""
+        plus the external heat flux (Eq. 6.1d) and radiation to ``T_rad`` at time ``t``
+        (:meth:`radiation_temperature`, Eq. 4.24); lower surface insulated."""
         H_FT, H_TF = self._H_FT_top, self._H_TF_top
         wall_loads = self._wall_loads(u)
         cache: list = []
@@ -300,18 +314,24 @@ class PanelModel:
             cache[:] = [np.array(T_top, copy=True), *out]
             return out
 
-        top = SurfaceCondition(flux=flux, emissivity=self.panel.emissivity, T_rad=self.T_rad,
-                               nodal_load=True)
+        top = SurfaceCondition(flux=flux, emissivity=self.panel.emissivity,
+                               T_rad=self.radiation_temperature(t), nodal_load=True)
         return ThermalLoads(top=top)
 
-    def thermal_step(self, T: Array, u: Array, dt: float, T_guess: Array | None = None) -> Array:
+    def thermal_step(self, T: Array, u: Array, dt: float, T_guess: Array | None = None,
+                     t: float = 0.0) -> Array:
+        """Temperatures after one Crank-Nicolson step (Eq. 4.28) from ``T`` at time ``t``
+        (s) over ``dt`` with the deflection ``u``; the boundary loads are those of the
+        step's collocation time ``t + alpha dt`` (a scheduled heater's ``T_rad`` too), at
+        which Eq. (4.28) evaluates them."""
         t0, fl0 = time.perf_counter(), self.timer.fluid
         f0 = self.thermal.factorizations
         # consecutive steps of the quasi-steady scheme are close: chord iterations with the
         # last step's factorization while they contract the residual by >= 30x, else a
         # fresh Jacobian (the same solution; 15 % less thermal time than a Jacobian and a
         # factorization every step on the Sec. 9.2 benchmark)
-        res = self.thermal.step(T, dt, self.thermal_loads(u), alpha=self.settings.thermal_alpha,
+        alpha = self.settings.thermal_alpha
+        res = self.thermal.step(T, dt, self.thermal_loads(u, t + alpha * dt), alpha=alpha,
                                 T_guess=T_guess, jacobian="modified", contraction=0.03)
         self.timer.factorizations += self.thermal.factorizations - f0
         # the implicit wall flux calls the fluid model: count that time as fluid only

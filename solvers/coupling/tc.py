@@ -77,7 +77,7 @@ def _run_tc(model: PanelModel, progress) -> Response:
                     # the thermal Newton starts from the extrapolation of the last steps (same
                     # solution, about one Newton iteration fewer per step)
                     guess = T_new if (k > 0 or not T_hist) else extrapolate([T, *T_hist])
-                    T_new = model.thermal_step(T, u_new, dt, T_guess=guess)
+                    T_new = model.thermal_step(T, u_new, dt, T_guess=guess, t=t - dt)
                 # likewise the aeroelastic Newton (the same equilibrium to its tolerance: 1.3
                 # instead of 2.4 iterations per step on the Sec. 9.2 benchmark)
                 u_guess = extrapolate([u, *u_hist]) if (k == 0 and u_hist) else None

@@ -2,13 +2,17 @@
 from __future__ import annotations
 
 import base64
+import json
 import re
 from collections.abc import Callable
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
+import pandas as pd
 import pytest
+from conftest import tiny_study_text
+from hypate.scaling.cli.main import main
 from hypate.scaling.report.figures import (
     clip_to_box,
     embed_png,
@@ -113,3 +117,26 @@ def test_variable_unit() -> None:
     assert variable_unit("p0") == "Pa" and variable_unit("M") == "-"
     assert variable_unit("h[2]") == "m"  # a layer thickness takes the unit of h
     assert variable_unit("no_such_variable") == "-"
+
+
+def test_a_tiny_schedule_study_runs_and_its_report_plots_the_schedule(
+        tmp_path: Path, tiny_run: tuple[Path, Path]) -> None:
+    # end to end: a tiny study with a 3-point heater schedule runs, names the control points
+    # in evaluations.csv and design_point.json, and its report shows the schedule next to
+    # the wall temperatures; the constant-heater tiny run's report has no such figure
+    study = tmp_path / "schedule.toml"
+    study.write_text(tiny_study_text(
+        name="schedule", sections='T_rad = { schedule = 3, range = [300.0, 2500.0] }\n'))
+    out = tmp_path / "run"
+    assert main(["run", str(study), "--out", str(out)]) == 0
+    names = ["T_rad[0]", "T_rad[1]", "T_rad[2]"]
+    assert set(names) <= set(pd.read_csv(out / "evaluations.csv").columns)
+    point = json.loads((out / "design_point.json").read_text())
+    assert set(names) <= set(point["design"])
+    page = (out / "report.html").read_text()
+    assert (out / "figures" / "schedule.png").read_bytes().startswith(PNG_MAGIC)
+    assert "Optimized radiant-heater temperature T_rad(t)" in page
+    assert all(name in page for name in names)  # the study and design tables name them
+    run_dir, _ = tiny_run
+    assert not (run_dir / "figures" / "schedule.png").exists()
+    assert "Optimized radiant-heater temperature" not in (run_dir / "report.html").read_text()

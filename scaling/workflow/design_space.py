@@ -1,0 +1,145 @@
+"""The ``[variables]`` table of a study: the design variables and their bounds.
+
+Each entry is one of
+
+* ``NAME = [lower, upper]`` -- bounds in SI units, inside the variable's hard limits
+  (:data:`hypate.scaling.workflow.variables.HARD_LIMITS`) and the tunnel envelope;
+* ``NAME = "tunnel"`` -- the bounds the study's tunnel gives (``M``, ``p0``, ``T0``,
+  Table 9.6);
+* ``T_rad = { schedule = n, range = [lo, hi], shape = "free" | "increasing" }`` -- a
+  time-scheduled radiant heater (Sec. 9.2.3 Case 2 with ``T_rad(t)`` instead of a constant):
+  the heater temperature is piecewise linear in the nondimensional time ``t / t_end`` of
+  the test, with ``n`` (2-12) control points equally spaced from ``t = 0`` to ``t_end``.
+  They are ``n`` design variables ``T_rad[0] .. T_rad[n-1]``, each in ``range`` (K,
+  ``0 < lo < hi``). ``shape = "increasing"`` asks ``T_rad[k] <= T_rad[k+1]``: linear
+  inequalities on the design vector, handed to the optimizer as exact cheap constraints
+  (:meth:`hypate.scaling.workflow.problem.ScalingProblem.cheap_constraints`); ``"free"``
+  (default) leaves the points independent.
+
+:func:`study_variables` turns the table into the problem's
+:class:`~hypate.scaling.workflow.problem.Variable` tuple; every error is an
+:class:`~hypate.solvers.errors.InputError` naming ``variables.NAME`` (or its sub-key).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Annotated, Any, Literal
+
+from hypate.scaling.workflow.problem import Variable
+from hypate.scaling.workflow.tunnels import TunnelEnvelope
+from hypate.scaling.workflow.variables import (
+    HARD_LIMITS,
+    SCHEDULABLE,
+    SCHEDULE_POINTS,
+    schedule_names,
+)
+from hypate.solvers.config import InputModel, Pair, pydantic_input_error
+from hypate.solvers.errors import InputError
+from pydantic import Field, ValidationError, model_validator
+
+#: What a ``[variables]`` entry may be in the study schema (a schedule is checked by
+#: :class:`ScheduleEntry` afterwards, so that its errors name its own keys).
+VariableEntry = list[float] | str | dict[str, Any]
+#: Shapes of a schedule.
+SHAPES = ("free", "increasing")
+
+
+class ScheduleEntry(InputModel):
+    """``{ schedule = n, range = [lo, hi], shape = "free" }`` of a scheduled variable."""
+
+    schedule: Annotated[int, Field(ge=SCHEDULE_POINTS[0], le=SCHEDULE_POINTS[1])]
+    range: Pair
+    shape: Literal["free", "increasing"] = "free"
+
+    @model_validator(mode="after")
+    def _check(self) -> ScheduleEntry:
+        lo, hi = self.range
+        if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 < lo < hi):
+            raise ValueError(f"range: need finite [lower, upper] with 0 < lower < upper; got "
+                             f"[{lo:g}, {hi:g}]")
+        return self
+
+
+def schedule_entry(name: str, value: Mapping[str, Any]) -> ScheduleEntry:
+    """A ``[variables]`` table entry validated as a schedule of ``name``.
+
+    Raises
+    ------
+    InputError
+        ``variables.NAME`` (or ``variables.NAME.KEY``): ``name`` cannot be scheduled, or a
+        key is missing, unknown or out of range (``schedule`` an integer in [2, 12],
+        ``range`` finite with ``0 < lo < hi`` inside the variable's hard limits, ``shape``
+        one of :data:`SHAPES`).
+    """
+    field = f"variables.{name}"
+    if name not in SCHEDULABLE:
+        raise InputError(field, f"only {', '.join(SCHEDULABLE)} can be scheduled "
+                         "({ schedule = n, range = [lo, hi] }); give [lower, upper] bounds")
+    try:
+        entry = ScheduleEntry.model_validate(dict(value))
+    except ValidationError as exc:
+        raise pydantic_input_error(exc, prefix=field, model=ScheduleEntry) from None
+    lo, hi = entry.range
+    hard = HARD_LIMITS[name]
+    if lo < hard[0] or hi > hard[1]:
+        raise InputError(f"{field}.range", f"[{lo:g}, {hi:g}] leaves the allowed range "
+                         f"[{hard[0]:g}, {hard[1]:g}]")
+    return entry
+
+
+def variable_bounds(name: str, value: list[float] | str, tunnel: TunnelEnvelope | None
+                    ) -> tuple[float, float]:
+    """Bounds of a ``NAME = [lower, upper]`` or ``NAME = "tunnel"`` entry (SI units)."""
+    field = f"variables.{name}"
+    if isinstance(value, str):
+        if value != "tunnel":
+            raise InputError(field, "bounds must be [lower, upper] or \"tunnel\"")
+        if tunnel is None:
+            raise InputError(field, "\"tunnel\" bounds need a [tunnel] table")
+        b = tunnel.bounds()
+        if name not in b:
+            raise InputError(field, f"the tunnel {tunnel.name!r} gives no bounds for {name} "
+                             f"(it bounds {', '.join(b)})")
+        return b[name]
+    if len(value) != 2:
+        raise InputError(field, "bounds must be [lower, upper]")
+    lo, hi = float(value[0]), float(value[1])
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise InputError(field, f"bounds must be finite with lower < upper; got [{lo:g}, {hi:g}]")
+    hard = HARD_LIMITS[name]
+    if lo < hard[0] or hi > hard[1]:
+        raise InputError(field, f"bounds [{lo:g}, {hi:g}] leave the allowed range "
+                         f"[{hard[0]:g}, {hard[1]:g}]")
+    if tunnel is not None and name in tunnel.bounds():
+        tlo, thi = tunnel.bounds()[name]
+        if lo < tlo * (1 - 1e-9) or hi > thi * (1 + 1e-9):
+            raise InputError(field, f"bounds [{lo:g}, {hi:g}] leave the tunnel envelope "
+                             f"{tunnel.name} [{tlo:g}, {thi:g}]")
+    return lo, hi
+
+
+def study_variables(entries: Mapping[str, VariableEntry], tunnel: TunnelEnvelope | None
+                    ) -> tuple[tuple[Variable, ...], tuple[str, ...]]:
+    """The design variables of a ``[variables]`` table, in its order, and the names of the
+    schedules whose shape is ``"increasing"``.
+
+    A schedule of ``n`` points contributes ``NAME[0] .. NAME[n-1]``, each with the
+    schedule's ``range`` as bounds.
+    """
+    variables: list[Variable] = []
+    increasing: list[str] = []
+    for name, value in entries.items():
+        if isinstance(value, dict):
+            entry = schedule_entry(name, value)
+            variables += [Variable(n, *entry.range) for n in schedule_names(name,
+                                                                            entry.schedule)]
+            if entry.shape == "increasing":
+                increasing.append(name)
+        else:
+            variables.append(Variable(name, *variable_bounds(name, value, tunnel)))
+    return tuple(variables), tuple(increasing)
+
+
+__all__ = ["SHAPES", "ScheduleEntry", "VariableEntry", "schedule_entry", "study_variables",
+           "variable_bounds"]
