@@ -9,6 +9,9 @@ flux as an implicit function of the wall temperature, the static aeroelastic equ
 (Eqs. 5.33-5.35). The schemes that march it in time are :func:`hypate.solvers.coupling.tc.run_tc`
 (tightly coupled, quasi-steady) and :func:`hypate.solvers.coupling.lc.run_lc` (loosely coupled
 S1/S2); :func:`hypate.solvers.coupling.run.simulate` runs a case from its configuration.
+
+Size: about 610 lines, one class: the couplings share its discretization, transfer matrices,
+factor cache and timers, and the free functions below it are its solver kernels.
 """
 from __future__ import annotations
 
