@@ -30,7 +30,7 @@ import numpy as np
 from hypate.scaling.engine.inner import optimize_acquisition
 from hypate.scaling.engine.multifidelity import MultiFidelityKriging, MultiFidelityModel
 from hypate.scaling.engine.optimizer import BayesianOptimizer
-from hypate.scaling.engine.problem import project_unit, scipy_constraints
+from hypate.scaling.engine.problem import project_designs
 from hypate.scaling.engine.settings import OptimizerSettings, SettingError
 from hypate.scaling.engine.store import Evaluation
 from hypate.solvers.numerics.random import latin_hypercube
@@ -85,13 +85,8 @@ class MultiFidelityOptimizer(BayesianOptimizer):
 
     # -------------------------------------------------------------- designs
     def _project(self, X: np.ndarray) -> np.ndarray:
-        cheap = self.settings.cheap_constraints
-        if not cheap or not len(X):
-            return X
-        lo = self.design_bounds[:, 0]
-        span = self.design_bounds[:, 1] - lo
-        cons = scipy_constraints(cheap, lo, span)
-        return np.array([lo + project_unit((x - lo) / span, cons) * span for x in X])
+        """Designs (rows of x) projected onto the cheap constraints."""
+        return project_designs(X, self.settings.cheap_constraints, self.design_bounds)
 
     def initial_design(self) -> np.ndarray:
         """Nested OLH: the top designs at every level, cheapest level first, plus each lower

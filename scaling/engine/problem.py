@@ -31,6 +31,7 @@ __all__ = [
     "cheap_violation",
     "scipy_constraints",
     "project_unit",
+    "project_designs",
     "project_cheap",
     "Outcome",
     "evaluate_design",
@@ -115,6 +116,18 @@ def project_unit(u0: np.ndarray, cons: Sequence[dict[str, Any]], tol: float = 1e
                    method="SLSQP", bounds=Bounds(np.zeros(d), np.ones(d)), constraints=cons,
                    options={"maxiter": 200, "ftol": tol})
     return np.clip(res.x, 0.0, 1.0)
+
+
+def project_designs(X: np.ndarray, constraints: Sequence[CheapConstraint],
+                    bounds: np.ndarray) -> np.ndarray:
+    """Rows of ``X`` (designs within ``bounds`` (d, 2)) projected onto the cheap
+    ``constraints`` (unchanged without any)."""
+    if not constraints or not len(X):
+        return X
+    lo = bounds[:, 0]
+    span = bounds[:, 1] - lo
+    cons = scipy_constraints(constraints, lo, span)
+    return np.array([lo + project_unit((x - lo) / span, cons) * span for x in X])
 
 
 def project_cheap(problem: Any, x: np.ndarray) -> np.ndarray:

@@ -43,7 +43,7 @@ from hypate.scaling.engine.optimizer import (
     BayesianOptimizer,
 )
 from hypate.scaling.engine.pareto import non_dominated_mask
-from hypate.scaling.engine.problem import project_unit, scipy_constraints
+from hypate.scaling.engine.problem import project_designs
 from hypate.scaling.engine.propagation import ROBUST_STATISTICS
 from hypate.scaling.engine.settings import OptimizerSettings, SettingError
 from hypate.scaling.engine.store import Evaluation
@@ -210,13 +210,7 @@ class RobustBayesianOptimizer(BayesianOptimizer):
     # -------------------------------------------------------------- designs
     def _project(self, X: np.ndarray) -> np.ndarray:
         """Designs (rows of x) projected onto the cheap constraints."""
-        cheap = self.settings.cheap_constraints
-        if not cheap or not len(X):
-            return X
-        lo = self.design_bounds[:, 0]
-        span = self.design_bounds[:, 1] - lo
-        cons = scipy_constraints(cheap, lo, span)
-        return np.array([lo + project_unit((x - lo) / span, cons) * span for x in X])
+        return project_designs(X, self.settings.cheap_constraints, self.design_bounds)
 
     def initial_design(self) -> np.ndarray:
         """OLH over (x, xi), the designs projected onto the cheap constraints."""
