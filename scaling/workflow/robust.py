@@ -42,13 +42,15 @@ from hypate.scaling.workflow.campaign import preflight, record_campaign, run_loc
 from hypate.scaling.workflow.problem import ScalingProblem, response_errors
 from hypate.scaling.workflow.run import (
     RunOutcome,
+    design_fields,
     design_point_scatter,
+    point_header,
     run_study,
+    save_design_response,
     surrogate_coordinates,
 )
 from hypate.scaling.workflow.rundir import (
     DESIGN_POINT_JSON,
-    DESIGN_POINT_NPZ,
     EVALUATIONS_CSV,
     ID_COLUMN,
     PARETO_CSV,
@@ -287,23 +289,13 @@ def write_robust_outputs(study: Study, problem: ScalingProblem,
             verified_statistic(candidate):
         chosen = "nominal optimum (the robust search's best design verified worse)"
         x, block = x_nominal, npoint["scatter"]
-    point: dict[str, Any] = {
-        "study": study.name, "xi": study.spec.xi, "rule": study.optimizer.design_point,
-        "study_path": str(Path(study.path).resolve()) if study.path != "<memory>" else None,
-        "design": problem.design(x), "similarity": problem.similarity(x),
-        "active_constraints": problem.active_bounds(x) + [
-            f"{name} (equality)" for name in study.spec.equalities],
-        "bounds": {v.name: [v.lower, v.upper] for v in study.spec.variables},
-        "chosen": chosen}
-    try:
-        config, resp = problem.simulate_model(x, keep_fields=False)
+    point = {**point_header(study), **design_fields(study, problem, x), "chosen": chosen}
+    resp, saved = save_design_response(problem, x, out)
+    point["objectives"] = None
+    if resp is not None:
         err = response_errors(resp, problem.prototype_response, study.spec.projection)
         point["objectives"] = {o: float(err[o]) for o in objectives}
-        resp.save(out / DESIGN_POINT_NPZ)
-        point["model_time_step"] = problem.model_time_step(config)
-    except (InputError, ArithmeticError, RuntimeError) as exc:
-        point["objectives"] = None
-        point["design_point_response"] = f"not saved: {exc}"
+    point.update(saved)
     point["robust"] = block
     point["robust_search"] = {
         "design": problem.design(designs[k]), "robust": candidate,

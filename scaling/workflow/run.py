@@ -423,6 +423,34 @@ def design_point_scatter(study: Study, problem: ScalingProblem, x: np.ndarray,
     return block
 
 
+def point_header(study: Study) -> dict[str, Any]:
+    """The first fields of design_point.json: study, xi, the design-point rule, its file."""
+    return {"study": study.name, "xi": study.spec.xi, "rule": study.optimizer.design_point,
+            "study_path": str(Path(study.path).resolve()) if study.path != "<memory>" else None}
+
+
+def design_fields(study: Study, problem: ScalingProblem, x: np.ndarray) -> dict[str, Any]:
+    """design_point.json's description of design ``x``: ``design``, ``similarity``,
+    ``active_constraints`` (bounds hit, then the equalities) and the variables' ``bounds``."""
+    return {"design": problem.design(x), "similarity": problem.similarity(x),
+            "active_constraints": problem.active_bounds(x) + [
+                f"{name} (equality)" for name in study.spec.equalities],
+            "bounds": {v.name: [v.lower, v.upper] for v in study.spec.variables}}
+
+
+def save_design_response(problem: ScalingProblem, x: np.ndarray, out: Path
+                         ) -> tuple[Response | None, dict[str, Any]]:
+    """Simulate design ``x`` at the nominal inputs into ``out/design_point.npz``; its
+    response (None if the simulation failed) and the fields saying so (``model_time_step``,
+    or ``design_point_response``: why nothing was saved)."""
+    try:
+        config, resp = problem.simulate_model(x, keep_fields=False)
+        resp.save(out / DESIGN_POINT_NPZ)
+    except (InputError, ArithmeticError, RuntimeError) as exc:
+        return None, {"design_point_response": f"not saved: {exc}"}
+    return resp, {"model_time_step": problem.model_time_step(config)}
+
+
 def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationResult,
                   out: Path, wall_seconds: float = float("nan"),
                   optimizer: BayesianOptimizer | None = None,
@@ -443,34 +471,21 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     pareto.to_csv(tmp, index=False)
     tmp.replace(out / PARETO_CSV)
     row = choose_design_point(study, result)
-    point: dict[str, Any] = {"study": study.name, "xi": study.spec.xi,
-                             "rule": study.optimizer.design_point,
-                             "study_path": str(Path(study.path).resolve())
-                             if study.path != "<memory>" else None}
+    point = point_header(study)
     if row is None:
         point.update(design=None, objectives=None, similarity=[], active_constraints=[],
                      message="no successful evaluation")
     else:
         x = result.X[row]
-        design = problem.design(x)
-        point["design"] = design
+        point.update(design_fields(study, problem, x))
         point["objectives"] = {o: float(f) for o, f in zip(study.spec.objectives, result.F[row])}
-        point["similarity"] = problem.similarity(x)
-        point["active_constraints"] = problem.active_bounds(x) + [
-            f"{name} (equality)" for name in study.spec.equalities]
         point["evaluation"] = int(row)
         if optimizer is not None and int(result.ok.sum()) >= 3:
             point["surrogate"] = surrogate_record(optimizer, result, row,
                                                   study.spec.objectives)
-        point["bounds"] = {v.name: [v.lower, v.upper] for v in study.spec.variables}
         if study.uncertainty is not None:
             point["scatter"] = design_point_scatter(study, problem, x, store, on_scatter)
-        try:
-            config, resp = problem.simulate_model(x, keep_fields=False)
-            resp.save(out / DESIGN_POINT_NPZ)
-            point["model_time_step"] = problem.model_time_step(config)
-        except (InputError, ArithmeticError, RuntimeError) as exc:
-            point["design_point_response"] = f"not saved: {exc}"
+        point.update(save_design_response(problem, x, out)[1])
     n = len(table)
     ok = int(result.ok.sum()) if n else 0
     point["statistics"] = {"evaluations": n, "successful": ok, "failed": n - ok,
@@ -485,6 +500,7 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     return point
 
 
-__all__ = ["RunOutcome", "design_point_scatter", "run_study", "surrogate_coordinates", "surrogate_record",
+__all__ = ["RunOutcome", "design_fields", "design_point_scatter", "point_header",
+           "save_design_response", "run_study", "surrogate_coordinates", "surrogate_record",
            "seeds_from_runs",
            "write_outputs", "classical_baseline", "evaluations_table", "choose_design_point"]

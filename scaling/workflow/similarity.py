@@ -51,6 +51,10 @@ Definitions and deviations from the literal text
   ``Bi_ext`` takes the time mean of its absorbed flux, ``emissivity sigma <T_rad(t)^4>``
   (the heat the heater delivers over the test, divided by its duration); how that heat is
   spread in time is what the schedule's J_T and J_u see, not the table.
+
+Size: about 610 lines -- the reference quantities, the parameter table, the time mappings
+and the analytical scaling all read the same :class:`ReferenceQuantities`; they are the one
+definition of "similar" the workflow, the report and the laws share.
 """
 from __future__ import annotations
 
