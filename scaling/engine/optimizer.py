@@ -30,7 +30,8 @@ acquisition is built by name from :data:`hypate.scaling.engine.acquisition.ACQUI
 evaluations are :class:`hypate.scaling.engine.problem.Outcome` records committed as
 :class:`hypate.scaling.engine.store.Evaluation` rows.
 
-Size: about 620 lines, one class and the record of its leave-one-out check; the proposal,
+Size: about 690 lines, one class and the record of its leave-one-out check; the proposal
+(with its per-level form for a categorical variable, :mod:`hypate.scaling.engine.mixed`),
 evaluation, polish and check share the optimizer's settings, surrogates and store, and the
 pieces that stand alone already have their own modules (inner, acquisition, executors).
 
@@ -59,6 +60,7 @@ from hypate.scaling.engine.acquisition import (
 from hypate.scaling.engine.coordinates import WarpedModel
 from hypate.scaling.engine.executors import run_batch
 from hypate.scaling.engine.inner import Resolution, optimize_acquisition
+from hypate.scaling.engine.mixed import LevelSlice, MixedCoordinates, sliced_constraints
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
 from hypate.scaling.engine.problem import (
     Outcome,
@@ -187,11 +189,23 @@ class BayesianOptimizer:
             vec = getattr(s, name)
             if vec is not None and len(vec) != self.n_obj:
                 raise SettingError(name, f"{self.n_obj} numbers (one per objective)", vec)
+        cat = s.categorical
+        n_cont = self.n_var if cat is None else self.n_var - 1
+        if cat is not None:
+            if not 0 <= cat.index < self.n_var:
+                raise SettingError("categorical", f"an index in [0, {self.n_var - 1}]",
+                                   cat.index)
+            if tuple(self.bounds[cat.index]) != (0.0, float(cat.levels - 1)):
+                raise SettingError("categorical", f"bounds [0, {cat.levels - 1}] of variable "
+                                   f"{cat.index}", tuple(self.bounds[cat.index]))
+            if s.polish:
+                raise SettingError("polish", "0 with a categorical variable", s.polish)
         if s.coordinates is not None:
-            if s.coordinates.matrix.shape != (self.n_var, self.n_var):
-                raise SettingError("coordinates", f"a {self.n_var} x {self.n_var} matrix",
-                                   s.coordinates.matrix.shape)
-            if not np.all(self.bounds > 0.0):
+            if s.coordinates.matrix.shape != (n_cont, n_cont):
+                raise SettingError("coordinates", f"a {n_cont} x {n_cont} matrix (the "
+                                   "continuous variables)", s.coordinates.matrix.shape)
+            cont = self.bounds if cat is None else np.delete(self.bounds, cat.index, axis=0)
+            if not np.all(cont > 0.0):
                 raise ValueError("log-linear coordinates need positive bounds xl, xu")
         if s.polish and self.n_obj != 1:
             raise SettingError("polish", "0 for more than one objective (a polish needs a "
@@ -214,10 +228,16 @@ class BayesianOptimizer:
     def initial_design(self) -> np.ndarray:
         """The iteration-0 OLH design (projected onto the cheap constraints)."""
         X = latin_hypercube(self.settings.n_init, self.bounds, self._rng(0))
+        cat = self.settings.categorical
+        if cat is not None and len(X):  # the LHS column's strata become balanced levels
+            X[:, cat.index] = cat.stratified(X[:, cat.index] / (cat.levels - 1)
+                                             * (1.0 - 1e-12))
         if self.settings.cheap_constraints and len(X):
             lo, span = self.bounds[:, 0], self.bounds[:, 1] - self.bounds[:, 0]
             cons = scipy_constraints(self.settings.cheap_constraints, lo, span)
             X = np.array([lo + project_unit((x - lo) / span, cons) * span for x in X])
+            if cat is not None:
+                X = cat.snap(X)
         return X
 
     def surrogate(self, X: np.ndarray, Y: np.ndarray,
@@ -243,6 +263,8 @@ class BayesianOptimizer:
             Fitted, with ``predict_moments``, ``predict_with_gradients`` and ``condition``.
         """
         s, coords = self.settings, self.settings.coordinates
+        if s.categorical is not None:
+            coords = MixedCoordinates(s.categorical, self.n_var, coords)
         if coords is None:
             return fit_surrogate(X, Y, self.bounds, kernel=s.kernel, n_restarts=s.n_restarts,
                                  rng=rng, **kw)
@@ -255,10 +277,10 @@ class BayesianOptimizer:
         input coordinates (``settings.coordinates`` or the design box) scaled to the
         surrogates' unit box and divided by their shortest length scale per input (over the
         objectives, at most :data:`MAX_METRIC_LENGTH`); None when ``settings.resolution``
-        is 0."""
+        is 0 or a variable is categorical."""
         radius = self.settings.resolution
-        if radius <= 0.0:
-            return None
+        if radius <= 0.0 or self.settings.categorical is not None:
+            return None  # a level indicator has no inward direction
         coords = model.coords if isinstance(model, WarpedModel) else None
         gp = model.model if isinstance(model, WarpedModel) else model
         # a length scale beyond the box (an input the fit calls irrelevant, up to the
@@ -372,7 +394,7 @@ class BayesianOptimizer:
         if ok.sum() < 2:
             # nothing to model: explore with an OLH point far from the samples
             U = latin_hypercube(st.batch_size, self.bounds, rng)
-            return U
+            return U if st.categorical is None else st.categorical.snap(U)
         model = self.surrogate(X[ok], F[ok], rng)
         model_constraints: list[ProbabilisticConstraint] = []
         if self.n_constr:
@@ -397,15 +419,20 @@ class BayesianOptimizer:
         pending: list[np.ndarray] = []
         cur_model = model
         for b in range(st.batch_size):
-            acq = self._build_acquisition(cur_model, F_obs, feas_obs, F[ok], rng)
             extra = X[best_idx] + 1e-3 * span * rng.standard_normal((len(best_idx), self.n_var))
             X_avoid = np.vstack([X] + [p[None] for p in pending])
             try:
-                x, _ = optimize_acquisition(
-                    acq, self.bounds, n_raw=st.n_raw, n_starts=st.n_starts,
-                    cheap_constraints=st.cheap_constraints, model_constraints=model_constraints,
-                    X_avoid=X_avoid, min_distance=st.min_distance, extra_starts=extra, rng=rng,
-                    resolution=resolution)
+                if st.categorical is None:
+                    acq = self._build_acquisition(cur_model, F_obs, feas_obs, F[ok], rng)
+                    x, _ = optimize_acquisition(
+                        acq, self.bounds, n_raw=st.n_raw, n_starts=st.n_starts,
+                        cheap_constraints=st.cheap_constraints,
+                        model_constraints=model_constraints, X_avoid=X_avoid,
+                        min_distance=st.min_distance, extra_starts=extra, rng=rng,
+                        resolution=resolution)
+                else:
+                    x = self._best_level(cur_model, model_constraints, (F_obs, feas_obs, F[ok]),
+                                         X_avoid, extra, rng)
             except RuntimeError as exc:
                 # every start infeasible or already sampled: fall back to a fresh OLH point
                 warnings.warn(f"iteration {iteration}: {exc}; proposing a space-filling point",
@@ -424,6 +451,46 @@ class BayesianOptimizer:
                 cur_model = model.condition(X_obs, F_obs)
         return np.array(pending)
 
+    def _best_level(self, model: Any, model_constraints: list[ProbabilisticConstraint],
+                    data: tuple[np.ndarray, np.ndarray, np.ndarray], X_avoid: np.ndarray,
+                    extra: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """The proposal of a mixed problem: the acquisition maximized over the continuous
+        variables at each level of the categorical one (:class:`LevelSlice`), the best
+        level's optimum (values of one acquisition, so comparable across levels).
+
+        Raises
+        ------
+        RuntimeError
+            If no level has an admissible candidate.
+        """
+        st, cat = self.settings, self.settings.categorical
+        bounds = np.delete(self.bounds, cat.index, axis=0)
+        avoid_level, extra_level = cat.level(X_avoid), cat.level(extra)
+        best: tuple[float, np.ndarray] | None = None
+        for level in range(cat.levels):  # a handful of levels: one multistart each
+            acq = self._build_acquisition(LevelSlice(model, cat, level), *data, rng)
+            cons = [ProbabilisticConstraint(LevelSlice(c.model, cat, level), p_min=c.p_min,
+                                            threshold=c.threshold) for c in model_constraints]
+            avoid = cat.continuous(X_avoid[avoid_level == level])
+            starts = cat.continuous(extra[extra_level == level])
+            try:
+                xc, value = optimize_acquisition(
+                    acq, bounds, n_raw=st.n_raw, n_starts=st.n_starts,
+                    cheap_constraints=sliced_constraints(st.cheap_constraints, cat, level),
+                    model_constraints=cons, X_avoid=avoid if len(avoid) else None,
+                    min_distance=st.min_distance,
+                    extra_starts=np.clip(starts, bounds[:, 0], bounds[:, 1]) if len(starts)
+                    else None, rng=rng)
+            except RuntimeError:
+                continue
+            score = value if acq.maximize else -value
+            if best is None or score > best[0]:
+                best = (score, cat.insert(xc, level)[0])
+        if best is None:
+            raise RuntimeError("no admissible candidate at any level of the categorical "
+                               "variable")
+        return best[1]
+
     def _fallback_point(self, X_avoid: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """The OLH point farthest from the samples, projected onto the cheap constraints."""
         lo, span = self.bounds[:, 0], self.bounds[:, 1] - self.bounds[:, 0]
@@ -434,7 +501,9 @@ class BayesianOptimizer:
         u = U[int(np.argmax(dist))]
         if self.settings.cheap_constraints:
             u = project_unit(u, scipy_constraints(self.settings.cheap_constraints, lo, span))
-        return lo + u * span
+        x = lo + u * span
+        cat = self.settings.categorical
+        return x if cat is None else cat.snap(x)[0]
 
     # ----------------------------------------------------------- evaluation
     def _evaluate(self, X: np.ndarray, iteration: int, indices: Sequence[int],

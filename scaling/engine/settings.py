@@ -18,6 +18,7 @@ from typing import Any, Literal
 
 from hypate.scaling.engine.acquisition import ACQUISITIONS, AcquisitionFactory
 from hypate.scaling.engine.coordinates import LogLinearCoordinates
+from hypate.scaling.engine.mixed import Categorical
 from hypate.scaling.engine.problem import CheapConstraint
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
 from hypate.solvers.numerics.kriging import KERNELS
@@ -43,7 +44,8 @@ _REAL_RANGE = {"v": (0.0, math.inf, True, False), "g": (1.0, math.inf, True, Tru
                "polish_step": (0.0, 0.5, False, True)}
 #: Fields that may be ``None``.
 _OPTIONAL = {"acquisition", "v", "ref_point", "weights", "executor", "timeout", "store",
-             "max_evaluations", "convergence_tol", "callback", "blas_threads", "coordinates"}
+             "max_evaluations", "convergence_tol", "callback", "blas_threads", "coordinates",
+             "categorical"}
 #: Fields of a fixed set of names.
 _CHOICES = {"batch_strategy": BATCH_STRATEGIES, "kernel": KERNELS,
             "output_transform": OUTPUT_TRANSFORMS}
@@ -183,6 +185,12 @@ class OptimizerSettings:
         ``n_iter + 1`` and replayed on resume.
     polish_step : float in (0, 0.5]
         Initial simplex edge, as a fraction of each coordinate's range.
+    categorical : Categorical or None
+        One categorical design variable (its level number ``0 .. k-1`` in the design
+        vector, bounds ``[0, k - 1]``; :mod:`hypate.scaling.engine.mixed`): the surrogates
+        see its one-hot indicators, the initial design stratifies it, every proposal
+        enumerates its levels. ``coordinates`` then describe the ``d - 1`` continuous
+        variables; no polish.
 
     Raises
     ------
@@ -220,6 +228,7 @@ class OptimizerSettings:
     coordinates: LogLinearCoordinates | None = None
     polish: int = 0
     polish_step: float = 0.01
+    categorical: Categorical | None = None
 
     def __post_init__(self) -> None:
         def put(name: str, value: Any) -> None:
@@ -256,6 +265,8 @@ class OptimizerSettings:
         if self.coordinates is not None and not isinstance(self.coordinates,
                                                            LogLinearCoordinates):
             raise SettingError("coordinates", "LogLinearCoordinates or None", self.coordinates)
+        if self.categorical is not None and not isinstance(self.categorical, Categorical):
+            raise SettingError("categorical", "Categorical or None", self.categorical)
 
     @classmethod
     def names(cls) -> tuple[str, ...]:
