@@ -419,11 +419,13 @@ class BayesianOptimizer:
         pending: list[np.ndarray] = []
         cur_model = model
         for b in range(st.batch_size):
+            # the acquisition first: a Monte Carlo HVEI draws its base samples from rng
+            acq = (self._build_acquisition(cur_model, F_obs, feas_obs, F[ok], rng)
+                   if st.categorical is None else None)
             extra = X[best_idx] + 1e-3 * span * rng.standard_normal((len(best_idx), self.n_var))
             X_avoid = np.vstack([X] + [p[None] for p in pending])
             try:
-                if st.categorical is None:
-                    acq = self._build_acquisition(cur_model, F_obs, feas_obs, F[ok], rng)
+                if acq is not None:
                     x, _ = optimize_acquisition(
                         acq, self.bounds, n_raw=st.n_raw, n_starts=st.n_starts,
                         cheap_constraints=st.cheap_constraints,

@@ -74,7 +74,7 @@ def test_mixed_kriging_gradients_in_the_continuous_variables_match_finite_differ
         for level in range(3):
             sliced = LevelSlice(model, CAT, level)
             xc = np.array([0.37, 0.61])
-            mean, std, dmean, dstd = sliced.predict_with_gradients(xc[None])
+            mean, _, dmean, dstd = sliced.predict_with_gradients(xc[None])
             assert dmean.shape == (1, 1, 2)
             for k, grad in enumerate((dmean, dstd)):
                 ref, bound = richardson_jacobian(
