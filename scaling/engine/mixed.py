@@ -17,15 +17,19 @@ dissertation's SLSQP multistart cannot step between them):
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from hypate.scaling.engine.acquisition import Acquisition
 from hypate.scaling.engine.coordinates import LogLinearCoordinates
+from hypate.scaling.engine.inner import optimize_acquisition
 from hypate.scaling.engine.problem import CheapConstraint
+from hypate.scaling.engine.surrogate import ProbabilisticConstraint
 
-__all__ = ["Categorical", "LevelSlice", "MixedCoordinates", "sliced_constraints"]
+__all__ = ["Categorical", "LevelSlice", "MixedCoordinates", "propose_by_level",
+           "sliced_constraints"]
 
 
 @dataclass(frozen=True)
@@ -41,6 +45,17 @@ class Categorical:
             raise ValueError(f"categorical index must be a non-negative integer, got {self.index}")
         if int(self.levels) != self.levels or self.levels < 2:
             raise ValueError(f"a categorical variable needs at least 2 levels, got {self.levels}")
+
+    def problem_mismatch(self, bounds: np.ndarray) -> tuple[str, Any] | None:
+        """(allowed, value) when the design box ``bounds`` (d, 2) does not fit this
+        variable (index inside the vector, bounds ``[0, levels - 1]``); None when it fits."""
+        n_var = len(bounds)
+        if not self.index < n_var:
+            return f"an index in [0, {n_var - 1}]", self.index
+        if tuple(bounds[self.index]) != (0.0, float(self.levels - 1)):
+            return (f"bounds [0, {self.levels - 1}] of variable {self.index}",
+                    tuple(bounds[self.index]))
+        return None
 
     def level(self, X: np.ndarray) -> np.ndarray:
         """Level numbers (N,) of designs ``X`` (N, d): the nearest level, clipped."""
@@ -161,3 +176,46 @@ def sliced_constraints(constraints: Sequence[CheapConstraint], categorical: Cate
 
         out.append(CheapConstraint(fun=fun, jac=jac, kind=c.kind))
     return out
+
+
+def propose_by_level(categorical: Categorical, model: Any,
+                     model_constraints: Sequence[ProbabilisticConstraint], bounds: np.ndarray,
+                     acquisition_of: Callable[[Any], Acquisition], X_avoid: np.ndarray,
+                     extra: np.ndarray, rng: np.random.Generator, *, n_raw: int, n_starts: int,
+                     cheap_constraints: Sequence[CheapConstraint] = (),
+                     min_distance: float = 1e-5) -> np.ndarray:
+    """The proposal of a mixed problem: the acquisition (``acquisition_of(model)``)
+    maximized over the continuous variables at each level (:class:`LevelSlice`), the best
+    level's optimum (values of one acquisition, so comparable across levels).
+
+    Raises
+    ------
+    RuntimeError
+        If no level has an admissible candidate.
+    """
+    cat = categorical
+    box = np.delete(np.asarray(bounds, float), cat.index, axis=0)
+    avoid_level, extra_level = cat.level(X_avoid), cat.level(extra)
+    best: tuple[float, np.ndarray] | None = None
+    for level in range(cat.levels):  # a handful of levels: one multistart each
+        acq = acquisition_of(LevelSlice(model, cat, level))
+        cons = [ProbabilisticConstraint(LevelSlice(c.model, cat, level), p_min=c.p_min,
+                                        threshold=c.threshold) for c in model_constraints]
+        avoid = cat.continuous(X_avoid[avoid_level == level])
+        starts = cat.continuous(extra[extra_level == level])
+        try:
+            xc, value = optimize_acquisition(
+                acq, box, n_raw=n_raw, n_starts=n_starts,
+                cheap_constraints=sliced_constraints(cheap_constraints, cat, level),
+                model_constraints=cons, X_avoid=avoid if len(avoid) else None,
+                min_distance=min_distance,
+                extra_starts=np.clip(starts, box[:, 0], box[:, 1]) if len(starts) else None,
+                rng=rng)
+        except RuntimeError:
+            continue
+        score = value if acq.maximize else -value
+        if best is None or score > best[0]:
+            best = (score, cat.insert(xc, level)[0])
+    if best is None:
+        raise RuntimeError("no admissible candidate at any level of the categorical variable")
+    return best[1]

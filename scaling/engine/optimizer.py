@@ -30,10 +30,10 @@ acquisition is built by name from :data:`hypate.scaling.engine.acquisition.ACQUI
 evaluations are :class:`hypate.scaling.engine.problem.Outcome` records committed as
 :class:`hypate.scaling.engine.store.Evaluation` rows.
 
-Size: about 690 lines, one class and the record of its leave-one-out check; the proposal
-(with its per-level form for a categorical variable, :mod:`hypate.scaling.engine.mixed`),
+Size: about 650 lines, one class and the record of its leave-one-out check; the proposal,
 evaluation, polish and check share the optimizer's settings, surrogates and store, and the
-pieces that stand alone already have their own modules (inner, acquisition, executors).
+pieces that stand alone already have their own modules (inner, acquisition, executors,
+mixed: the per-level proposal of a categorical variable).
 
 Reproducibility: the random numbers of iteration ``t`` come from
 ``numpy.random.default_rng([seed, t])`` and a proposal depends only on the evaluations of
@@ -60,7 +60,7 @@ from hypate.scaling.engine.acquisition import (
 from hypate.scaling.engine.coordinates import WarpedModel
 from hypate.scaling.engine.executors import run_batch
 from hypate.scaling.engine.inner import Resolution, optimize_acquisition
-from hypate.scaling.engine.mixed import LevelSlice, MixedCoordinates, sliced_constraints
+from hypate.scaling.engine.mixed import MixedCoordinates, propose_by_level
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
 from hypate.scaling.engine.problem import (
     Outcome,
@@ -192,12 +192,8 @@ class BayesianOptimizer:
         cat = s.categorical
         n_cont = self.n_var if cat is None else self.n_var - 1
         if cat is not None:
-            if not 0 <= cat.index < self.n_var:
-                raise SettingError("categorical", f"an index in [0, {self.n_var - 1}]",
-                                   cat.index)
-            if tuple(self.bounds[cat.index]) != (0.0, float(cat.levels - 1)):
-                raise SettingError("categorical", f"bounds [0, {cat.levels - 1}] of variable "
-                                   f"{cat.index}", tuple(self.bounds[cat.index]))
+            if (bad := cat.problem_mismatch(self.bounds)) is not None:
+                raise SettingError("categorical", *bad)
             if s.polish:
                 raise SettingError("polish", "0 with a categorical variable", s.polish)
         if s.coordinates is not None:
@@ -433,8 +429,11 @@ class BayesianOptimizer:
                         min_distance=st.min_distance, extra_starts=extra, rng=rng,
                         resolution=resolution)
                 else:
-                    x = self._best_level(cur_model, model_constraints, (F_obs, feas_obs, F[ok]),
-                                         X_avoid, extra, rng)
+                    x = propose_by_level(
+                        st.categorical, cur_model, model_constraints, self.bounds,
+                        lambda m: self._build_acquisition(m, F_obs, feas_obs, F[ok], rng),
+                        X_avoid, extra, rng, n_raw=st.n_raw, n_starts=st.n_starts,
+                        cheap_constraints=st.cheap_constraints, min_distance=st.min_distance)
             except RuntimeError as exc:
                 # every start infeasible or already sampled: fall back to a fresh OLH point
                 warnings.warn(f"iteration {iteration}: {exc}; proposing a space-filling point",
@@ -452,46 +451,6 @@ class BayesianOptimizer:
                 feas_obs = np.r_[feas_obs, True]
                 cur_model = model.condition(X_obs, F_obs)
         return np.array(pending)
-
-    def _best_level(self, model: Any, model_constraints: list[ProbabilisticConstraint],
-                    data: tuple[np.ndarray, np.ndarray, np.ndarray], X_avoid: np.ndarray,
-                    extra: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """The proposal of a mixed problem: the acquisition maximized over the continuous
-        variables at each level of the categorical one (:class:`LevelSlice`), the best
-        level's optimum (values of one acquisition, so comparable across levels).
-
-        Raises
-        ------
-        RuntimeError
-            If no level has an admissible candidate.
-        """
-        st, cat = self.settings, self.settings.categorical
-        bounds = np.delete(self.bounds, cat.index, axis=0)
-        avoid_level, extra_level = cat.level(X_avoid), cat.level(extra)
-        best: tuple[float, np.ndarray] | None = None
-        for level in range(cat.levels):  # a handful of levels: one multistart each
-            acq = self._build_acquisition(LevelSlice(model, cat, level), *data, rng)
-            cons = [ProbabilisticConstraint(LevelSlice(c.model, cat, level), p_min=c.p_min,
-                                            threshold=c.threshold) for c in model_constraints]
-            avoid = cat.continuous(X_avoid[avoid_level == level])
-            starts = cat.continuous(extra[extra_level == level])
-            try:
-                xc, value = optimize_acquisition(
-                    acq, bounds, n_raw=st.n_raw, n_starts=st.n_starts,
-                    cheap_constraints=sliced_constraints(st.cheap_constraints, cat, level),
-                    model_constraints=cons, X_avoid=avoid if len(avoid) else None,
-                    min_distance=st.min_distance,
-                    extra_starts=np.clip(starts, bounds[:, 0], bounds[:, 1]) if len(starts)
-                    else None, rng=rng)
-            except RuntimeError:
-                continue
-            score = value if acq.maximize else -value
-            if best is None or score > best[0]:
-                best = (score, cat.insert(xc, level)[0])
-        if best is None:
-            raise RuntimeError("no admissible candidate at any level of the categorical "
-                               "variable")
-        return best[1]
 
     def _fallback_point(self, X_avoid: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """The OLH point farthest from the samples, projected onto the cheap constraints."""
