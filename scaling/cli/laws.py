@@ -18,6 +18,7 @@ from hypate.scaling.workflow.laws import (
     laws_of_run,
     laws_table,
     load_runs,
+    materials_by_scale,
     predict,
 )
 from hypate.solvers.errors import InputError
@@ -53,11 +54,13 @@ def run(args: argparse.Namespace) -> int:
     if args.predict is not None:
         prediction = predict(run_, args.predict, evaluate=args.evaluate, laws=laws)
     if args.json:
-        print(dumps(laws_json(laws, prediction), indent=2))
+        print(dumps(laws_json(laws, prediction, run_.points), indent=2))
         return 0
     scales = sorted({p.xi for p in run_.points})
     print(f"{run_.directory}: {len(run_.points)} design points at xi = "
           f"{', '.join(f'{x:g}' for x in scales)}")
+    for chosen in materials_by_scale(run_.points):  # categorical: reported, not fitted
+        print(f"  material at xi = {chosen['xi']:g}: {chosen['material']}")
     rows = laws_table(laws)
     if rows:
         cols = ["variable", "coefficient", "exponent", "95% interval", "analytical exponent",
@@ -71,7 +74,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"\nprediction at xi = {prediction['xi']:g}:")
         for name, value in prediction["design"].items():
             mark = "  (clipped to a bound)" if name in prediction["clipped"] else ""
-            print(f"  {name:>10s} = {value:.6g}{mark}")
+            shown = prediction["material"] if name == "material" else f"{value:.6g}"
+            print(f"  {name:>10s} = {shown}{mark}")
         print("  similarity (prototype / model / relative difference):")
         for r in prediction["similarity"]:
             rd = r.get("relative_difference")

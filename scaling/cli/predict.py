@@ -19,7 +19,11 @@ from hypate.scaling.workflow.predict import (
     sweep_basis,
     write_prediction,
 )
-from hypate.scaling.workflow.rundir import PREDICTION_DIR, PREDICTION_HTML, PREDICTION_PNG
+from hypate.scaling.workflow.rundir import (
+    PREDICTION_DIR,
+    PREDICTION_HTML,
+    PREDICTION_PNG,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

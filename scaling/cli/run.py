@@ -280,8 +280,10 @@ def _print_summary(summary: dict[str, Any], before: int) -> None:
     if point.get("design"):
         objs = ", ".join(f"{k} = {v:.4g}" for k, v in point["objectives"].items())
         print(f"design point: {objs}")
+        material = (point.get("material") or {}).get("name")
         for name, value in point["design"].items():
-            print(f"  {name:>10s} = {value:.6g}")
+            shown = material if name == "material" and material else f"{value:.6g}"
+            print(f"  {name:>10s} = {shown}")
         if point["active_constraints"]:
             print(f"  active: {', '.join(point['active_constraints'])}")
         nominal = point.get("nominal")

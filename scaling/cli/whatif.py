@@ -14,7 +14,7 @@ from hypate.scaling.cli.progress import StepProgress
 from hypate.scaling.report.figures import plot_sweep
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.study import load_study
-from hypate.scaling.workflow.variables import variable_unit
+from hypate.scaling.workflow.variables import CATEGORICAL, variable_unit
 from hypate.scaling.workflow.whatif import (
     MISMATCH,
     evaluate_whatif,
@@ -62,9 +62,11 @@ def _number(text: str, option: str, what: str) -> float:
     return value
 
 
-def parse_set(items: Sequence[str] | None) -> dict[str, float]:
-    """``["p0=6e6", "h=0.004"]`` -> ``{"p0": 6e6, "h": 0.004}`` (InputError on ``--set``)."""
-    out: dict[str, float] = {}
+def parse_set(items: Sequence[str] | None) -> dict[str, float | str]:
+    """``["p0=6e6", "h=0.004"]`` -> ``{"p0": 6e6, "h": 0.004}`` (InputError on ``--set``);
+    a categorical variable keeps its text (``material=inconel718``) unless it is a number
+    (a level)."""
+    out: dict[str, float | str] = {}
     for item in items or ():
         name, sep, text = item.partition("=")
         name = name.strip()
@@ -72,8 +74,22 @@ def parse_set(items: Sequence[str] | None) -> dict[str, float]:
             raise InputError("--set", f"expected NAME=VALUE; got {item!r}")
         if name in out:
             raise InputError("--set", f"{name} is given twice")
-        out[name] = _number(text.strip(), "--set", name)
+        text = text.strip()
+        if name in CATEGORICAL and not _is_number(text):
+            if not text:
+                raise InputError("--set", f"{name}: give a name, e.g. {name}=inconel718")
+            out[name] = text
+        else:
+            out[name] = _number(text, "--set", name)
     return out
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def parse_sweep(text: str) -> tuple[str, float, float, int]:
@@ -105,8 +121,12 @@ def _print_result(res: dict[str, Any]) -> None:
     print(f"what-if {res['study']}: one model design (no optimization)")
     print(f"  {'variable':<10s} {'value':>12s} {'unit':<4s}  source")
     for name, value in res["design"].items():
-        print(f"  {name:<10s} {value:>12.6g} {variable_unit(name):<4s}  "
+        shown = res["material"] if name == "material" else f"{value:.6g}"
+        print(f"  {name:<10s} {shown:>12s} {variable_unit(name):<4s}  "
               f"{res['sources'].get(name, '')}")
+    if "material" in res and "material" not in res["design"]:
+        print(f"  {'material':<10s} {res['material']:>12s} {'-':<4s}  "
+              f"{res['sources'].get('material', '')}")
     obj = res["objectives"]
     if res["status"] == "ok":
         print(f"J_u = {_pct(obj['J_u'])}   J_T = {_pct(obj['J_T'])}   J_s = {_pct(obj['J_s'])}")

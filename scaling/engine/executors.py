@@ -381,7 +381,7 @@ def make_executor(workers: int, scheduler: str | None, *, lost_after: float = LO
         client = Client(address, timeout=lost_after + BACKOFF_MAX)
     except (OSError, TimeoutError) as exc:
         raise ExecutorError("scheduler", f"cannot reach {address}: {exc}") from None
-    except TypeError as exc:  # distributed's way of saying that TLS has no certificates
+    except TypeError:  # distributed's way of saying that TLS has no certificates
         if not address.startswith("tls://"):
             raise
         raise ExecutorError("scheduler", f"cannot connect to {address}: no TLS certificates "

@@ -19,6 +19,7 @@ Every evaluation number printed is the evaluation id (``RunData.evaluations``' i
 from __future__ import annotations
 
 import html
+import json
 import re
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
@@ -40,6 +41,7 @@ from hypate.scaling.report.figures import (
     variable_unit,
 )
 from hypate.scaling.report.glossary import glossary_rows
+from hypate.scaling.report.material import material_row, materials_note
 from hypate.scaling.report.numbers import (
     format_difference,
     format_number,
@@ -52,8 +54,15 @@ from hypate.scaling.workflow.laws import (
     laws_of_run,
     laws_table,
     load_sweep,
+    materials_by_scale,
 )
-from hypate.scaling.workflow.rundir import describe_occurrences, describe_rule
+from hypate.scaling.workflow.rundir import (
+    PREDICTION_DIR,
+    PREDICTION_HTML,
+    PREDICTION_JSON,
+    describe_occurrences,
+    describe_rule,
+)
 
 __all__ = ["BUILTIN_SECTIONS", "Section", "html_table"]
 
@@ -140,7 +149,9 @@ def _study_section(run: RunData) -> Section:
                  f"M = {pf.mach:.4g}{alt}, p = {pf.pressure:.4g} Pa, "
                  f"T = {pf.temperature:.4g} K, T0 = {pf.stagnation_temperature:.4g} K")
     mp = spec.model.panel
-    model = (f"{html.escape(mp.layers[0].material.name)} panel, {mp.length:.4g} m x "
+    made_of = (" or ".join(spec.material_names) + " (a design variable)" if spec.materials
+               else mp.layers[0].material.name)
+    model = (f"{html.escape(made_of)} panel, {mp.length:.4g} m x "
              f"{mp.width:.4g} m (scale xi = {spec.xi:g})")
     tun = study.tunnel
     if tun is None:
@@ -172,7 +183,9 @@ def _study_section(run: RunData) -> Section:
              ("budget", html.escape(budget))]
     if spec.equalities:
         items.append(("equality constraints", html.escape(", ".join(spec.equalities))))
-    var_rows = [(v.name, variable_unit(v.name), v.lower, v.upper) for v in spec.variables]
+    var_rows = [(v.name, "-", "one of: " + ", ".join(spec.material_names), "")
+                if v.name == "material" else (v.name, variable_unit(v.name), v.lower, v.upper)
+                for v in spec.variables]
     body = _dl(items) + "<h3>Design variables</h3>" + html_table(
         ["variable", "unit", "lower bound", "upper bound"], var_rows)
     if spec.fixed:
@@ -234,7 +247,8 @@ def _design_section(run: RunData) -> Section:
     for name, value in point["design"].items():
         lo, hi = bounds.get(name, (None, None))
         state = active_vars.get(name, "")
-        rows.append((name, variable_unit(name), value, lo, hi, state or "",
+        rows.append(material_row(point, run.classical) if name == "material" else
+                    (name, variable_unit(name), value, lo, hi, state or "",
                      classical.get(name)))
         classes.append("active" if state else "")
     intro = _rule_paragraph(run)
@@ -245,6 +259,7 @@ def _design_section(run: RunData) -> Section:
                 for k, v in objs.items()]
     body = intro + html_table(["variable", "unit", "value", "lower bound", "upper bound",
                                "bound hit", "classical baseline"], rows, classes)
+    body += materials_note(point)
     body += "<h3>Objectives</h3>" + html_table(
         ["objective", "design point", "surrogate prediction (leave-one-out)",
          "classical baseline"], obj_rows)
@@ -538,11 +553,38 @@ def _laws_section(run: RunData) -> Section | None:
     rows = laws_table(laws)
     cols = list(rows[0]) if rows else []
     table = html_table(cols, [[r[c] for c in cols] for r in rows])
+    chosen = materials_by_scale(sweep.points)
+    if chosen:  # categorical: no power law
+        table += "<p>Model material chosen at each scale (not fitted): " + ", ".join(
+            f"&xi; = {c['xi']:g}: {html.escape(c['material'])}" for c in chosen) + ".</p>"
     return Section("Scaling laws", img + table)
+
+
+def _prediction_section(run: RunData) -> Section | None:
+    """``hypate predict RUN_DIR``'s result (``RUN_DIR/prediction/prediction.json``): the
+    measured file, the time mapping, each predicted history's band and in-band fraction,
+    and the page with the figure; left out before a prediction."""
+    try:
+        summary = json.loads((run.directory / PREDICTION_DIR / PREDICTION_JSON).read_text())
+        histories = summary["histories"].items()
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
+    rows = [(f"{name} [{h.get('unit', '')}]", _Raw(_pct(h.get("J"))), h.get("half_width"),
+             _Raw(_pct(h.get("in_band")))) for name, h in histories]
+    page = run.directory / PREDICTION_DIR / PREDICTION_HTML
+    intro = (f"<p>Measured model test <code>{html.escape(str(summary.get('measured')))}</code>"
+             f" ({_fmt(summary.get('points'))} points) mapped onto the prototype through the "
+             f"{html.escape(str(summary.get('source')))}: prototype time = "
+             f"{_fmt(summary.get('time_ratio'))} x model time.</p>")
+    link = (f"<p>Figure and band parts: <a href='{PREDICTION_DIR}/{PREDICTION_HTML}'>"
+            f"{PREDICTION_DIR}/{PREDICTION_HTML}</a>.</p>" if page.is_file() else "")
+    return Section("Prediction", intro + html_table(
+        ["history", "J of the design point", "band half-width", "simulated prototype in band"],
+        rows) + link)
 
 
 #: The built-in section builders, in page order (registered plug-ins follow them).
 BUILTIN_SECTIONS: tuple[Callable[[RunData], Section | None], ...] = (
     _study_section, _design_section, _seeds_section, _similarity_section, _glossary_section,
     _robustness_section, _figures_section, _pareto_section, _statistics_section,
-    _warnings_section, _laws_section)
+    _warnings_section, _laws_section, _prediction_section)

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from hypate.scaling.workflow.variables import (
+    CATEGORICAL,
     DESIGN_VARIABLES,
     LAYER_PATTERN,
     SCHEDULE_POINTS,
@@ -20,7 +21,7 @@ from hypate.scaling.workflow.variables import (
 )
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
-from hypate.solvers.materials import STEFAN_BOLTZMANN
+from hypate.solvers.materials import STEFAN_BOLTZMANN, Material
 from hypate.solvers.panel import PanelSpec
 from hypate.solvers.settings import SimulationSettings
 from hypate.solvers.thermal.schedule import HeaterSchedule
@@ -177,6 +178,14 @@ def scaled_panel(template: PanelSpec, *, length: float | None = None,
     return dataclasses.replace(template, **changes)
 
 
+def with_material(config: Configuration, material: Material) -> Configuration:
+    """``config`` with every layer of its panel made of ``material`` (a categorical model
+    material: the model is one material, its layup and thicknesses kept)."""
+    panel = config.panel
+    layers = tuple(dataclasses.replace(layer, material=material) for layer in panel.layers)
+    return dataclasses.replace(config, panel=dataclasses.replace(panel, layers=layers))
+
+
 def positive(name: str, value: float, unit: str) -> float:
     value = float(value)
     if not (math.isfinite(value) and value > 0.0):
@@ -218,6 +227,10 @@ def apply_design(template: Configuration, design: Mapping[str, float]) -> Config
     if unknown:
         raise InputError(f"design.{unknown[0]}", "unknown design variable; known: "
                          f"{', '.join(DESIGN_VARIABLES)}")
+    categorical = [n for n in design if n in CATEGORICAL]
+    if categorical:  # a level number means nothing without the study's list of values
+        raise InputError(f"design.{categorical[0]}", "is categorical: the scaling problem "
+                         "sets it (ScalingProblem.configure), not a number")
     panel = scaled_panel(panel, length=design.get("L"), thickness=design.get("h"),
                          leading_edge_length=design.get("L_le"), width=design.get("width"))
     layer_changes = {int(m.group(1)): design[n] for n in design
@@ -309,4 +322,4 @@ def heater_schedule(design: Mapping[str, float]) -> tuple[float, ...] | None:
 
 
 __all__ = ["Configuration", "ReferenceTemperatures", "apply_design", "heater_schedule",
-           "positive", "scaled_panel"]
+           "positive", "scaled_panel", "with_material"]

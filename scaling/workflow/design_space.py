@@ -14,7 +14,12 @@ Each entry is one of
   ``0 < lo < hi``). ``shape = "increasing"`` asks ``T_rad[k] <= T_rad[k+1]``: linear
   inequalities on the design vector, handed to the optimizer as exact cheap constraints
   (:meth:`hypate.scaling.workflow.problem.ScalingProblem.cheap_constraints`); ``"free"``
-  (default) leaves the points independent.
+  (default) leaves the points independent;
+* ``material = ["ti6242", "inconel718", "al7075", "my_alloy"]`` -- the model material as
+  a categorical variable (beyond the dissertation, which fixes Ti 6242): 2-8 distinct
+  names, each a library material or a ``[materials.NAME]`` of the study. The design vector
+  holds the level number ``0 .. k-1`` (bounds ``[0, k - 1]``) and the optimizer treats it
+  as categorical (:mod:`hypate.scaling.engine.mixed`).
 
 :func:`study_variables` turns the table into the problem's
 :class:`~hypate.scaling.workflow.problem.Variable` tuple; every error is an
@@ -29,6 +34,7 @@ from typing import Annotated, Any, Literal
 from hypate.scaling.workflow.problem import Variable
 from hypate.scaling.workflow.tunnels import TunnelEnvelope
 from hypate.scaling.workflow.variables import (
+    CATEGORICAL,
     HARD_LIMITS,
     SCHEDULABLE,
     SCHEDULE_POINTS,
@@ -40,9 +46,11 @@ from pydantic import Field, ValidationError, model_validator
 
 #: What a ``[variables]`` entry may be in the study schema (a schedule is checked by
 #: :class:`ScheduleEntry` afterwards, so that its errors name its own keys).
-VariableEntry = list[float] | str | dict[str, Any]
+VariableEntry = list[float] | list[str] | str | dict[str, Any]
 #: Shapes of a schedule.
 SHAPES = ("free", "increasing")
+#: Fewest and most values of a categorical variable.
+LEVELS: tuple[int, int] = (2, 8)
 
 
 class ScheduleEntry(InputModel):
@@ -88,10 +96,42 @@ def schedule_entry(name: str, value: Mapping[str, Any]) -> ScheduleEntry:
     return entry
 
 
+def categorical_levels(name: str, value: Any) -> tuple[str, ...]:
+    """The values of a categorical entry ``NAME = ["a", "b", ...]``, checked (2-8 distinct
+    non-empty names; whether each names a material is the study's check).
+
+    Raises
+    ------
+    InputError
+        ``variables.NAME``: ``name`` is not categorical, or the list is not 2-8 distinct
+        names.
+    """
+    field = f"variables.{name}"
+    if name not in CATEGORICAL:
+        raise InputError(field, "bounds must be numbers [lower, upper] (only "
+                         f"{', '.join(CATEGORICAL)} takes a list of names)")
+    lo, hi = LEVELS
+    if not (isinstance(value, list) and all(isinstance(v, str) and v for v in value)):
+        raise InputError(field, "needs a list of names, e.g. [\"ti6242\", \"inconel718\"]")
+    if not lo <= len(value) <= hi:
+        raise InputError(field, f"needs {lo} to {hi} names; got {len(value)}")
+    if len(set(value)) != len(value):
+        raise InputError(field, "a name is listed twice")
+    return tuple(value)
+
+
+def study_levels(entries: Mapping[str, VariableEntry]) -> dict[str, tuple[str, ...]]:
+    """The categorical entries of a ``[variables]`` table: ``{NAME: (value, ...)}``."""
+    return {name: categorical_levels(name, value) for name, value in entries.items()
+            if name in CATEGORICAL}
+
+
 def variable_bounds(name: str, value: list[float] | str, tunnel: TunnelEnvelope | None
                     ) -> tuple[float, float]:
     """Bounds of a ``NAME = [lower, upper]`` or ``NAME = "tunnel"`` entry (SI units)."""
     field = f"variables.{name}"
+    if isinstance(value, list) and any(isinstance(v, str) for v in value):
+        raise InputError(field, "bounds must be numbers [lower, upper]")
     if isinstance(value, str):
         if value != "tunnel":
             raise InputError(field, "bounds must be [lower, upper] or \"tunnel\"")
@@ -125,12 +165,15 @@ def study_variables(entries: Mapping[str, VariableEntry], tunnel: TunnelEnvelope
     schedules whose shape is ``"increasing"``.
 
     A schedule of ``n`` points contributes ``NAME[0] .. NAME[n-1]``, each with the
-    schedule's ``range`` as bounds.
+    schedule's ``range`` as bounds; a categorical entry of ``k`` values one variable with
+    bounds ``[0, k - 1]`` (its level number).
     """
     variables: list[Variable] = []
     increasing: list[str] = []
     for name, value in entries.items():
-        if isinstance(value, dict):
+        if name in CATEGORICAL:
+            variables.append(Variable(name, 0.0, float(len(categorical_levels(name, value)) - 1)))
+        elif isinstance(value, dict):
             entry = schedule_entry(name, value)
             variables += [Variable(n, *entry.range) for n in schedule_names(name,
                                                                             entry.schedule)]
@@ -141,5 +184,5 @@ def study_variables(entries: Mapping[str, VariableEntry], tunnel: TunnelEnvelope
     return tuple(variables), tuple(increasing)
 
 
-__all__ = ["SHAPES", "ScheduleEntry", "VariableEntry", "schedule_entry", "study_variables",
-           "variable_bounds"]
+__all__ = ["LEVELS", "SHAPES", "ScheduleEntry", "VariableEntry", "categorical_levels",
+           "schedule_entry", "study_levels", "study_variables", "variable_bounds"]

@@ -71,7 +71,7 @@ from hypate.scaling.workflow.similarity import (
     time_scale,
 )
 from hypate.scaling.workflow.study import load_study, study_at, study_data
-from hypate.scaling.workflow.variables import base_name
+from hypate.scaling.workflow.variables import CATEGORICAL, base_name
 from hypate.solvers.errors import InputError
 from scipy import stats
 
@@ -162,6 +162,15 @@ class DesignPoint:
     objectives: Mapping[str, float] = field(default_factory=dict)
     label: str = ""
     time_step: float | None = None
+    #: The chosen model material of a study with a categorical one (None: fixed).
+    material: str | None = None
+
+
+def materials_by_scale(points: Sequence[DesignPoint]) -> list[dict[str, Any]]:
+    """``[{"xi", "material"}]`` of the points whose study chose the model material: a
+    categorical value has no power law, the laws report the choice per scale."""
+    return [{"xi": float(p.xi), "material": p.material} for p in points
+            if p.material is not None]
 
 
 # -- fitting --------------------------------------------------------------------------------
@@ -271,6 +280,7 @@ def fit_laws(points: Sequence[DesignPoint], *, variables: Sequence[str] | None =
         variables = list(points[0].bounds or points[0].design) if points else []
         if points and all(p.time_step is not None for p in points):
             variables.append(TIME_STEP)
+    variables = [n for n in variables if n not in CATEGORICAL]  # see materials_by_scale
     exponent_bounds = dict(exponent_bounds or {})
     for name, direction in (monotone or {}).items():
         lo, hi = exponent_bounds.get(name, (-math.inf, math.inf))
@@ -386,7 +396,8 @@ def point_from_record(rec: Mapping[str, Any], default_xi: float | None = None
     bounds = {k: (float(v[0]), float(v[1])) for k, v in (rec.get("bounds") or {}).items()}
     return DesignPoint(xi=float(xi), design={k: float(v) for k, v in design.items()},
                        bounds=bounds, objectives=dict(rec.get("objectives") or {}),
-                       label=str(rec.get("label", "")), time_step=rec.get("model_time_step"))
+                       label=str(rec.get("label", "")), time_step=rec.get("model_time_step"),
+                       material=(rec.get("material") or {}).get("name"))
 
 
 def load_sweep(run_dir: str | Path) -> SweepRun:
@@ -480,14 +491,16 @@ def predicted_design(laws: Sequence[ScalingLaw], points: Sequence[DesignPoint], 
 
     A fitted variable follows its law; one without a fit (pinned or fewer than two free
     points) takes the value of the point nearest in ``log xi``, moved along the analytical
-    exponent.
+    exponent; a categorical material is the nearest point's.
     """
     by_name = {law.variable: law for law in laws}
     nearest = min(points, key=lambda p: abs(math.log(p.xi / xi)))
     out = {}
     for name in names:
         law = by_name.get(name)
-        if law is not None and law.fit.coefficient is not None:
+        if name in CATEGORICAL:
+            out[name] = float(nearest.design[name])
+        elif law is not None and law.fit.coefficient is not None:
             out[name] = float(law.fit(xi))
         else:
             k = (law.analytical_exponent if law is not None else None)
@@ -522,7 +535,10 @@ def predict(run: SweepRun, xi: float, *, evaluate: bool = False,
     x = project_cheap(problem, x0)
     span = problem.xu - problem.xl
     clipped = [n for n, a, b in zip(names, x0, x) if abs(a - b) > 1e-9 * span[names.index(n)]]
-    out: dict[str, Any] = {"xi": float(xi), "design": problem.design(x), "clipped": clipped,
+    material = problem.material_name(x)
+    out: dict[str, Any] = {"xi": float(xi), "design": problem.design(x),
+                           **({} if material is None else {"material": material}),
+                           "clipped": clipped,
                            "active_constraints": problem.active_bounds(x),
                            "similarity": problem.similarity(x)}
     if evaluate:
@@ -534,10 +550,15 @@ def predict(run: SweepRun, xi: float, *, evaluate: bool = False,
     return out
 
 
-def laws_json(laws: Sequence[ScalingLaw], prediction: Mapping[str, Any] | None) -> dict[str, Any]:
-    """The public ``hypate laws --json`` document."""
-    return {"laws": [law.to_json() for law in laws],
-            "prediction": None if prediction is None else dict(prediction)}
+def laws_json(laws: Sequence[ScalingLaw], prediction: Mapping[str, Any] | None,
+              points: Sequence[DesignPoint] = ()) -> dict[str, Any]:
+    """The public ``hypate laws --json`` document (``materials``: the chosen model
+    material per scale, :func:`materials_by_scale`, when the study chose it)."""
+    out = {"laws": [law.to_json() for law in laws],
+           "prediction": None if prediction is None else dict(prediction)}
+    if chosen := materials_by_scale(points):
+        out["materials"] = chosen
+    return out
 
 
 # -- text, figure and report section --------------------------------------------------------
@@ -635,4 +656,4 @@ def laws_section(run_dir: str | Path) -> tuple[str, str]:
 __all__ = ["ANALYTICAL_EXPONENTS", "TIME_EXPONENTS", "TIME_STEP", "DesignPoint", "PowerLawFit",
            "ScalingLaw", "SweepRun", "analytical_laws", "fit_laws", "fit_power_law",
            "is_pinned", "laws_figure", "laws_json", "laws_of_run", "laws_section", "laws_table",
-           "load_sweep", "predict", "predicted_design"]
+           "load_sweep", "materials_by_scale", "predict", "predicted_design"]

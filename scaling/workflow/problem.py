@@ -38,13 +38,18 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from hypate.scaling.engine.mixed import Categorical
 from hypate.scaling.engine.problem import CheapConstraint
-from hypate.scaling.workflow.configuration import Configuration, apply_design
+from hypate.scaling.workflow.configuration import (
+    Configuration,
+    apply_design,
+    with_material,
+)
 from hypate.scaling.workflow.similarity import (
     TIME_SCALINGS,
     compare,
@@ -59,6 +64,7 @@ from hypate.solvers.coupling.model import PanelModel
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.coupling.tc import run_tc
 from hypate.solvers.errors import InputError
+from hypate.solvers.materials import Material
 from hypate.solvers.settings import SimulationSettings
 from pymoo.core.problem import Problem
 
@@ -73,6 +79,8 @@ PROJECTIONS = ("center", "modal", "fields")
 FIELD_GROUPS = {"in-plane": (0, 1), "transverse": (2,), "rotation": (3, 4)}
 #: Cheap equality constraints available (Eq. 9.7).
 EQUALITY_CONSTRAINTS = ("T_inf",)
+#: The categorical design variable (:data:`hypate.scaling.workflow.variables.CATEGORICAL`).
+MATERIAL = "material"
 
 
 class ModelFailure(RuntimeError):
@@ -119,6 +127,10 @@ class ScalingSpec:
     increasing : tuple of str
         Scheduled variables (``"T_rad"``) whose control points ``NAME[k]`` may not
         decrease with k (``shape = "increasing"``): cheap linear inequalities.
+    materials : tuple of (str, Material)
+        The levels of a categorical ``material`` variable, by name: level ``k`` of the
+        design vector makes every model layer of ``materials[k][1]`` (empty: the
+        template's material, no such variable).
     """
 
     prototype: Configuration
@@ -131,6 +143,7 @@ class ScalingSpec:
     equalities: tuple[str, ...] = ()
     xi: float = 1.0
     increasing: tuple[str, ...] = ()
+    materials: tuple[tuple[str, Material], ...] = ()
 
     def __post_init__(self) -> None:
         if not self.variables:
@@ -153,6 +166,11 @@ class ScalingSpec:
         both = set(map(base_name, names)) & set(map(base_name, self.fixed))
         if both:
             raise InputError(f"fixed.{sorted(both)[0]}", "is also a design variable")
+        levels = [v for v in self.variables if v.name == MATERIAL]
+        if bool(levels) != bool(self.materials) or (
+                levels and (levels[0].lower, levels[0].upper) != (0.0, len(self.materials) - 1)):
+            raise InputError("variables.material", f"a categorical material needs bounds "
+                             f"[0, k - 1] for its {len(self.materials)} materials")
         for name in self.increasing:
             if len(self.schedule_indices(name)) < 2:
                 raise InputError(f"variables.{name}", "an increasing shape needs a schedule "
@@ -164,6 +182,15 @@ class ScalingSpec:
         found = {p[1]: i for i, v in enumerate(self.variables)
                  if (p := schedule_point(v.name)) is not None and p[0] == name}
         return [found[k] for k in sorted(found)]
+
+    @property
+    def material_index(self) -> int | None:
+        """Position of the categorical ``material`` in the design vector (None: fixed)."""
+        return self.names.index(MATERIAL) if self.materials else None
+
+    @property
+    def material_names(self) -> tuple[str, ...]:
+        return tuple(name for name, _ in self.materials)
 
     @property
     def simulation(self) -> SimulationSettings:
@@ -287,6 +314,9 @@ class ScalingProblem(Problem):
                          n_ieq_constr=0, xl=xl, xu=xu)
         self._prototype_response = prototype_response
         self._ref_p = reference_quantities(spec.prototype)
+        i = spec.material_index
+        #: The categorical material for the optimizer (None: the template's material).
+        self.categorical = None if i is None else Categorical(i, len(spec.materials))
 
     # -- prototype --------------------------------------------------------------------------
     @property
@@ -302,17 +332,39 @@ class ScalingProblem(Problem):
 
     # -- model --------------------------------------------------------------------------------
     def design(self, x: Sequence[float]) -> dict[str, float]:
-        """Design dict (variables then fixed values) of a design vector."""
+        """Design dict (variables then fixed values) of a design vector; a categorical
+        material is its level number (:meth:`material_name` names it)."""
         x = np.asarray(x, dtype=float).reshape(-1)
         if x.size != self.n_var:
             raise InputError("design", f"expected {self.n_var} values, got {x.size}")
+        if self.categorical is not None:
+            x = self.categorical.snap(x)[0]
         return {**self.spec.fixed, **dict(zip(self.spec.names, map(float, x)))}
+
+    def material_name(self, x: Sequence[float]) -> str | None:
+        """The material of design ``x`` by its study name (None: not a design variable)."""
+        if self.categorical is None:
+            return None
+        return self.spec.materials[int(self.categorical.level(np.asarray(x, float))[0])][0]
+
+    def configure(self, design: Mapping[str, float]) -> Configuration:
+        """The model of a design dict (:meth:`design` form): the template made of the
+        design's material level, then :func:`apply_design` with the other values."""
+        design = dict(design)
+        template = self.spec.model
+        if self.spec.materials:
+            level = round(design.pop(MATERIAL))
+            if not 0 <= level < len(self.spec.materials):
+                raise InputError("design.material", f"level must be in [0, "
+                                 f"{len(self.spec.materials) - 1}]; got {level}")
+            template = with_material(template, self.spec.materials[level][1])
+        return apply_design(template, design)
 
     def model_configuration(self, x: Sequence[float]) -> Configuration:
         """The model configuration of design vector ``x`` (DESIGN.md data flow), simulated
         with its matched time step (:meth:`model_time_step`), which is also the reference
         time of its similarity parameters."""
-        config = apply_design(self.spec.model, self.design(x))
+        config = self.configure(self.design(x))
         return config.with_time_step(self.model_time_step(config))
 
     def model_time_step(self, config: Configuration) -> float:
@@ -442,6 +494,8 @@ class ScalingProblem(Problem):
         """Names of the bounds a design sits on (Table 9.8 style), e.g. ``"h=upper"``."""
         out = []
         for v, value in zip(self.spec.variables, np.asarray(x, float)):
+            if v.name == MATERIAL:  # a level, not a bound
+                continue
             span = v.upper - v.lower
             if value <= v.lower + rtol * span:
                 out.append(f"{v.name}=lower")

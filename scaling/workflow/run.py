@@ -49,7 +49,8 @@ from hypate.scaling.workflow.classical import (
     similarity_basis,
     similarity_exponents,
 )
-from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.configuration import Configuration, with_material
+from hypate.scaling.workflow.problem import MATERIAL, ScalingProblem
 from hypate.scaling.workflow.rundir import (
     CLASSICAL_JSON,
     DESIGN_POINT_JSON,
@@ -72,6 +73,8 @@ from hypate.scaling.workflow.variables import schedule_point
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
+#: evaluations.csv column naming a categorical material's level (after its number).
+MATERIAL_NAME = "material_name"
 #: Store metadata key of the design point's propagated scatter (:func:`design_point_scatter`).
 SCATTER_META = "design_point_scatter"
 #: Parameters matched by the classical baseline (Eqs. 9.1, 6.3), per study kind.
@@ -95,23 +98,49 @@ class RunOutcome:
     prototype_warnings: tuple[str, ...] = ()
 
 
-def classical_baseline(study: Study, problem: ScalingProblem) -> dict[str, Any] | None:
-    """The left prong: best classical (GP) design within the study's bounds, or None."""
+def classical_design(study: Study, problem: ScalingProblem, template: Configuration,
+                     names: Sequence[str], box: np.ndarray) -> dict[str, Any]:
+    """The best classical (GP) design of one model template over the variables ``names``
+    (bounds ``box`` (n, 2)): :meth:`ClassicalResult.to_dict` plus its point ``x`` in the
+    order of ``names``, or ``{"status": "failed: ...", "design": None}``."""
     spec = study.spec
-    bounds = {v.name: (v.lower, v.upper) for v in spec.variables}
+    bounds = {n: (float(lo), float(hi)) for n, (lo, hi) in zip(names, box)}
     bounds.update({k: (v, v) for k, v in spec.fixed.items() if v > 0})
-    match = CLASSICAL_MATCH[spec.kind]
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            res = classical_scaling(spec.prototype, spec.model, bounds, match, objective="max")
+            res = classical_scaling(spec.prototype, template, bounds, CLASSICAL_MATCH[spec.kind],
+                                    objective="max")
     except (InputError, ValueError, ArithmeticError) as exc:
         return {"status": f"failed: {exc}", "design": None}
-    x = res.point(spec.names, defaults=spec.fixed,
-                  bounds=np.c_[problem.xl, problem.xu])
     out = res.to_dict()
-    out["x"] = x.tolist()
+    out["x"] = res.point(names, defaults=spec.fixed, bounds=box).tolist()
     return out
+
+
+def classical_baseline(study: Study, problem: ScalingProblem) -> dict[str, Any] | None:
+    """The left prong: best classical (GP) design within the study's bounds.
+
+    With a categorical material, one classical design per material (the matched
+    parameters hold material constants): ``by_material`` maps each name to its record
+    (``x`` the full design vector, ``design`` with the level), and the top level is the
+    first material's until the seeds' objectives pick the best (:func:`_evaluate_seeds`).
+    """
+    spec = study.spec
+    box = np.c_[problem.xl, problem.xu]
+    cat = problem.categorical
+    if cat is None:
+        return classical_design(study, problem, spec.model, spec.names, box)
+    names = [n for n in spec.names if n != MATERIAL]
+    by_material: dict[str, dict[str, Any]] = {}
+    for level, (name, material) in enumerate(spec.materials):
+        rec = classical_design(study, problem, with_material(spec.model, material), names,
+                               np.delete(box, cat.index, axis=0))
+        if rec.get("x") is not None:
+            rec["x"] = cat.insert(rec["x"], level)[0].tolist()
+            rec["design"][MATERIAL] = float(level)
+        by_material[name] = {**rec, "material": name}
+    return {**next(iter(by_material.values())), "by_material": by_material}
 
 
 def surrogate_coordinates(study: Study, problem: ScalingProblem
@@ -121,19 +150,23 @@ def surrogate_coordinates(study: Study, problem: ScalingProblem
     ``"similarity"``: the logs of the classically matched parameters (:data:`CLASSICAL_MATCH`,
     exponents at the centre of the log box), completed by their null space, so that the
     valleys ``Pi_i = Pi_i^p`` of the objective are aligned with the kriging axes.
+
+    A categorical material is left out: these are the coordinates of the continuous
+    variables (the engine's one-hot coordinates add the material, engine.mixed).
     """
     kind = study.optimizer.coordinates
     if kind == "design":
         return None
-    lo, hi = np.asarray(problem.xl, float), np.asarray(problem.xu, float)
+    spec = study.spec
+    keep = [i for i, n in enumerate(spec.names) if n != MATERIAL]
+    names = [spec.names[i] for i in keep]
+    lo, hi = np.asarray(problem.xl, float)[keep], np.asarray(problem.xu, float)[keep]
     if not np.all(lo > 0.0):
-        bad = [n for n, v in zip(problem.spec.names, lo) if not v > 0.0]
+        bad = [n for n, v in zip(names, lo) if not v > 0.0]
         raise InputError("optimizer.coordinates", f"{kind!r} needs positive lower bounds; "
                          f"not so for {', '.join(bad)}")
     if kind == "log":
         return LogLinearCoordinates.log(len(lo))
-    spec = study.spec
-    names = list(spec.names)
     centre = dict(zip(names, np.sqrt(lo * hi).tolist()))
     design = {**{k: v for k, v in spec.fixed.items() if v > 0}, **centre}
     try:
@@ -204,14 +237,30 @@ def seeds_from_runs(study: Study, problem: ScalingProblem, run_dirs: Sequence[st
     return out
 
 
+#: Reason of the classical baseline's seed (a material's name follows for a categorical one).
+CLASSICAL_SEED = "seed: classical baseline"
+
+
+def _classical_records(classical: dict[str, Any] | None) -> list[tuple[str, dict[str, Any]]]:
+    """(seed reason, record) of each classical design: one, or one per material."""
+    if not classical:
+        return []
+    by = classical.get("by_material")
+    if by is None:
+        return [(CLASSICAL_SEED, classical)]
+    return [(f"{CLASSICAL_SEED} ({name})", rec) for name, rec in by.items()]
+
+
 def _seed_designs(study: Study, problem: ScalingProblem, classical: dict[str, Any] | None,
                   seeds: Sequence[tuple[Sequence[float], str]] | None
                   ) -> list[tuple[np.ndarray, str]]:
-    """Classical baseline first (if enabled), then the caller's seeds (duplicates dropped)."""
+    """Classical baseline first (if enabled; one per material of a categorical one), then
+    the caller's seeds (duplicates dropped)."""
     out: list[tuple[np.ndarray, str]] = []
-    if classical and classical.get("x") is not None and study.optimizer.classical_seed:
+    if study.optimizer.classical_seed:
         # the GP design matches monomial similarity parameters, not the Eq. (9.7) equality
-        out.append((project_cheap(problem, classical["x"]), "seed: classical baseline"))
+        out += [(project_cheap(problem, rec["x"]), why)
+                for why, rec in _classical_records(classical) if rec.get("x") is not None]
     span = np.asarray(problem.xu, float) - np.asarray(problem.xl, float)
     for x, why in seeds or ():
         x = project_cheap(problem, x)
@@ -226,8 +275,10 @@ def _evaluate_seeds(problem: ScalingProblem, study: Study, store: EvaluationStor
                     classical: dict[str, Any] | None, run_seed: int,
                     callback: Callable[[Evaluation], None]) -> None:
     """The seeds as iteration -1, committed one by one (crash-safe; skipped when already
-    stored); the classical baseline's objectives are noted in ``classical``."""
+    stored); the classical baseline's objectives are noted in ``classical`` (per material,
+    the best material's record then heading it)."""
     stored = {r.batch_index: r for r in store.load() if r.iteration == -1}
+    records = dict(_classical_records(classical))
     for i, (x, why) in enumerate(seed_list):
         if i in stored:
             ev = stored[i]
@@ -238,10 +289,16 @@ def _evaluate_seeds(problem: ScalingProblem, study: Study, store: EvaluationStor
                                      else why)
             store.append(ev)
             callback(ev)
-        if i == 0 and why == "seed: classical baseline" and classical is not None:
-            classical["objectives"] = {o: finite_or_none(f) for o, f in
-                                       zip(study.spec.objectives, ev.F)}
-            classical["evaluation_status"] = ev.status
+        if why in records:
+            records[why]["objectives"] = {o: finite_or_none(f) for o, f in
+                                          zip(study.spec.objectives, ev.F)}
+            records[why]["evaluation_status"] = ev.status
+    by = (classical or {}).get("by_material")
+    scored = [r for r in (by or {}).values() if r.get("evaluation_status") == "ok"]
+    if scored:  # the material whose classical design is best (the design-point rule)
+        best = scored[int(rank_designs(np.array([list(r["objectives"].values())
+                                                 for r in scored], float))[0])]
+        classical.update({**best, "by_material": by})
 
 
 def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: int = 1,
@@ -346,7 +403,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
                 n_iter=opt.iterations, batch_size=opt.batch_size, v=opt.v, weights=opt.weights,
                 cheap_constraints=problem.cheap_constraints(), executor=executor,
                 timeout=opt.timeout, store=store, seed=run_seed, callback=callback,
-                output_transform=opt.transform, coordinates=coordinates, polish=opt.polish)
+                output_transform=opt.transform, coordinates=coordinates, polish=opt.polish,
+                categorical=problem.categorical)
             t0 = time.perf_counter()
             optimizer = BayesianOptimizer(problem, settings)
             result = optimizer.run()
@@ -370,6 +428,10 @@ def evaluations_table(study: Study, result: OptimizationResult) -> pd.DataFrame:
     rename.update({f"f{i}": o for i, o in enumerate(study.spec.objectives)})
     df = df.rename(columns=rename)
     df.insert(0, ID_COLUMN, np.arange(len(df)))
+    if study.spec.materials:  # the level's name next to its number
+        levels = np.clip(np.rint(df[MATERIAL].to_numpy(float)), 0, len(study.spec.materials) - 1)
+        df.insert(df.columns.get_loc(MATERIAL) + 1, MATERIAL_NAME,
+                  [study.spec.material_names[int(k)] for k in levels])
     return df
 
 
@@ -403,6 +465,24 @@ def surrogate_record(optimizer: BayesianOptimizer, result: OptimizationResult, r
             "transform": check.transform, "objectives": per}
 
 
+def best_by_material(study: Study, result: OptimizationResult) -> dict[str, Any]:
+    """design_point.json's ``material.best``: per material of a categorical one, its best
+    feasible evaluation by the design-point rule (``evaluation``, ``objectives``; None
+    when none succeeded), so the report can say how far the other materials stayed."""
+    cat_col = result.X[:, study.spec.material_index]
+    out: dict[str, Any] = {}
+    for level, name in enumerate(study.spec.material_names):
+        idx = np.flatnonzero(result.feasible & (np.rint(cat_col) == level))
+        if idx.size == 0:
+            out[name] = None
+            continue
+        opt = study.optimizer
+        row = int(idx[design_point_index(result.F[idx], opt.design_point, opt.weights)])
+        out[name] = {"evaluation": row, "objectives": {
+            o: float(f) for o, f in zip(study.spec.objectives, result.F[row])}}
+    return out
+
+
 def design_point_scatter(study: Study, problem: ScalingProblem, x: np.ndarray,
                          store: EvaluationStore | None = None,
                          progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
@@ -431,8 +511,13 @@ def point_header(study: Study) -> dict[str, Any]:
 
 def design_fields(study: Study, problem: ScalingProblem, x: np.ndarray) -> dict[str, Any]:
     """design_point.json's description of design ``x``: ``design``, ``similarity``,
-    ``active_constraints`` (bounds hit, then the equalities) and the variables' ``bounds``."""
-    return {"design": problem.design(x), "similarity": problem.similarity(x),
+    ``active_constraints`` (bounds hit, then the equalities) and the variables' ``bounds``;
+    with a categorical material also ``material`` (``name``, ``level``, ``levels``)."""
+    material = problem.material_name(x)
+    named = {} if material is None else {MATERIAL: {
+        "name": material, "level": int(problem.design(x)[MATERIAL]),
+        "levels": list(study.spec.material_names)}}
+    return {"design": problem.design(x), **named, "similarity": problem.similarity(x),
             "active_constraints": problem.active_bounds(x) + [
                 f"{name} (equality)" for name in study.spec.equalities],
             "bounds": {v.name: [v.lower, v.upper] for v in study.spec.variables}}
@@ -483,6 +568,8 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
         if optimizer is not None and int(result.ok.sum()) >= 3:
             point["surrogate"] = surrogate_record(optimizer, result, row,
                                                   study.spec.objectives)
+        if study.spec.materials:
+            point[MATERIAL]["best"] = best_by_material(study, result)
         if study.uncertainty is not None:
             point["scatter"] = design_point_scatter(study, problem, x, store, on_scatter)
         point.update(save_design_response(problem, x, out)[1])
@@ -502,5 +589,5 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
 
 __all__ = ["RunOutcome", "design_fields", "design_point_scatter", "point_header",
            "save_design_response", "run_study", "surrogate_coordinates", "surrogate_record",
-           "seeds_from_runs",
+           "seeds_from_runs", "best_by_material",
            "write_outputs", "classical_baseline", "evaluations_table", "choose_design_point"]

@@ -17,7 +17,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from hypate.scaling.workflow.campaign import MAX_SEED
-from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON, SEEDS_CSV, SEEDS_JSON, write_json
+from hypate.scaling.workflow.rundir import (
+    DESIGN_POINT_JSON,
+    SEEDS_CSV,
+    SEEDS_JSON,
+    write_json,
+)
 from hypate.scaling.workflow.study import Study
 from hypate.solvers.errors import InputError
 

@@ -17,9 +17,10 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
     [materials.NAME]  user materials, the schema of case files (solvers.config)
     [tunnel]       name (shipped: ideal, WT5, WT6, WT7) or an inline envelope (mach /
                    mach_values, p0, T0 ...), mach (the nozzle to use)
-    [variables]    NAME = [lower, upper] or "tunnel" (the envelope's bounds), or a heater
+    [variables]    NAME = [lower, upper] or "tunnel" (the envelope's bounds), a heater
                    schedule T_rad = { schedule = n, range = [lo, hi], shape = "free" |
-                   "increasing" } (scaling.workflow.design_space)
+                   "increasing" }, or the model material as a categorical variable
+                   material = ["ti6242", "inconel718", ...] (scaling.workflow.design_space)
     [fixed]        NAME = value (design values that are not optimized)
     [constraints]  equality = ["T_inf"]
     [optimizer]    approach, acquisition, v, weights, initial_samples, iterations,
@@ -64,7 +65,11 @@ from typing import Annotated, Any, Literal
 
 from hypate.scaling.workflow import uncertainty as scatter
 from hypate.scaling.workflow.configuration import Configuration
-from hypate.scaling.workflow.design_space import VariableEntry, study_variables
+from hypate.scaling.workflow.design_space import (
+    VariableEntry,
+    study_levels,
+    study_variables,
+)
 from hypate.scaling.workflow.problem import (
     EQUALITY_CONSTRAINTS,
     OBJECTIVES,
@@ -73,7 +78,7 @@ from hypate.scaling.workflow.problem import (
 )
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.tunnels import TunnelEnvelope, resolve_tunnel
-from hypate.scaling.workflow.variables import HARD_LIMITS, OPTIMIZABLE
+from hypate.scaling.workflow.variables import CATEGORICAL, HARD_LIMITS, OPTIMIZABLE
 from hypate.solvers import materials as mat
 from hypate.solvers.aero.factory import AERO_NAMES, is_aero_name
 from hypate.solvers.config import (
@@ -259,6 +264,21 @@ class StudyFile(InputModel):
             raise ValueError(f"optimizer.weights: need {n_obj} values")
         if self.robust is not None and not self.uncertainty:
             raise ValueError("robust: needs an [uncertainty] table")  # nothing to be robust to
+        for name in CATEGORICAL:
+            if name in self.fixed:
+                raise ValueError(f"fixed.{name}: a categorical variable is not a number; "
+                                 f"set [model] {name} = \"NAME\" instead")
+            if name not in self.variables:
+                continue
+            if name in self.model.model_fields_set:
+                raise ValueError(f"model.{name}: the {name} is a design variable "
+                                 f"(variables.{name}); give one or the other")
+            if self.robust is not None:  # the robust search's joint space is continuous
+                raise ValueError(f"robust: a categorical variables.{name} cannot be searched "
+                                 "robustly; run one robust study per value")
+            if self.optimizer.polish:
+                raise ValueError(f"optimizer.polish: a Nelder-Mead polish cannot step "
+                                 f"between the values of variables.{name}; set it to 0")
         return self
 
 
@@ -293,11 +313,14 @@ class Study:
         lines = [f"study {self.name}: {self.description or '(no description)'}",
                  f"kind {self.raw.study.kind}, objectives {', '.join(spec.objectives)}, "
                  f"xi = {spec.xi:g}, time scaling {spec.time_scaling}",
-                 f"prototype case {self.raw.prototype.case}; model {self.raw.model.material}"
+                 f"prototype case {self.raw.prototype.case}; model "
+                 f"{' / '.join(spec.material_names) or self.raw.model.material}"
                  + (f" in tunnel {self.tunnel.name}" if self.tunnel is not None else ""),
                  f"simulation: {sim.steps} steps of {sim.time_step:g} s, aero {sim.aero}, "
                  f"heating {sim.heating}"]
-        lines += [f"variable {v.name} in [{v.lower:g}, {v.upper:g}]" for v in spec.variables]
+        lines += [f"variable {v.name} in {{{', '.join(spec.material_names)}}}"
+                  if v.name == "material" else f"variable {v.name} in [{v.lower:g}, {v.upper:g}]"
+                  for v in spec.variables]
         lines += [f"fixed {k} = {v:g}" for k, v in spec.fixed.items()]
         sweep = f", {len(sweep_points(self))} sweep points" if self.sweep is not None else ""
         lines.append(f"optimizer: {self.acquisition}, {self.budget} evaluations{sweep}, "
@@ -347,6 +370,24 @@ def simulation_settings(kind: str, sim: SimulationSection) -> SimulationSettings
         initial_deflection=sim.initial_deflection)
 
 
+def model_materials(cfg: StudyFile) -> tuple[tuple[str, mat.Material], ...]:
+    """The model's material(s) by name: ``[model] material``, or every value of a
+    categorical ``[variables] material`` list (library names or the study's
+    ``[materials.NAME]``), frozen at the initial temperature for a temperature-independent
+    model."""
+    m = cfg.model
+    names = study_levels(cfg.variables).get("material", (m.material,))
+    field = "variables.material" if "material" in cfg.variables else "model.material"
+    resolved: dict[str, mat.Material] = {}
+    out = []
+    for name in names:
+        material = resolve_material(name, resolved, cfg.materials, field=field)
+        if m.temperature_independent:
+            material = constant_material(material, m.initial_temperature)
+        out.append((name, material))
+    return tuple(out)
+
+
 def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
     """Validate a parsed study and build its :class:`ScalingSpec` (nothing is simulated)."""
     try:
@@ -388,9 +429,8 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
     # -- model template -------------------------------------------------------------------
     m = cfg.model
     xi = cfg.study.xi
-    material = resolve_material(m.material, {}, cfg.materials, field="model.material")
-    if m.temperature_independent:
-        material = constant_material(material, m.initial_temperature)
+    materials = model_materials(cfg)
+    material = materials[0][1]
     thickness = m.thickness if m.thickness is not None else proto_panel.thickness / xi
     model_panel = PanelSpec(
         layers=(Layer(material, thickness, 0.0, m.sublayers),), kind=proto_panel.kind,
@@ -436,7 +476,8 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
                        objectives=tuple(cfg.study.objectives),
                        time_scaling=cfg.study.time_scaling, projection=cfg.study.projection,
                        equalities=tuple(cfg.constraints.equality), xi=xi,
-                       increasing=increasing)
+                       increasing=increasing,
+                       materials=materials if "material" in cfg.variables else ())
     uncertainty = scatter.parse_uncertainty(  # without [robust]: a nominal design
         cfg.uncertainty, cfg.robust or scatter.RobustSection(optimize=False),
         ScalingProblem(spec)) if cfg.uncertainty else None
@@ -524,6 +565,9 @@ def study_data(study: Study) -> dict[str, Any]:
     """The study as a plain dict that :func:`parse_study` accepts anywhere (the prototype
     case path made absolute); stored in sweep run directories to rebuild sub-studies."""
     data = study.raw.model_dump(mode="json", exclude_none=True)
+    for name in CATEGORICAL:  # the template's default would clash with the variable
+        if name in data["variables"]:
+            data["model"].pop(name, None)
     base = Path(study.path).parent if study.path != "<memory>" else Path.cwd()
     data["prototype"]["case"] = str(resolve(data["prototype"]["case"], "case", base).resolve())
     return data
@@ -569,4 +613,5 @@ def study_at(study: Study | dict[str, Any], point: SweepPoint | None = None, *,
 
 
 __all__ = ["OBJECTIVES", "Study", "StudyFile", "SweepPoint", "constant_material", "load_study",
+           "model_materials",
            "parse_study", "study_at", "study_data", "sweep_points"]

@@ -137,6 +137,8 @@ def _point_record(point: Any, sub: Study, directory: Path, status: str,
                    active_constraints=design_point.get("active_constraints", []),
                    model_time_step=design_point.get("model_time_step"),
                    evaluations=(design_point.get("statistics") or {}).get("evaluations"))
+        if design_point.get("material"):  # a categorical material: the laws report it
+            rec["material"] = design_point["material"]
         if not design_point.get("design"):
             rec["status"] = "failed"
     return rec
@@ -154,6 +156,8 @@ def write_sweep_summary(study: Study, out: Path, records: Sequence[dict[str, Any
     for r in records:
         row = {k: r.get(k) for k in ("label", "xi", "mach", "altitude", "status")}
         row.update(r.get("design") or {})
+        if r.get("material"):
+            row["material_name"] = r["material"]["name"]
         row.update(r.get("objectives") or {})
         row["evaluations"] = r.get("evaluations")
         row["active_constraints"] = ";".join(r.get("active_constraints") or [])

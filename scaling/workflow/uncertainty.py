@@ -52,7 +52,7 @@ from hypate.scaling.engine.propagation import (
     robust_value,
     summary,
 )
-from hypate.scaling.workflow.configuration import Configuration, apply_design
+from hypate.scaling.workflow.configuration import Configuration
 from hypate.scaling.workflow.problem import (
     ModelFailure,
     ScalingProblem,
@@ -227,7 +227,7 @@ def scattered_configuration(problem: ScalingProblem, x: Sequence[float], names: 
             props[name[len(MODEL_PREFIX):]] = f
         else:
             changed[name] = (design[name] if name in design else NOMINAL[name](nominal)) * f
-    config = apply_design(problem.spec.model, {**design, **changed})
+    config = problem.configure({**design, **changed})
     config = config.with_time_step(nominal.simulation.time_step)
     if props:
         panel = config.panel

@@ -68,10 +68,16 @@ DESIGN_VARIABLES: dict[str, DesignVariable] = {v.name: v for v in (
     DesignVariable("delta_T", "K", "uniform temperature rise (Sec. 9.1)", (1e-6, 2000.0), True),
     DesignVariable("time", "s", "reference time (time step or duration)"),
     DesignVariable("T_w", "K", "reference wall temperature; T_S = T_T = T_w (Eq. 9.7)"),
+    DesignVariable("material", "-", "model material, categorical: a [variables] list of "
+                   "names; a design vector holds its level 0 .. k-1", None, True),
 )}
 
 #: Names a study may optimize, in table order.
 OPTIMIZABLE: tuple[str, ...] = tuple(n for n, v in DESIGN_VARIABLES.items() if v.optimizable)
+#: Categorical variables: a design vector holds the level number ``0 .. k-1`` of one of
+#: the study's listed values (``[variables] material = ["ti6242", "inconel718"]``); the
+#: scaling problem turns it into the model's material, never ``apply_design``.
+CATEGORICAL: tuple[str, ...] = ("material",)
 #: Hard limits by name (the optimizable variables).
 HARD_LIMITS: dict[str, Bounds] = {n: v.limits for n, v in DESIGN_VARIABLES.items()
                                   if v.limits is not None}

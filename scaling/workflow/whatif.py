@@ -10,8 +10,11 @@ Rules (documented in ``--help`` and the README):
   study's design variables, one of its ``[fixed]`` values (overridden), or any other design
   variable of :data:`hypate.scaling.workflow.variables.DESIGN_VARIABLES` (applied as an extra fixed value and
   flagged). Unknown names exit 2 naming ``--set``.
-* Variables not set take the **midpoint of their bounds** (arithmetic mean), so no value is
-  required; the output says which values were set and which are midpoints. With
+* ``--set material=NAME`` picks the model material: one of the study's categorical
+  ``[variables] material`` values, or, for a study with a fixed ``[model] material``, any
+  library material or ``[materials.NAME]`` of the study (an extra, flagged).
+* Variables not set take the **midpoint of their bounds** (arithmetic mean; a categorical
+  material its first listed value), so no value is required; the output says which values were set and which are midpoints. With
   ``--base RUN_DIR`` (or a ``design_point.json``) they take the run's design point instead:
   "the optimized model, but with only 6 MPa".
 * A value outside its bounds (or outside the tunnel envelope / manufacturing limits) is
@@ -45,10 +48,13 @@ from typing import Any
 
 import numpy as np
 from hypate.scaling.engine.propagation import expansion_terms
-from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.configuration import with_material
+from hypate.scaling.workflow.problem import MATERIAL, ScalingProblem
 from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON
+from hypate.scaling.workflow.study import constant_material
 from hypate.scaling.workflow.uncertainty import propagate_or_failure
 from hypate.scaling.workflow.variables import DESIGN_VARIABLES, HARD_LIMITS
+from hypate.solvers.config import resolve_material
 from hypate.solvers.errors import InputError
 
 #: ``plot(rows, name, path, bounds=..., title=...) -> Path`` draws a sweep's figure.
@@ -85,11 +91,18 @@ class WhatIf:
 
 
         self.study = study
-        spec = study.spec
+        spec, values = study.spec, dict(values)
+        #: ``--set material=NAME``: the model's material (a study value's level, or for a
+        #: fixed-material study the template made of it: an extra)
+        self.material: str | None = None
+        self.extra: list[str] = []
+        if MATERIAL in values:
+            spec, values[MATERIAL] = self._material(study, values[MATERIAL], option)
+            if values[MATERIAL] is None:
+                del values[MATERIAL]
         known = list(spec.names) + [n for n in spec.fixed if n not in spec.names]
         others = [n for n in DESIGN_VARIABLES if n not in known]
         fixed = dict(spec.fixed)
-        self.extra: list[str] = []
         for name, value in values.items():
             if name in spec.names:
                 continue
@@ -109,10 +122,40 @@ class WhatIf:
         self.option = option
         self.base = {k: float(v) for k, v in (base or {}).items() if k in spec.names}
 
+    def _material(self, study: Any, value: str | float, option: str
+                  ) -> tuple[Any, float | None]:
+        """(spec, level) of ``--set material=VALUE``: a name (or level number) of the
+        study's categorical material, or any material of the library / the study's
+        ``[materials.NAME]`` for a fixed-material study (its template made of it; level
+        None)."""
+        spec = study.spec
+        if spec.materials:
+            names = spec.material_names
+            if isinstance(value, str) and value not in names:
+                raise InputError(option, f"material: {value!r} is not one of the study's "
+                                 f"materials ({', '.join(names)})")
+            level = names.index(value) if isinstance(value, str) else float(value)
+            if level not in range(len(names)):
+                raise InputError(option, f"material: a level in [0, {len(names) - 1}] "
+                                 f"({', '.join(names)}); got {value}")
+            self.material = names[int(level)]
+            return spec, float(level)
+        if not isinstance(value, str):
+            raise InputError(option, "material: give a material name, e.g. material=inconel718")
+        raw = study.raw
+        material = resolve_material(value, {}, raw.materials, field=option)
+        if raw.model.temperature_independent:
+            material = constant_material(material, raw.model.initial_temperature)
+        self.material = value
+        self.extra.append(MATERIAL)
+        return dataclasses.replace(spec, model=with_material(spec.model, material)), None
+
     def design_vector(self, overrides: Mapping[str, float] | None = None) -> np.ndarray:
-        """Design vector: set values, then ``overrides``, midpoints elsewhere."""
+        """Design vector: set values, then ``overrides``, midpoints elsewhere (a
+        categorical material: its first listed value)."""
         vals = {**self.base, **self.values, **(overrides or {})}
-        return np.array([float(vals.get(v.name, 0.5 * (v.lower + v.upper)))
+        return np.array([float(vals.get(v.name, v.lower if v.name == MATERIAL
+                                        else 0.5 * (v.lower + v.upper)))
                          for v in self.spec.variables])
 
     def sources(self, overrides: Mapping[str, float] | None = None) -> dict[str, str]:
@@ -121,7 +164,10 @@ class WhatIf:
         for v in self.spec.variables:
             out[v.name] = ("sweep" if overrides and v.name in overrides else
                            "set" if v.name in self.values else
-                           "design point" if v.name in self.base else "midpoint")
+                           "design point" if v.name in self.base else
+                           "first listed" if v.name == MATERIAL else "midpoint")
+        if MATERIAL in self.extra:
+            out[MATERIAL] = "extra (set; the study fixes another material)"
         for name in self.spec.fixed:
             if name not in out:
                 out[name] = ("extra (not a study variable)" if name in self.extra else
@@ -141,7 +187,8 @@ class WhatIf:
 
         design = self.problem.design(x)
         bounds: list[dict[str, Any]] = []
-        limits = {v.name: (v.lower, v.upper, "bounds") for v in self.spec.variables}
+        limits = {v.name: (v.lower, v.upper, "bounds") for v in self.spec.variables
+                  if v.name != MATERIAL}  # a level, no bound to hit
         tunnel = self.study.tunnel
         if tunnel is not None:
             for name, (lo, hi) in tunnel.bounds().items():
@@ -220,7 +267,8 @@ def evaluate_whatif(study: Any, values: Mapping[str, float],
     -------
     dict
         ``study``, ``design`` (name -> value, fixed values included), ``sources`` (name ->
-        ``"set"``/``"midpoint"``/``"fixed"``...), ``objectives`` (``J_u``, ``J_T``, ``J_s``;
+        ``"set"``/``"midpoint"``/``"fixed"``...), ``material`` (its name, when the study
+        chooses it or ``--set material=NAME`` sets it), ``objectives`` (``J_u``, ``J_T``, ``J_s``;
         ``None`` when the model failed), ``status`` (``"ok"``/``"failed"``), ``message``,
         ``similarity`` (list of ``{"name", "prototype", "model", "relative_difference"}``),
         ``constraints`` (``bounds`` list, ``active`` names, ``outside`` flags,
@@ -231,6 +279,9 @@ def evaluate_whatif(study: Any, values: Mapping[str, float],
     x = w.design_vector()
     w.check(x)
     result = {"study": study.name, "design": w.problem.design(x), "sources": w.sources()}
+    material = w.problem.material_name(x) or w.material
+    if material is not None:
+        result["material"] = material
     result.update(w.evaluate(x))
     result["similarity"] = w.problem.similarity(x)
     result["constraints"] = w.constraints(x)

@@ -17,7 +17,8 @@ import pytest
 from conftest import REPO
 
 SCRIPTS = ("ch7_table7_3_modes", "ch7_flutter", "ch7_benchmark", "ch7_time_accuracy",
-           "ch8_effects", "ch9_table9_3", "ch9_tables", "reproduce", "make_model_test")
+           "ch8_effects", "ch9_table9_3", "ch9_tables", "reproduce", "make_model_test",
+           "material_choice")
 
 
 def test_scripts_import_quietly_and_expose_run() -> None:
@@ -200,3 +201,24 @@ def test_ch9_tables_on_a_quickstart_run(tmp_path) -> None:
     t = res.table.set_index("quantity")
     assert 5.0 <= t.loc["Table 9.8 xi4 M", "hypate"] <= 7.0
     assert 1e-3 <= t.loc["Table 9.8 xi4 h", "hypate"] <= 1e-2
+
+
+@pytest.mark.slow
+def test_material_choice_compares_the_material_study_with_each_fixed_one(tmp_path) -> None:
+    """Coarse: the summary's ratio is the material study's max(J) over the best fixed
+    study's, the evaluation counts are the runs' own (3 classical seeds + 6 + 6 against
+    3 x (1 + 6 + 4)), and a second call reads the finished runs without simulating."""
+    from hypate.studies.scripts.material_choice import Config, run
+
+    config = Config(out=str(tmp_path), coarse_run=True)
+    res = run(config)
+    table, summary = res.table, res.summary.iloc[0]
+    assert list(table["study"]) == ["material", "fixed_ti6242", "fixed_inconel718",
+                                    "fixed_al7075"]
+    assert list(table["evaluations"]) == [15, 11, 11, 11]
+    fixed = table[table["study"] != "material"]
+    assert summary["ratio"] == pytest.approx(table["max_J"].iloc[0] / fixed["max_J"].min(),
+                                             rel=1e-12)
+    assert summary["fewer evaluations"]
+    again = run(config)
+    assert again.table.equals(table)
