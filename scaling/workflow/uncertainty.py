@@ -19,7 +19,9 @@ Public keys::
 Every entry is a factor on a nominal value (:mod:`hypate.scaling.engine.propagation`): a
 design value of the study (a variable or a ``[fixed]`` value), a model/tunnel value the
 template sets (:data:`NOMINAL`), or a material property of every model layer
-(:data:`MATERIAL_FACTORS`).
+(:data:`MATERIAL_FACTORS`). ``T_rad`` of a study with a heater schedule is one factor on
+every control point ``T_rad[k]`` (a heater bank's calibration scatters the whole
+programme); a categorical ``material`` has no scatter (its properties do: ``model.NAME``).
 
 The test is planned on the nominal design: the model time step (the time mapping, Eq. 9.6)
 is the nominal design's, and the scatter acts on the article and the tunnel only -- a model
@@ -36,7 +38,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
@@ -59,6 +61,7 @@ from hypate.scaling.workflow.problem import (
     relative_rms,
     response_series,
 )
+from hypate.scaling.workflow.variables import CATEGORICAL, schedule_point
 from hypate.solvers import materials as mat
 from hypate.solvers.config import InputModel
 from hypate.solvers.errors import InputError
@@ -183,7 +186,10 @@ def parse_uncertainty(entries: dict[str, UncertainEntry], robust: RobustSection,
             if name[len(MODEL_PREFIX):] not in MATERIAL_FACTORS:
                 raise InputError(f"uncertainty.{name}", "unknown material property; known: "
                                  + ", ".join(MODEL_PREFIX + k for k in MATERIAL_FACTORS))
-        elif name not in design and name not in NOMINAL:
+        elif name in CATEGORICAL:
+            raise InputError(f"uncertainty.{name}", "a categorical value has no scatter; "
+                             "give its properties' (model.NAME)")
+        elif name not in design and name not in NOMINAL and not schedule_points(name, design):
             raise InputError(f"uncertainty.{name}", "not a design value of the study; known: "
                              + ", ".join(dict.fromkeys([*design, *NOMINAL]))
                              + ", " + ", ".join(MODEL_PREFIX + k for k in MATERIAL_FACTORS))
@@ -203,6 +209,11 @@ def parse_uncertainty(entries: dict[str, UncertainEntry], robust: RobustSection,
 
 
 # -- one scattered model ------------------------------------------------------------------
+def schedule_points(name: str, design: Mapping[str, float]) -> list[str]:
+    """The control points ``NAME[k]`` of a scheduled ``name`` in ``design`` (empty: none)."""
+    return [n for n in design if (p := schedule_point(n)) is not None and p[0] == name]
+
+
 def scaled_material(m: mat.Material, factors: dict[str, float]) -> mat.Material:
     """``m`` with the properties of :data:`MATERIAL_FACTORS` multiplied by ``factors``."""
     changes = {}
@@ -225,6 +236,8 @@ def scattered_configuration(problem: ScalingProblem, x: Sequence[float], names: 
     for name, f in zip(names, map(float, factors)):
         if name.startswith(MODEL_PREFIX):
             props[name[len(MODEL_PREFIX):]] = f
+        elif name not in design and (points := schedule_points(name, design)):
+            changed.update({p: design[p] * f for p in points})  # the whole schedule
         else:
             changed[name] = (design[name] if name in design else NOMINAL[name](nominal)) * f
     config = problem.configure({**design, **changed})

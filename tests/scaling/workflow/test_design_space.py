@@ -20,6 +20,7 @@ from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.run import run_study, seeds_from_runs
 from hypate.scaling.workflow.similarity import reference_quantities, similarity_parameters
 from hypate.scaling.workflow.study import load_study, parse_study
+from hypate.scaling.workflow.uncertainty import scattered_configuration
 from hypate.scaling.workflow.whatif import evaluate_whatif
 from hypate.solvers.errors import InputError
 from hypate.solvers.materials import STEFAN_BOLTZMANN
@@ -206,3 +207,20 @@ def test_laws_fit_control_points_with_the_heaters_analytical_exponent() -> None:
     assert laws["T_rad[0]"].fit.exponent == pytest.approx(0.1, rel=1e-9)
     assert laws["h"].analytical_exponent == -1.0
     assert math.isfinite(laws["T_rad[1]"].fit.exponent)
+
+
+def test_heater_scatter_is_one_factor_on_every_control_point() -> None:
+    """``[uncertainty] T_rad`` of a scheduled heater scales the whole programme: at factor
+    f each control point is f times the nominal one, on the nominal design's clock."""
+    study = _study(f"{{ schedule = 3, {RANGE} }}",
+                   tail="[uncertainty]\nT_rad = { normal = 0.05 }\n")
+    assert list(study.uncertainty.names) == ["T_rad"]
+    problem = ScalingProblem(study.spec)
+    x = np.array([6.0, 2.0e7, 1200.0, 0.004, 500.0, 1500.0, 900.0])
+    nominal = problem.model_configuration(x)
+    cfg = scattered_configuration(problem, x, ["T_rad"], [1.1])
+    assert cfg.simulation.radiation_schedule == pytest.approx((550.0, 1650.0, 990.0), rel=1e-14)
+    assert cfg.simulation.time_step == nominal.simulation.time_step
+    with pytest.raises(InputError) as err:
+        _study(f"{{ schedule = 3, {RANGE} }}", tail="[uncertainty]\nT_sky = { normal = 0.05 }\n")
+    assert err.value.field == "uncertainty.T_sky"

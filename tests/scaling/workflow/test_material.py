@@ -88,6 +88,14 @@ def test_a_robust_search_over_a_categorical_material_is_refused() -> None:
     assert err.value.field == "robust"
 
 
+def test_a_categorical_material_has_no_scatter_its_properties_do() -> None:
+    with pytest.raises(InputError, match="categorical") as err:
+        _study(tail="[uncertainty]\nmaterial = { normal = 0.1 }\n")
+    assert err.value.field == "uncertainty.material"
+    study = _study(tail='[uncertainty]\n"model.conductivity" = { normal = 0.05 }\n')
+    assert list(study.uncertainty.names) == ["model.conductivity"]
+
+
 def test_a_study_material_table_is_a_level() -> None:
     tail = ('[materials.my_alloy]\nkind = "isotropic"\ndensity = 4000.0\n'
             'youngs_modulus = 1.0e11\npoisson_ratio = 0.3\nthermal_expansion = 1.0e-5\n'
