@@ -98,8 +98,8 @@ class RunOutcome:
     prototype_warnings: tuple[str, ...] = ()
 
 
-def classical_design(study: Study, problem: ScalingProblem, template: Configuration,
-                     names: Sequence[str], box: np.ndarray) -> dict[str, Any]:
+def classical_design(study: Study, template: Configuration, names: Sequence[str],
+                     box: np.ndarray) -> dict[str, Any]:
     """The best classical (GP) design of one model template over the variables ``names``
     (bounds ``box`` (n, 2)): :meth:`ClassicalResult.to_dict` plus its point ``x`` in the
     order of ``names``, or ``{"status": "failed: ...", "design": None}``."""
@@ -130,11 +130,11 @@ def classical_baseline(study: Study, problem: ScalingProblem) -> dict[str, Any] 
     box = np.c_[problem.xl, problem.xu]
     cat = problem.categorical
     if cat is None:
-        return classical_design(study, problem, spec.model, spec.names, box)
+        return classical_design(study, spec.model, spec.names, box)
     names = [n for n in spec.names if n != MATERIAL]
     by_material: dict[str, dict[str, Any]] = {}
     for level, (name, material) in enumerate(spec.materials):
-        rec = classical_design(study, problem, with_material(spec.model, material), names,
+        rec = classical_design(study, with_material(spec.model, material), names,
                                np.delete(box, cat.index, axis=0))
         if rec.get("x") is not None:
             rec["x"] = cat.insert(rec["x"], level)[0].tolist()

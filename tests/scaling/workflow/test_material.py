@@ -13,8 +13,15 @@ import pandas as pd
 import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
-from hypate.scaling.workflow.laws import DesignPoint, fit_laws, materials_by_scale, predicted_design
+from hypate.scaling.engine.mixed import MixedCoordinates
+from hypate.scaling.workflow.laws import (
+    DesignPoint,
+    fit_laws,
+    materials_by_scale,
+    predicted_design,
+)
 from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.run import surrogate_coordinates
 from hypate.scaling.workflow.study import parse_study
 from hypate.scaling.workflow.whatif import evaluate_whatif
 from hypate.solvers.errors import InputError
@@ -139,6 +146,21 @@ def test_materials_change_the_matched_time_step() -> None:
         rho_c = float(m.density(T)) * float(m.specific_heat(T))
         from_props.append(rho_c / float(m.k1(T)))
     assert dt[1] / dt[0] == pytest.approx(from_props[1] / from_props[0], rel=1e-9)
+
+
+@pytest.mark.parametrize("kind", ["log", "similarity"])
+def test_surrogate_coordinates_span_the_continuous_variables_only(kind: str) -> None:
+    """The material's level has lower bound 0 (no log) and no similarity exponent: the
+    log / similarity axes are built over the 4 continuous variables, and the engine's
+    one-hot coordinates take them as they are."""
+    study = _study(tail=f'coordinates = "{kind}"')
+    problem = ScalingProblem(study.spec)
+    coords = surrogate_coordinates(study, problem)
+    assert coords.matrix.shape == (4, 4)
+    mixed = MixedCoordinates(problem.categorical, problem.n_var, coords)
+    z = mixed(np.array([[6.0, 2.0e7, 1200.0, 0.004, 2.0]]))
+    assert z.shape == (1, 4 + 3) and list(z[0, 4:]) == [0.0, 0.0, 1.0]
+    assert z[0, :4] == pytest.approx(coords(np.array([[6.0, 2.0e7, 1200.0, 0.004]]))[0])
 
 
 # -- a run ---------------------------------------------------------------------------------
