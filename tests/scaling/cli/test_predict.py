@@ -66,6 +66,16 @@ def test_text_output_and_default_directory(prediction_run, tmp_path, capsys):
     text = capsys.readouterr().out
     assert "center_deflection: +-" in text and "in band at 100 %" in text
     assert (run_dir / "prediction" / "prediction.csv").is_file()
+    # the run's report gains a Prediction section from prediction/prediction.json
+    assert "<h2>Prediction</h2>" not in (run_dir / "report.html").read_text()
+    assert main(["report", str(run_dir)]) == 0
+    page = (run_dir / "report.html").read_text()
+    summary = json.loads((run_dir / "prediction" / "prediction.json").read_text())
+    section = page[page.index("<h2>Prediction</h2>"):]
+    assert "<a href='prediction/prediction.html'>" in section
+    for name in ("center_deflection", "mean_temperature"):
+        assert f"<td>{name} [{summary['histories'][name]['unit']}]</td>" in section
+    assert section.count("<td>100 %</td>") == 2  # the model's own response: all in band
 
 
 GOOD_HEADER = "time [s],center_deflection [m],mean_temperature [K]\n"
