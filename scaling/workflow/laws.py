@@ -40,7 +40,7 @@ values (``h_p``, ``L_p``, ``L_le^p``, M, p0, T0, T_inf, emissivity) and Eq. 9.2b
 (optionally) its simulated ``J_u``, ``J_T``; the sweep runner seeds a new scale's initial
 sample with the same prediction (:func:`hypate.scaling.workflow.run.run_sweep`).
 
-Size: about 630 lines: reading sweeps, the constrained power-law fit (cvxpy), the
+Size: about 660 lines: reading sweeps, the constrained power-law fit (cvxpy), the
 analytical-law comparison, the prediction and the laws figure share the fitted laws and
 their bounds. The figure (matplotlib, embedded in the report) is the part that could move
 to :mod:`hypate.scaling.report` next.

@@ -112,8 +112,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from hypate.scaling.engine.store import EvaluationStore, StoreError
-from hypate.scaling.workflow.laws import load_sweep
-from hypate.scaling.workflow.laws import predict as law_design
+from hypate.scaling.workflow.laws import load_sweep, predict as law_design
 from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem, relative_rms
 from hypate.scaling.workflow.rundir import (
     DESIGN_POINT_JSON,

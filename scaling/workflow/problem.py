@@ -57,7 +57,7 @@ from hypate.scaling.workflow.similarity import (
     reference_quantities,
     time_scale,
 )
-from hypate.scaling.workflow.variables import base_name, schedule_point
+from hypate.scaling.workflow.variables import CATEGORICAL, base_name, schedule_point
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.coupling.lc import run_lc
 from hypate.solvers.coupling.model import PanelModel
@@ -79,8 +79,8 @@ PROJECTIONS = ("center", "modal", "fields")
 FIELD_GROUPS = {"in-plane": (0, 1), "transverse": (2,), "rotation": (3, 4)}
 #: Cheap equality constraints available (Eq. 9.7).
 EQUALITY_CONSTRAINTS = ("T_inf",)
-#: The categorical design variable (:data:`hypate.scaling.workflow.variables.CATEGORICAL`).
-MATERIAL = "material"
+#: The categorical design variable (the one of :data:`~hypate.scaling.workflow.variables.CATEGORICAL`).
+(MATERIAL,) = CATEGORICAL
 
 
 class ModelFailure(RuntimeError):
