@@ -9,7 +9,8 @@ time to target is when the best design so far -- the smallest max(J_u, J_T) over
 successful evaluations, the design-point rule -- first reaches ``--target``; ``null`` if it
 never does (a median over seeds counts such a seed as infinitely slow). ``--compare single``
 runs the one-worker configuration of the same study side by side in the same invocation
-(the single-fidelity one, the only fidelity a study has today) and prints the ratio.
+(without the study's ``[[fidelity]]`` levels) and prints the ratio; a multi-fidelity
+run's target and final values count its top-level evaluations only.
 
 JSON (public): ``{"study", "target", "seeds", "seconds_to_target": [...],
 "median_seconds_to_target", "final": {"J_u", "J_T", "hypervolume", "evaluations",
@@ -30,10 +31,11 @@ import numpy as np
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.run import resolve_workers
 from hypate.scaling.engine.pareto import hypervolume
+from hypate.scaling.workflow.fidelity import is_top
 from hypate.scaling.workflow.run import run_study
 from hypate.scaling.workflow.seeds import seed_directory, seed_list
 from hypate.scaling.workflow.shipped import resolve
-from hypate.scaling.workflow.study import Study, load_study
+from hypate.scaling.workflow.study import Study, load_study, parse_study, study_data
 from hypate.solvers.errors import InputError
 
 #: Hypervolume reference point of the final front (J_u, J_T as fractions).
@@ -63,14 +65,21 @@ def _trace(study: Study, out: Path, workers: int, seed: int) -> dict[str, Any]:
     spent = [0.0]
     t0 = time.perf_counter()
 
+    n_levels = len(study.level_names)
+
+    def top(evaluation: Any) -> bool:  # a multi-fidelity run's design point is top-level
+        return not n_levels or round(float(evaluation.x[-1])) == n_levels - 1
+
     def progress(done: int, budget: int, evaluation: Any) -> None:
         spent[0] += float(evaluation.seconds)
-        worst = float(np.max(evaluation.F)) if evaluation.ok else math.inf
+        worst = float(np.max(evaluation.F)) if evaluation.ok and top(evaluation) else math.inf
         rows.append((time.perf_counter() - t0, spent[0], worst))
 
     outcome = run_study(study, out, workers=workers, seed=seed, progress=progress)
     point = outcome.design_point
-    F = outcome.result.F[outcome.result.ok]
+    result = outcome.result
+    keep = result.ok & (is_top(result.X, n_levels) if n_levels else True)
+    F = result.F[keep]
     F = F[np.all(np.isfinite(F), axis=1)]
     hv = (float(hypervolume(F[np.all(F < REFERENCE, axis=1)], REFERENCE))
           if F.shape[1:] == (2,) else None)
@@ -78,6 +87,14 @@ def _trace(study: Study, out: Path, workers: int, seed: int) -> dict[str, Any]:
     return {"rows": rows, "J_u": objectives.get("J_u"), "J_T": objectives.get("J_T"),
             "hypervolume": hv, "evaluations": len(outcome.result.F),
             "simulator_seconds": float(np.sum(outcome.result.data["seconds"]))}
+
+
+def single_fidelity(study: Study) -> Study:
+    """The study without its ``[[fidelity]]`` levels (itself when it has none)."""
+    if not study.lower_levels:
+        return study
+    data = {k: v for k, v in study_data(study).items() if k != "fidelity"}
+    return parse_study(data, study.path)
 
 
 def _to_target(rows: list[tuple[float, float, float]], target: float
@@ -129,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
     with tempfile.TemporaryDirectory(prefix="hypate-bench-") as tmp:
         root = Path(args.out) if args.out else Path(tmp)
         main = measure(study, seeds, args.target, workers, root, "main")
-        compare = (measure(study, seeds, args.target, 1, root, "single")
+        compare = (measure(single_fidelity(study), seeds, args.target, 1, root, "single")
                    if args.compare else None)
     speedup = None
     if compare is not None and main["median_seconds_to_target"] and \

@@ -9,7 +9,12 @@ with the design and a resumed run replays it). One recursive co-kriging model pe
 level's successful evaluations; the acquisition (HVLCB, ...) is that of its top-level
 prediction against the top level's observed front. Each iteration
 
-1. maximizes the acquisition over the design (the cheap constraints, SLSQP multistart);
+0. promotes a lower level's design to the top when the model predicts it better than every
+   top-level evaluation so far (:meth:`MultiFidelityOptimizer.promotion`): the design point
+   is always a top-level evaluation, and a cheap level that finds a better design has not
+   helped until the top level confirms it;
+1. otherwise maximizes the acquisition over the design (the cheap constraints, SLSQP
+   multistart);
 2. chooses the level by expected gain per measured second: the share of the top-level
    predictive variance at the design that level ``l``'s own model carries
    (:meth:`~hypate.scaling.engine.multifidelity.MultiFidelityModel.level_variances`, each
@@ -147,6 +152,9 @@ class MultiFidelityOptimizer(BayesianOptimizer):
             return np.r_[x, float(self.top)][None]
         top = ok & (level == self.top)
         F_top = F[top]
+        promoted = self.promotion(model, X, ok, level, F_top)
+        if promoted is not None:
+            return np.r_[promoted, float(self.top)][None]
         acq = self._build_acquisition(model, F_top, np.ones(len(F_top), bool), F_top, rng)
         span = self.design_bounds[:, 1] - self.design_bounds[:, 0]
         best = X[top][np.argsort(np.max(F_top, axis=1))[:3]]
@@ -160,6 +168,28 @@ class MultiFidelityOptimizer(BayesianOptimizer):
             x = self._project(latin_hypercube(1, self.design_bounds, rng))[0]
             return np.r_[x, float(self.top)][None]
         return np.r_[x, float(self.choose_level(model, x, records))][None]
+
+    def promotion(self, model: MultiFidelityModel, X: np.ndarray, ok: np.ndarray,
+                  level: np.ndarray, F_top: np.ndarray) -> np.ndarray | None:
+        """The lower-level design, not yet simulated at the top (farther than
+        ``min_distance`` in the unit box from every top-level design), whose predicted
+        top-level worst objective ``max_j mu_j`` (the min-max design-point rule, in the
+        model's output space) is the smallest and beats the top level's best observed one;
+        None if there is none."""
+        low = ok & (level < self.top)
+        if not np.any(low) or len(F_top) == 0:
+            return None
+        span = self.design_bounds[:, 1] - self.design_bounds[:, 0]
+        cand = np.unique(X[low], axis=0)
+        X_top = X[level == self.top]
+        if len(X_top):
+            gap = np.linalg.norm((cand[:, None, :] - X_top[None]) / span, axis=2).min(axis=1)
+            cand = cand[gap > self.settings.min_distance]
+        if not len(cand):
+            return None
+        worst = np.max(model.predict_moments(cand)[0], axis=1)
+        k = int(np.argmin(worst))
+        return cand[k] if worst[k] < float(np.min(np.max(F_top, axis=1))) else None
 
     def choose_level(self, model: MultiFidelityModel, x: np.ndarray,
                      records: Sequence[Evaluation]) -> int:

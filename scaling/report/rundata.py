@@ -20,6 +20,7 @@ import pandas as pd
 from hypate.scaling.engine.problem import tally_warnings
 from hypate.scaling.engine.store import EvaluationStore, warnings_from_text
 from hypate.scaling.workflow.campaign import ENVIRONMENTS
+from hypate.scaling.workflow.fidelity import FIDELITY, FIDELITY_NAME
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.rundir import (
     CLASSICAL_JSON,
@@ -108,6 +109,9 @@ class RunData:
     seeds: dict[str, Any] | None = None
     seed: int | None = None
     environments: list[dict[str, Any]] = field(default_factory=list)
+    #: A multi-fidelity run's lower-level evaluations (``evaluations`` holds the top
+    #: level's, with their evaluation ids); empty otherwise.
+    lower_fidelity: pd.DataFrame = field(default_factory=pd.DataFrame)
 
     @property
     def warnings(self) -> list[tuple[str, list[Any], int]]:
@@ -282,6 +286,14 @@ def load_run(run_dir: str | Path, study_path: str | Path | None = None,
         df = _rename(df, run.variables, run.objectives)
     # the id column of evaluations.csv is the row number itself: the index carries it
     run.evaluations = df.drop(columns=[ID_COLUMN], errors="ignore").reset_index(drop=True)
+    if FIDELITY in run.variables:  # the report is the top level's; the rest is shown apart
+        df, top = run.evaluations, len(run.study.level_names) - 1
+        is_top = np.rint(df[FIDELITY].to_numpy(float)) == top
+        names = run.study.level_names
+        run.lower_fidelity = df[~is_top].assign(**{FIDELITY_NAME: [
+            names[int(round(v))] for v in df.loc[~is_top, FIDELITY]]})
+        run.evaluations = df[is_top].drop(columns=[FIDELITY, FIDELITY_NAME], errors="ignore")
+        run.variables.remove(FIDELITY)
     proto = meta.get(PROTOTYPE_WARNINGS)
     run.prototype_warnings = [str(w) for w in proto] if isinstance(proto, list) else []
     _attach_point(run, point, simulate)
@@ -336,7 +348,8 @@ def _find_study(run: RunData, study_path: str | Path | None, point: dict[str, An
                 raise
             tried.append(f"{path}: {exc}")
             continue
-        fits = len(study.spec.names) == n_var and len(study.spec.objectives) == n_obj
+        fits = (len(study.spec.names) + bool(study.lower_levels) == n_var  # + the level
+                and len(study.spec.objectives) == n_obj)
         if not fits and numbered:
             msg = (f"study {path} has {len(study.spec.names)} variables / "
                    f"{len(study.spec.objectives)} objectives, the run {n_var} / {n_obj}")
@@ -361,7 +374,8 @@ def _name_columns(run: RunData, df: pd.DataFrame, point: dict[str, Any] | None, 
     (numbered store columns ``numbered = (x_cols, f_cols)``), else from the named columns."""
     x_cols, f_cols = numbered
     if run.study is not None:
-        run.variables = list(run.study.spec.names)
+        run.variables = list(run.study.spec.names) + ([FIDELITY] if run.study.lower_levels
+                                                      else [])
         run.objectives = list(run.study.spec.objectives)
     elif x_cols or f_cols:
         names = _names_from_csv(csv, *counts) if csv.is_file() else None

@@ -370,6 +370,12 @@ def _statistics_section(run: RunData) -> Section:
         items.append(("wall time", "not recorded (interrupted run)"))
     if stats.get("pareto_size") is not None:
         items.append(("Pareto-set size", _fmt(stats["pareto_size"])))
+    low = run.lower_fidelity
+    if len(low):  # multi-fidelity: the tables and figures are the top level's
+        for name, grp in low.groupby("fidelity_name"):
+            items.append((f"lower-fidelity evaluations ({html.escape(str(name))})",
+                          f"{len(grp)}, {np.sum(grp['seconds'].to_numpy(float)):.4g} s "
+                          "(not in the tables and figures, which are the top level's)"))
     for env in run.environments:
         items.append(("numerical environment", html.escape(describe_environment(env))))
     if n and "iteration" in df:

@@ -15,6 +15,12 @@ Outputs in the run directory (public names):
   rule that chose it), plus the classical baseline and run statistics;
 * ``prototype.npz`` / ``design_point.npz`` -- the prototype's and the design point's
   responses (:class:`hypate.solvers.coupling.response.Response`).
+
+A multi-fidelity study (``[[fidelity]]``, :mod:`hypate.scaling.workflow.fidelity`) adds the
+``fidelity`` / ``fidelity_name`` columns; its front and design point are the top level's.
+
+Size: about 625 lines. One run's sequence (baseline, seeds, optimizer, outputs) reads top to
+bottom here; the seed helpers (``seeds_from_runs`` and the classical seeds) could move next.
 """
 from __future__ import annotations
 
@@ -50,6 +56,15 @@ from hypate.scaling.workflow.classical import (
     similarity_exponents,
 )
 from hypate.scaling.workflow.configuration import Configuration, with_material
+from hypate.scaling.workflow.fidelity import (
+    FIDELITY,
+    FIDELITY_NAME,
+    FidelityProblem,
+    cost_summary,
+    fidelity_optimizer,
+    fidelity_problem,
+    top_level,
+)
 from hypate.scaling.workflow.problem import MATERIAL, ScalingProblem
 from hypate.scaling.workflow.rundir import (
     CLASSICAL_JSON,
@@ -270,7 +285,7 @@ def _seed_designs(study: Study, problem: ScalingProblem, classical: dict[str, An
     return out
 
 
-def _evaluate_seeds(problem: ScalingProblem, study: Study, store: EvaluationStore,
+def _evaluate_seeds(problem: ScalingProblem | FidelityProblem, study: Study, store: EvaluationStore,
                     seed_list: Sequence[tuple[np.ndarray, str]],
                     classical: dict[str, Any] | None, run_seed: int,
                     callback: Callable[[Evaluation], None]) -> None:
@@ -366,6 +381,7 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
     identity, run_seed = preflight(study, out, resume=resume, seed=seed, workers=workers,
                                    scheduler=scheduler)
     problem = ScalingProblem(study.spec, prototype_response=prototype_response)
+    levels = fidelity_problem(study, problem)  # None: a single-fidelity study
     coordinates = surrogate_coordinates(study, problem)
     if seed_runs:
         seeds = list(seeds or ()) + seeds_from_runs(study, problem, seed_runs)
@@ -377,6 +393,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
     try:
         with recorded_warnings() as caught:  # attributed to the prototype, not printed
             proto = problem.prototype_response  # simulated once, before any worker starts
+            for low in (levels.levels[:-1] if levels is not None else ()):
+                low.prototype_response  # noqa: B018 - each level's own prototype, cached
         prototype_warnings = summarize_warnings(caught)
         if prototype_warnings and on_warnings is not None:
             on_warnings("prototype", prototype_warnings)
@@ -387,8 +405,7 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
             proto.save(out / PROTOTYPE_NPZ)
             classical = classical_baseline(study, problem)
             seed_list = _seed_designs(study, problem, classical, seeds)
-            budget = (opt.initial_samples + opt.iterations * opt.batch_size + opt.polish
-                      + len(seed_list))
+            budget = study.budget + len(seed_list)
             count = [0]
 
             def callback(evaluation: Evaluation) -> None:
@@ -396,7 +413,11 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
                 if progress is not None:
                     progress(count[0], budget, evaluation)
 
-            _evaluate_seeds(problem, study, store, seed_list, classical, run_seed, callback)
+            if levels is not None:  # seeds are full-fidelity evaluations
+                top = float(len(levels.levels) - 1)
+                seed_list = [(np.r_[x, top], why) for x, why in seed_list]
+            _evaluate_seeds(levels or problem, study, store, seed_list, classical, run_seed,
+                            callback)
             write_json(out / CLASSICAL_JSON, classical or {"status": "not available"})
             settings = OptimizerSettings(
                 acquisition=study.acquisition, n_init=opt.initial_samples,
@@ -406,7 +427,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
                 output_transform=opt.transform, coordinates=coordinates, polish=opt.polish,
                 categorical=problem.categorical)
             t0 = time.perf_counter()
-            optimizer = BayesianOptimizer(problem, settings)
+            optimizer = (BayesianOptimizer(problem, settings) if levels is None
+                         else fidelity_optimizer(study, levels, settings))
             result = optimizer.run()
             wall = time.perf_counter() - t0
             point = write_outputs(study, problem, result, out, wall_seconds=wall,
@@ -428,6 +450,11 @@ def evaluations_table(study: Study, result: OptimizationResult) -> pd.DataFrame:
     rename.update({f"f{i}": o for i, o in enumerate(study.spec.objectives)})
     df = df.rename(columns=rename)
     df.insert(0, ID_COLUMN, np.arange(len(df)))
+    if study.lower_levels:  # the level after the design, then its name
+        df = df.rename(columns={f"x{len(names)}": FIDELITY})
+        levels = np.clip(np.rint(df[FIDELITY].to_numpy(float)), 0, len(study.level_names) - 1)
+        df.insert(df.columns.get_loc(FIDELITY) + 1, FIDELITY_NAME,
+                  [study.level_names[int(k)] for k in levels])
     if study.spec.materials:  # the level's name next to its number
         levels = np.clip(np.rint(df[MATERIAL].to_numpy(float)), 0, len(study.spec.materials) - 1)
         df.insert(df.columns.get_loc(MATERIAL) + 1, MATERIAL_NAME,
@@ -549,9 +576,15 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     tmp = out / "evaluations.csv.tmp"
     table.to_csv(tmp, index=False)
     tmp.replace(out / EVALUATIONS_CSV)
-    mask = result.pareto_mask() if len(table) else np.zeros(0, bool)
-    pareto = table[mask] if study.spec.objectives and len(study.spec.objectives) > 1 else \
-        table[result.feasible].nsmallest(10, study.spec.objectives[0])
+    full = result
+    if study.lower_levels:  # the front and the design point are the top level's
+        result, rows = top_level(full, len(study.level_names))
+    else:
+        rows = np.arange(len(table))
+    mask = result.pareto_mask() if len(rows) else np.zeros(0, bool)
+    top_table = table.iloc[rows]
+    pareto = top_table[mask] if study.spec.objectives and len(study.spec.objectives) > 1 else \
+        top_table[result.feasible].nsmallest(10, study.spec.objectives[0])
     tmp = out / "pareto.csv.tmp"
     pareto.to_csv(tmp, index=False)
     tmp.replace(out / PARETO_CSV)
@@ -564,8 +597,8 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
         x = result.X[row]
         point.update(design_fields(study, problem, x))
         point["objectives"] = {o: float(f) for o, f in zip(study.spec.objectives, result.F[row])}
-        point["evaluation"] = int(row)
-        if optimizer is not None and int(result.ok.sum()) >= 3:
+        point["evaluation"] = int(rows[row])
+        if optimizer is not None and not study.lower_levels and int(result.ok.sum()) >= 3:
             point["surrogate"] = surrogate_record(optimizer, result, row,
                                                   study.spec.objectives)
         if study.spec.materials:
@@ -574,12 +607,17 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
             point["scatter"] = design_point_scatter(study, problem, x, store, on_scatter)
         point.update(save_design_response(problem, x, out)[1])
     n = len(table)
-    ok = int(result.ok.sum()) if n else 0
+    ok = int(full.ok.sum()) if n else 0
     point["statistics"] = {"evaluations": n, "successful": ok, "failed": n - ok,
                            "wall_seconds": finite_or_none(wall_seconds),
                            "median_seconds_per_evaluation":
                                finite_or_none(float(np.median(table["seconds"]))) if n else None,
                            "pareto_size": int(mask.sum()) if n else 0}
+    if study.lower_levels:
+        point["fidelity"] = {"levels": study.level_names, "design_point_level":
+                             study.level_names[-1], "by_level": cost_summary(
+                                 table[FIDELITY].to_numpy(int), table["seconds"].to_numpy(float),
+                                 study.level_names)}
     classical = out / CLASSICAL_JSON
     if classical.exists():
         point["classical"] = json.loads(classical.read_text())

@@ -47,6 +47,9 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
                                          prediction (needs 2 finished scales)
                    initial_samples, iterations   budget of every point after the first
                                          (default: [optimizer]'s; Table 9.11 uses 0 / 20)
+    [[fidelity]]   cheaper levels of the study's own simulation, cheapest first: name, mesh,
+                   time_step_factor, initial_samples; the last one only names the study's
+                   own [simulation] (multi-fidelity BO, scaling.workflow.fidelity)
     [uncertainty], [robust]   scatter of the model and tunnel (scaling.workflow.uncertainty)
     [laws]         refined scaling laws of a sweep (``hypate laws``, scaling.laws):
                    analytical.NAME = k        analytical exponent override (xi^k)
@@ -74,6 +77,12 @@ from hypate.scaling.workflow.design_space import (
     VariableEntry,
     study_levels,
     study_variables,
+)
+from hypate.scaling.workflow.fidelity import (
+    FidelitySection,
+    check_fidelity,
+    default_low_samples,
+    level_data,
 )
 from hypate.scaling.workflow.problem import (
     EQUALITY_CONSTRAINTS,
@@ -246,6 +255,7 @@ class StudyFile(InputModel):
     materials: dict[str, MaterialConfig] = {}
     uncertainty: dict[str, scatter.UncertainEntry] = {}
     robust: scatter.RobustSection | None = None
+    fidelity: list[FidelitySection] = []
 
     @model_validator(mode="after")
     def _check(self) -> StudyFile:
@@ -284,6 +294,12 @@ class StudyFile(InputModel):
             if self.optimizer.polish:
                 raise ValueError(f"optimizer.polish: a Nelder-Mead polish cannot step "
                                  f"between the values of variables.{name}; set it to 0")
+        opt = self.optimizer
+        check_fidelity(self.fidelity, steps=self.simulation.steps,
+                       categorical=any(n in self.variables for n in CATEGORICAL),
+                       robust=self.robust is not None, sweep=self.sweep is not None,
+                       polish=opt.polish, batch_size=opt.batch_size,
+                       coordinates=opt.coordinates)
         return self
 
 
@@ -299,6 +315,16 @@ class Study:
     optimizer: OptimizerSection
     raw: StudyFile
     uncertainty: scatter.Uncertainty | None = None  # [uncertainty] / [robust]; None: nominal
+    #: The ``[[fidelity]]`` levels below the study's own, cheapest first: (name, spec,
+    #: section); empty for a single-fidelity study (scaling.workflow.fidelity).
+    lower_levels: tuple[tuple[str, ScalingSpec, FidelitySection], ...] = ()
+
+    @property
+    def level_names(self) -> list[str]:
+        """Every fidelity level's name, cheapest first (empty: single fidelity)."""
+        if not self.lower_levels:
+            return []
+        return [name for name, _, _ in self.lower_levels] + [self.raw.fidelity[-1].name]
 
     @property
     def sweep(self) -> SweepSection | None:
@@ -310,7 +336,9 @@ class Study:
         """Evaluations the optimizer may spend (initial samples + iterations x batch + polish),
         per sweep point for a sweep study."""
         opt = self.optimizer
-        return opt.initial_samples + opt.iterations * opt.batch_size + opt.polish
+        nested = opt.initial_samples * len(self.lower_levels) + sum(  # the lower levels' share
+            default_low_samples(f, opt.initial_samples) for _, _, f in self.lower_levels)
+        return opt.initial_samples + nested + opt.iterations * opt.batch_size + opt.polish
 
     def summary(self) -> list[str]:
         """A few lines describing the study (``hypate validate``)."""
@@ -327,6 +355,10 @@ class Study:
                   if v.name == "material" else f"variable {v.name} in [{v.lower:g}, {v.upper:g}]"
                   for v in spec.variables]
         lines += [f"fixed {k} = {v:g}" for k, v in spec.fixed.items()]
+        lines += [f"fidelity {name}: mesh {'x'.join(map(str, sp.model.panel.mesh))}, "
+                  f"{round(sp.simulation.duration / sp.simulation.time_step)} steps"
+                  for name, sp in zip(self.level_names, [s for _, s, _ in self.lower_levels]
+                                      + [spec])]
         sweep = f", {len(sweep_points(self))} sweep points" if self.sweep is not None else ""
         lines.append(f"optimizer: {self.acquisition}, {self.budget} evaluations{sweep}, "
                      f"seed {self.optimizer.seed}")
@@ -486,9 +518,11 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
     uncertainty = scatter.parse_uncertainty(  # without [robust]: a nominal design
         cfg.uncertainty, cfg.robust or scatter.RobustSection(optimize=False),
         ScalingProblem(spec)) if cfg.uncertainty else None
+    lower = tuple((f.name, parse_study(level_data(data, f), path).spec, f)
+                  for f in cfg.fidelity[:-1])
     return Study(path=str(path), name=cfg.study.name, description=cfg.study.description,
                  spec=spec, tunnel=tunnel, optimizer=cfg.optimizer, raw=cfg,
-                 uncertainty=uncertainty)
+                 uncertainty=uncertainty, lower_levels=lower)
 
 
 def load_study(path: str | Path) -> Study:

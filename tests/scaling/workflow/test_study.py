@@ -27,7 +27,8 @@ def test_shipped_studies_validate() -> None:
     # public study names (issues 8 and 9)
     for required in ["quickstart.toml", "sec9_1_xi2.toml", "sec9_1_xi3.toml", "sec9_1_xi4.toml",
                      "sec9_2_2_xi2.toml", "sec9_2_2_xi5.toml", "sec9_2_3_case1_wt5.toml",
-                     "sec9_2_3_case2_wt7.toml", "sec9_2_2_xi4_material.toml"]:
+                     "sec9_2_3_case2_wt7.toml", "sec9_2_2_xi4_material.toml",
+                     "sec9_2_2_xi4_mf.toml"]:
         assert required in names
     for name in names:
         study = load_study(paths[name])
