@@ -15,11 +15,12 @@ prediction against the top level's observed front. Each iteration
    helped until the top level confirms it;
 1. otherwise maximizes the acquisition over the design (the cheap constraints, SLSQP
    multistart);
-2. chooses the level by expected gain per measured second: the share of the top-level
+2. chooses the level by expected gain per unit of simulation cost: the share of the top-level
    predictive variance at the design that level ``l``'s own model carries
    (:meth:`~hypate.scaling.engine.multifidelity.MultiFidelityModel.level_variances`, each
-   objective scaled by its top-level spread), divided by the median simulator seconds of
-   level ``l`` so far (the given ``costs`` until a level has run);
+   objective scaled by its top-level spread), divided by level ``l``'s cost per simulation
+   (the given ``costs``: a deterministic cost model, not the measured seconds, which vary
+   from run to run and would make two runs of one seed differ);
 3. simulates the design at that level.
 
 The initial design is nested (Le Gratiet's recursive form is exact on nested designs): the
@@ -56,8 +57,7 @@ class MultiFidelityOptimizer(BayesianOptimizer):
         ``n_init``: top-level initial designs; one proposal per iteration; no polish, no
         surrogate coordinates.
     costs : sequence of float
-        Prior seconds per simulation of each level (cheapest first), used until a level
-        has run.
+        Cost of one simulation of each level (cheapest first; any common unit).
     low_samples : sequence of int
         Extra initial designs of each lower level (``s - 1`` numbers).
     """
@@ -113,13 +113,6 @@ class MultiFidelityOptimizer(BayesianOptimizer):
         X, F, _, ok, _ = self._arrays(list(records))
         level = np.rint(X[:, -1]).astype(int)
         return X[:, :-1], self._model_space(F), ok, level
-
-    def costs_now(self, records: Sequence[Evaluation]) -> np.ndarray:
-        """Median simulator seconds per level so far (the prior cost until a level ran)."""
-        _, _, _, level = self._by_level(records)
-        seconds = np.array([r.seconds for r in records], float)
-        return np.array([float(np.median(seconds[level == t])) if np.any(level == t)
-                         else self.costs[t] for t in range(self.n_levels)])
 
     def fit(self, records: Sequence[Evaluation], rng: np.random.Generator
             ) -> MultiFidelityModel | None:
@@ -201,7 +194,7 @@ class MultiFidelityOptimizer(BayesianOptimizer):
         top = F[ok & (level == self.top)]
         spread = np.std(top, axis=0) if len(top) > 1 else np.ones(self.n_obj)
         gain = np.sum(shares / np.maximum(spread, 1e-300)[:, None] ** 2, axis=0)
-        cost = self.costs_now(records)[use]
+        cost = self.costs[use]
         span = self.design_bounds[:, 1] - self.design_bounds[:, 0]
         order = np.argsort(-(gain / cost), kind="stable")
         for k in order:

@@ -5,10 +5,14 @@ Fidelities ``t = 0 .. s - 1`` from the cheapest to the study's own simulation; l
 is modelled as ``f_t(x) = rho_t f_{t-1}(x) + delta_t(x)`` with ``delta_t`` an independent
 kriging model (Appendix A.1, Eqs. A.5-A.8) fitted to ``y_t - rho_t mu_{t-1}(X_t)``. The
 recursive form conditions level ``t - 1`` on its own data only, so each level is one
-ordinary kriging fit; ``rho_t`` maximizes the marginal likelihood of ``delta_t`` (profile
-likelihood in ``rho``, bounded Brent search, the likelihood of the *raw* residuals: the
-standardized one plus ``-n ln y_std``, since the standardization changes with ``rho``). The prediction of the top level is
-Gaussian with
+ordinary kriging fit. ``rho_t`` is a coefficient of the trend ``beta + rho mu_{t-1}(x)``
+(Le Gratiet & Garnier's universal-kriging form): for given correlation hyperparameters its
+maximum-likelihood value is the generalized least-squares estimate, in closed form. The fit
+alternates the two -- ``rho`` from ordinary least squares, the kriging fit of the residual,
+``rho`` by GLS on that fit's correlation, the residual refitted from the previous
+hyperparameters -- two likelihood optimizations per level instead of one per trial ``rho``
+(a bounded profile search took 19 fits and 95 % of a multi-fidelity proposal's time). The
+prediction of the top level is Gaussian with
 
     mu_t = rho_t mu_{t-1} + mu_delta,   sigma_t^2 = rho_t^2 sigma_{t-1}^2 + sigma_delta^2,
 
@@ -22,12 +26,19 @@ from collections.abc import Sequence
 
 import numpy as np
 from hypate.solvers.numerics.kriging import KrigingRegressor
-from scipy.optimize import minimize_scalar
+from scipy.linalg import solve_triangular
 
 __all__ = ["MultiFidelityKriging", "MultiFidelityModel"]
 
-#: Search range of ``rho`` in units of std(y_t) / std(mu_{t-1}(X_t)).
+#: Range of ``rho`` in units of std(y_t) / std(mu_{t-1}(X_t)).
 RHO_RANGE = 5.0
+
+
+def gls_coefficients(L: np.ndarray, F: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Generalized least squares ``argmin_b (y - F b)^T K^-1 (y - F b)`` with ``K = L L^T``
+    (any positive multiple of the correlation gives the same ``b``)."""
+    W = solve_triangular(L, np.column_stack([F, y]), lower=True, check_finite=False)
+    return np.linalg.lstsq(W[:, :-1], W[:, -1], rcond=None)[0]
 
 
 class MultiFidelityKriging:
@@ -66,25 +77,24 @@ class MultiFidelityKriging:
             self.levels.append(model)
         return self
 
-    def _kriging(self, X: np.ndarray, y: np.ndarray) -> KrigingRegressor:
-        return KrigingRegressor(bounds=self.bounds, n_restarts=self.n_restarts,
-                                rng=self.rng).fit(X, y)
+    def _kriging(self, X: np.ndarray, y: np.ndarray, theta0: np.ndarray | None = None,
+                 n_restarts: int | None = None) -> KrigingRegressor:
+        return KrigingRegressor(bounds=self.bounds, theta0=theta0, rng=self.rng,
+                                n_restarts=self.n_restarts if n_restarts is None else n_restarts
+                                ).fit(X, y)
 
     def _profile_rho(self, X: np.ndarray, y: np.ndarray, prev: np.ndarray
                      ) -> tuple[float, KrigingRegressor]:
-        """``rho`` maximizing the raw-residual likelihood of ``delta``, and its fit."""
-        scale = float(np.std(y)) / max(float(np.std(prev)), 1e-300)
-        fits: dict[float, KrigingRegressor] = {}
-
-        def neg_lml(rho: float) -> float:
-            model = fits[rho] = self._kriging(X, y - rho * prev)
-            return -float(model.log_marginal_likelihood_[0]
-                          - len(y) * np.log(model.y_std_[0]))
-
-        res = minimize_scalar(neg_lml, bounds=(-RHO_RANGE * scale, RHO_RANGE * scale),
-                              method="bounded", options={"xatol": 1e-4 * scale})
-        rho = float(res.x)
-        return rho, fits[rho] if rho in fits else self._kriging(X, y - rho * prev)
+        """``rho`` (the GLS trend coefficient, module docstring) and the residual's fit."""
+        bound = RHO_RANGE * float(np.std(y)) / max(float(np.std(prev)), 1e-300)
+        trend = np.column_stack([np.ones_like(prev), prev])
+        rho = float(np.clip(np.linalg.lstsq(trend, y, rcond=None)[0][1], -bound, bound))
+        model = self._kriging(X, y - rho * prev)
+        if len(y) < 3:  # two points fix beta and rho exactly: nothing left to weigh
+            return rho, model
+        rho = float(np.clip(gls_coefficients(model.L_[0], trend, y)[1], -bound, bound))
+        # the correlation barely moves with rho: warm-start from it, no restarts
+        return rho, self._kriging(X, y - rho * prev, theta0=model.theta_, n_restarts=0)
 
     def _predict(self, X: np.ndarray, top: int, gradient: bool = False):
         """Mean, variance (and their gradients) of level ``top - 1`` at ``X``."""

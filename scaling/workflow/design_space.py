@@ -6,12 +6,15 @@ Each entry is one of
   (:data:`hypate.scaling.workflow.variables.HARD_LIMITS`) and the tunnel envelope;
 * ``NAME = "tunnel"`` -- the bounds the study's tunnel gives (``M``, ``p0``, ``T0``,
   Table 9.6);
-* ``T_rad = { schedule = n, range = [lo, hi], shape = "free" | "increasing" }`` -- a
+* ``T_rad = { schedule = n, range = [lo, hi], shape = "free" | "increasing" |
+  "decreasing" }`` -- a
   time-scheduled radiant heater (Sec. 9.2.3 Case 2 with ``T_rad(t)`` instead of a constant):
   the heater temperature is piecewise linear in the nondimensional time ``t / t_end`` of
   the test, with ``n`` (2-12) control points equally spaced from ``t = 0`` to ``t_end``.
   They are ``n`` design variables ``T_rad[0] .. T_rad[n-1]``, each in ``range`` (K,
-  ``0 < lo < hi``). ``shape = "increasing"`` asks ``T_rad[k] <= T_rad[k+1]``: linear
+  ``0 < lo < hi``). ``shape = "increasing"`` asks ``T_rad[k] <= T_rad[k+1]``,
+  ``"decreasing"`` ``T_rad[k] >= T_rad[k+1]`` (a front-loaded heater: heat while the
+  prototype heats fastest): linear
   inequalities on the design vector, handed to the optimizer as exact cheap constraints
   (:meth:`hypate.scaling.workflow.problem.ScalingProblem.cheap_constraints`); ``"free"``
   (default) leaves the points independent;
@@ -48,7 +51,7 @@ from pydantic import Field, ValidationError, model_validator
 #: :class:`ScheduleEntry` afterwards, so that its errors name its own keys).
 VariableEntry = list[float] | list[str] | str | dict[str, Any]
 #: Shapes of a schedule.
-SHAPES = ("free", "increasing")
+SHAPES = ("free", "increasing", "decreasing")
 #: Fewest and most values of a categorical variable.
 LEVELS: tuple[int, int] = (2, 8)
 
@@ -58,7 +61,7 @@ class ScheduleEntry(InputModel):
 
     schedule: Annotated[int, Field(ge=SCHEDULE_POINTS[0], le=SCHEDULE_POINTS[1])]
     range: Pair
-    shape: Literal["free", "increasing"] = "free"
+    shape: Literal["free", "increasing", "decreasing"] = "free"
 
     @model_validator(mode="after")
     def _check(self) -> ScheduleEntry:
@@ -160,9 +163,9 @@ def variable_bounds(name: str, value: list[float] | str, tunnel: TunnelEnvelope 
 
 
 def study_variables(entries: Mapping[str, VariableEntry], tunnel: TunnelEnvelope | None
-                    ) -> tuple[tuple[Variable, ...], tuple[str, ...]]:
+                    ) -> tuple[tuple[Variable, ...], tuple[str, ...], tuple[str, ...]]:
     """The design variables of a ``[variables]`` table, in its order, and the names of the
-    schedules whose shape is ``"increasing"``.
+    schedules whose shape is ``"increasing"`` and ``"decreasing"``.
 
     A schedule of ``n`` points contributes ``NAME[0] .. NAME[n-1]``, each with the
     schedule's ``range`` as bounds; a categorical entry of ``k`` values one variable with
@@ -170,6 +173,7 @@ def study_variables(entries: Mapping[str, VariableEntry], tunnel: TunnelEnvelope
     """
     variables: list[Variable] = []
     increasing: list[str] = []
+    decreasing: list[str] = []
     for name, value in entries.items():
         if name in CATEGORICAL:
             variables.append(Variable(name, 0.0, float(len(categorical_levels(name, value)) - 1)))
@@ -179,9 +183,11 @@ def study_variables(entries: Mapping[str, VariableEntry], tunnel: TunnelEnvelope
                                                                             entry.schedule)]
             if entry.shape == "increasing":
                 increasing.append(name)
+            elif entry.shape == "decreasing":
+                decreasing.append(name)
         else:
             variables.append(Variable(name, *variable_bounds(name, value, tunnel)))
-    return tuple(variables), tuple(increasing)
+    return tuple(variables), tuple(increasing), tuple(decreasing)
 
 
 __all__ = ["LEVELS", "SHAPES", "ScheduleEntry", "VariableEntry", "categorical_levels",

@@ -26,9 +26,9 @@ reads "10 %":
 Cheap equality constraints (Eq. 9.7), e.g. ``"T_inf"``: the model's free-stream temperature
 ratio ``T_w / T_inf`` equals the prototype's, are analytic functions of the design vector
 and are handed to the optimizer as :class:`~scaling.optimizer.CheapConstraint` with exact
-gradients (log space). A heater schedule of shape ``"increasing"``
+gradients (log space). A heater schedule of shape ``"increasing"`` (``"decreasing"``)
 (:mod:`hypate.scaling.workflow.design_space`) adds the linear inequalities
-``T_rad[k] - T_rad[k+1] <= 0`` the same way.
+``T_rad[k] - T_rad[k+1] <= 0`` (``>= 0``) the same way.
 
 A failed model simulation (no equilibrium, instability before the prototype's end, solver
 divergence) raises :class:`ModelFailure`; the optimizer records it as a failed evaluation
@@ -127,6 +127,8 @@ class ScalingSpec:
     increasing : tuple of str
         Scheduled variables (``"T_rad"``) whose control points ``NAME[k]`` may not
         decrease with k (``shape = "increasing"``): cheap linear inequalities.
+    decreasing : tuple of str
+        Likewise, control points that may not increase with k (``shape = "decreasing"``).
     materials : tuple of (str, Material)
         The levels of a categorical ``material`` variable, by name: level ``k`` of the
         design vector makes every model layer of ``materials[k][1]`` (empty: the
@@ -143,6 +145,7 @@ class ScalingSpec:
     equalities: tuple[str, ...] = ()
     xi: float = 1.0
     increasing: tuple[str, ...] = ()
+    decreasing: tuple[str, ...] = ()
     materials: tuple[tuple[str, Material], ...] = ()
 
     def __post_init__(self) -> None:
@@ -171,10 +174,16 @@ class ScalingSpec:
                 levels and (levels[0].lower, levels[0].upper) != (0.0, len(self.materials) - 1)):
             raise InputError("variables.material", f"a categorical material needs bounds "
                              f"[0, k - 1] for its {len(self.materials)} materials")
-        for name in self.increasing:
+        for name, sign in self.monotone:
             if len(self.schedule_indices(name)) < 2:
-                raise InputError(f"variables.{name}", "an increasing shape needs a schedule "
-                                 "of at least 2 control points")
+                shape = "an increasing" if sign > 0 else "a decreasing"
+                raise InputError(f"variables.{name}", f"{shape} shape needs a schedule of at "
+                                 "least 2 control points")
+
+    @property
+    def monotone(self) -> list[tuple[str, int]]:
+        """The monotone schedules as ``(name, +1 increasing | -1 decreasing)``."""
+        return [(n, 1) for n in self.increasing] + [(n, -1) for n in self.decreasing]
 
     def schedule_indices(self, name: str) -> list[int]:
         """Positions of the control points ``NAME[0], NAME[1], ...`` in the design vector,
@@ -415,26 +424,27 @@ class ScalingProblem(Problem):
     # -- cheap constraints ------------------------------------------------------------------
     def cheap_constraints(self) -> list[CheapConstraint]:
         """Eq. (9.7) equalities as exact analytic constraints on the design vector, in the
-        order of ``spec.equalities``, then one monotonicity constraint per increasing
-        schedule (:meth:`_increasing_constraint`)."""
+        order of ``spec.equalities``, then one monotonicity constraint per increasing,
+        then per decreasing schedule (:meth:`_monotone_constraint`)."""
         out = []
         for name in self.spec.equalities:
             if name == "T_inf":
                 out.append(self._t_inf_constraint())
-        out += [self._increasing_constraint(name) for name in self.spec.increasing]
+        out += [self._monotone_constraint(name, sign) for name, sign in self.spec.monotone]
         return out
 
-    def _increasing_constraint(self, name: str) -> CheapConstraint:
-        """``(x[k] - x[k+1]) / span <= 0`` for the control points of schedule ``name``:
-        ``T_rad`` does not decrease from one control point to the next. Linear, so the
+    def _monotone_constraint(self, name: str, sign: int) -> CheapConstraint:
+        """``sign (x[k] - x[k+1]) / span <= 0`` for the control points of schedule ``name``:
+        ``T_rad`` does not decrease (``sign = 1``) or increase (``-1``) from one control
+        point to the next. Linear, so the
         Jacobian is a constant matrix (rows scaled by the bounds' span, violations
         comparable to the unit-box tolerance of the optimizer)."""
         idx = self.spec.schedule_indices(name)
         D = np.zeros((len(idx) - 1, self.n_var))
         rows = np.arange(len(idx) - 1)
         span = np.asarray(self.xu, float)[idx] - np.asarray(self.xl, float)[idx]
-        D[rows, idx[:-1]] = 1.0 / span[:-1]
-        D[rows, idx[1:]] = -1.0 / span[:-1]
+        D[rows, idx[:-1]] = sign / span[:-1]
+        D[rows, idx[1:]] = -sign / span[:-1]
         D.flags.writeable = False
 
         def fun(x: np.ndarray) -> np.ndarray:

@@ -19,7 +19,7 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
                    mach_values, p0, T0 ...), mach (the nozzle to use)
     [variables]    NAME = [lower, upper] or "tunnel" (the envelope's bounds), a heater
                    schedule T_rad = { schedule = n, range = [lo, hi], shape = "free" |
-                   "increasing" }, or the model material as a categorical variable
+                   "increasing" | "decreasing" }, or the model material as a categorical variable
                    material = ["ti6242", "inconel718", ...] (scaling.workflow.design_space)
     [fixed]        NAME = value (design values that are not optimized)
     [constraints]  equality = ["T_inf"]
@@ -492,7 +492,7 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
     model = Configuration(panel=model_panel, flow=model_flow, delta_T=cfg.prototype.delta_T,
                           simulation=simulation)
 
-    variables, increasing = study_variables(cfg.variables, tunnel)
+    variables, increasing, decreasing = study_variables(cfg.variables, tunnel)
     if tunnel is not None and tunnel.mach_values and len(tunnel.mach_values) > 1 \
             and "M" not in cfg.fixed:
         raise InputError("fixed.M", f"tunnel {tunnel.name} has several nozzles "
@@ -513,7 +513,7 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
                        objectives=tuple(cfg.study.objectives),
                        time_scaling=cfg.study.time_scaling, projection=cfg.study.projection,
                        equalities=tuple(cfg.constraints.equality), xi=xi,
-                       increasing=increasing,
+                       increasing=increasing, decreasing=decreasing,
                        materials=materials if "material" in cfg.variables else ())
     uncertainty = scatter.parse_uncertainty(  # without [robust]: a nominal design
         cfg.uncertainty, cfg.robust or scatter.RobustSection(optimize=False),

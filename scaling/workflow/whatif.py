@@ -26,8 +26,9 @@ Rules (documented in ``--help`` and the README):
 Printed: J_u, J_T, J_s (relative RMS errors, Eq. 6.4 / 9.8), the similarity-parameter table
 (prototype / model / relative difference, ``*`` above 10 %), and the constraint activity:
 bounds hit or left, the residuals of the study's cheap equality constraints (Eq. 9.7) and,
-for a heater schedule of shape ``"increasing"``, whether its control points
-(``--set T_rad[1]=900``) still increase (a decreasing one is evaluated and flagged).
+for a heater schedule of shape ``"increasing"`` (``"decreasing"``), whether its control
+points (``--set T_rad[1]=900``) still increase (decrease); a design against the shape is
+evaluated and flagged.
 ``--json`` prints one JSON object instead (fields in :func:`evaluate_whatif`).
 ``--scatter [--samples N]`` propagates the study's ``[uncertainty]`` at the design instead
 (:func:`scatter_whatif`; JSON: the ``robust`` block's fields). A model that
@@ -222,14 +223,17 @@ class WhatIf:
             r = float(np.max(np.abs(np.atleast_1d(con.fun(np.asarray(x, float))))))
             equalities.append({"name": name, "residual": r, "satisfied": r <= EQUALITY_TOL})
         inequalities = []
-        for name in self.spec.increasing:
+        for name, sign in self.spec.monotone:
             T = np.asarray(x, float)[self.spec.schedule_indices(name)]
-            drop = float(np.max(T[:-1] - T[1:]))  # largest decrease between control points
-            inequalities.append({"name": f"{name} increasing", "decrease": max(drop, 0.0),
+            # the largest step against the shape between control points
+            drop = float(np.max(sign * (T[:-1] - T[1:])))
+            shape, against = ("increasing", "decrease") if sign > 0 else ("decreasing",
+                                                                          "increase")
+            inequalities.append({"name": f"{name} {shape}", against: max(drop, 0.0),
                                  "satisfied": drop <= 0.0})
             if drop > 0.0:
-                outside.append(f"{name} schedule decreases by {drop:g} K between control "
-                               "points (shape \"increasing\")")
+                outside.append(f"{name} schedule {against}s by {drop:g} K between control "
+                               f"points (shape \"{shape}\")")
         return {"bounds": bounds, "active": active, "outside": outside,
                 "equalities": equalities, "inequalities": inequalities}
 
@@ -272,8 +276,9 @@ def evaluate_whatif(study: Any, values: Mapping[str, float],
         ``None`` when the model failed), ``status`` (``"ok"``/``"failed"``), ``message``,
         ``similarity`` (list of ``{"name", "prototype", "model", "relative_difference"}``),
         ``constraints`` (``bounds`` list, ``active`` names, ``outside`` flags,
-        ``equalities`` residuals, ``inequalities``: an increasing schedule's ``name``,
-        ``decrease`` (K) and ``satisfied``), ``model_time_step`` (s), ``seconds``.
+        ``equalities`` residuals, ``inequalities``: a monotone schedule's ``name``,
+        ``decrease`` (K; ``increase`` for a decreasing one) and ``satisfied``),
+        ``model_time_step`` (s), ``seconds``.
     """
     w = WhatIf(study, values, base=base)
     x = w.design_vector()

@@ -105,6 +105,28 @@ def test_twenty_random_sigkills_resume_to_the_same_campaign(
     _sigkills_resume_to_the_same_campaign(tmp_path, reference, (7, 7, 6))
 
 
+#: The campaign study with a coarse fidelity (issue 19): 7 top designs at both levels + 4
+#: coarse ones + 12 iterations, each choosing its level.
+MF_STUDY = tiny_study_text(name="campaign_mf", mesh=2, steps=4, initial=6, iterations=12,
+                           seed=5, tail='[[fidelity]]\nname = "coarse"\nmesh = [1, 1]\n'
+                           'time_step_factor = 2.0\ninitial_samples = 4\n'
+                           '[[fidelity]]\nname = "full"\n')
+
+
+def test_sigkills_of_a_multi_fidelity_run_resume_to_the_same_campaign(tmp_path: Path) -> None:
+    # the stored level is part of each design: a resumed run replays it and chooses the
+    # later levels as the uninterrupted run did (levels cost a deterministic model, not
+    # the measured seconds)
+    study = tmp_path / "campaign_mf.toml"
+    study.write_text(MF_STUDY)
+    assert main(["run", str(study), "--out", str(tmp_path / "whole"), "-q"]) == 0
+    whole = _campaign(tmp_path / "whole")
+    levels = {row[2][-1] for row in whole}
+    assert levels == {0.0, 1.0}
+    _kill_and_resume(study, tmp_path / "killed", len(whole), 2, np.random.default_rng(19))
+    assert _campaign(tmp_path / "killed") == whole
+
+
 @pytest.fixture(scope="module")
 def interrupted(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Path]:
     """A study (with its own copy of the prototype case), and a run of it killed after 3

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from hypate.scaling.engine.fidelity import MultiFidelityOptimizer
 from hypate.scaling.engine.functional import FunctionProblem
-from hypate.scaling.engine.optimizer import BayesianOptimizer
+from hypate.scaling.engine.multifidelity import MultiFidelityKriging, MultiFidelityModel
 from hypate.scaling.engine.settings import OptimizerSettings, SettingError
 from hypate.scaling.engine.store import EvaluationStore
 
@@ -74,3 +74,41 @@ def test_settings_are_checked():
     with pytest.raises(SettingError, match="level"):
         MultiFidelityOptimizer(FunctionProblem(two_level, [(0.0, 1.0), (0.0, 2.0)]), base,
                                costs=COSTS, low_samples=[1])
+
+
+def _forrester_model(X_low: np.ndarray, X_top: np.ndarray) -> MultiFidelityModel:
+    mf = MultiFidelityKriging(np.array([[0.0, 1.0]])).fit(
+        [X_low[:, None], X_top[:, None]], [low(X_low), high(X_top)])
+    return MultiFidelityModel([mf])
+
+
+def _promotion(opt: MultiFidelityOptimizer, X_low: np.ndarray, X_top: np.ndarray):
+    X = np.r_[X_low, X_top][:, None]
+    level = np.r_[np.zeros(len(X_low), int), np.ones(len(X_top), int)]
+    F_top = high(X_top)[:, None]
+    return opt.promotion(_forrester_model(X_low, X_top), X, np.ones(len(X), bool), level,
+                         F_top)
+
+
+def test_promotion_sends_the_best_predicted_cheap_design_to_the_top():
+    opt = _optimizer(0)
+    X_low, X_top = np.linspace(0.0, 1.0, 11), np.array([0.0, 0.4, 0.6, 1.0])
+    x = _promotion(opt, X_low, X_top)
+    # the co-kriging's best cheap design not yet simulated at the top ...
+    fresh = X_low[np.abs(X_low[:, None] - X_top[None]).min(axis=1) > 1e-5]
+    mu = _forrester_model(X_low, X_top).predict_moments(fresh[:, None])[0][:, 0]
+    assert x is not None and x[0] == pytest.approx(fresh[np.argmin(mu)], abs=1e-12)
+    # ... is truly better than every top-level observation (x = 0.7 or 0.8, f < -4.6)
+    assert high(x[0]) < high(X_top).min()
+    # a design already simulated at the top (within min_distance) is not promoted again
+    again = _promotion(opt, X_low, np.r_[X_top, x[0] + 1e-7])
+    assert again is None or abs(again[0] - x[0]) > 1e-5
+
+
+def test_no_promotion_when_the_top_level_is_already_best_or_everything_ran_there():
+    opt = _optimizer(0)
+    X_low = np.linspace(0.0, 1.0, 11)
+    # the top level holds the true minimum: no cheap design is predicted below it
+    assert _promotion(opt, X_low, np.array([0.0, 0.4, X_MIN, 1.0])) is None
+    # every cheap design has run at the top: nothing left to promote
+    assert _promotion(opt, X_low, X_low.copy()) is None

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypate.scaling.engine.multifidelity import MultiFidelityKriging
+from hypate.scaling.engine.multifidelity import MultiFidelityKriging, gls_coefficients
 from hypate.solvers.numerics.kriging import KrigingRegressor
 from scipy.stats import qmc
 
@@ -83,3 +83,25 @@ def test_mean_and_std_gradients_match_central_differences(forrester_models):
 def test_levels_must_pair_up():
     with pytest.raises(ValueError, match="one \\(X, y\\) pair"):
         MultiFidelityKriging(np.array([[0.0, 1.0]])).fit([np.zeros((2, 1))], [])
+
+
+def test_gls_coefficients_equal_the_normal_equations():
+    rng = np.random.default_rng(3)
+    A = rng.standard_normal((7, 7))
+    K = A @ A.T + 7 * np.eye(7)
+    F, y = np.column_stack([np.ones(7), rng.standard_normal(7)]), rng.standard_normal(7)
+    Ki = np.linalg.inv(K)
+    expected = np.linalg.solve(F.T @ Ki @ F, F.T @ Ki @ y)
+    got = gls_coefficients(np.linalg.cholesky(K), F, y)
+    assert got == pytest.approx(expected, rel=1e-10)
+    # any positive multiple of the correlation gives the same coefficients
+    assert gls_coefficients(np.linalg.cholesky(3.7 * K), F, y) == pytest.approx(got, rel=1e-10)
+
+
+def test_rho_recovers_a_known_linear_relation():
+    # top = 2 low + 1 exactly (a constant discrepancy): rho = 2 within 1e-3
+    b = np.array([[0.0, 1.0]])
+    Xl, Xh = np.linspace(0, 1, 11)[:, None], np.array([[0.05], [0.35], [0.55], [0.85], [1.0]])
+    mf = MultiFidelityKriging(b).fit([Xl, Xh], [forrester_low(Xl[:, 0]),
+                                                2 * forrester_low(Xh[:, 0]) + 1])
+    assert mf.rho[1] == pytest.approx(2.0, rel=1e-3)

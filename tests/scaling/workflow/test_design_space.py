@@ -18,7 +18,10 @@ from hypate.scaling.workflow.configuration import apply_design
 from hypate.scaling.workflow.laws import DesignPoint, fit_laws
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.run import run_study, seeds_from_runs
-from hypate.scaling.workflow.similarity import reference_quantities, similarity_parameters
+from hypate.scaling.workflow.similarity import (
+    reference_quantities,
+    similarity_parameters,
+)
 from hypate.scaling.workflow.study import load_study, parse_study
 from hypate.scaling.workflow.uncertainty import scattered_configuration
 from hypate.scaling.workflow.whatif import evaluate_whatif
@@ -63,8 +66,8 @@ BAD_KEYS = [
     ("beyond the hard limits", "{ schedule = 4, range = [300.0, 6000.0] }",
      "variables.T_rad.range", "allowed range"),
     ("one number", "{ schedule = 4, range = [300.0] }", "variables.T_rad.range", "2 items"),
-    ("unknown shape", f'{{ schedule = 4, {RANGE}, shape = "decreasing" }}',
-     "variables.T_rad.shape", "'free' or 'increasing'"),
+    ("unknown shape", f'{{ schedule = 4, {RANGE}, shape = "falling" }}',
+     "variables.T_rad.shape", "'free', 'increasing' or 'decreasing'"),
     ("misspelt key", f'{{ schedule = 4, {RANGE}, shap = "free" }}', "variables.T_rad.shap",
      "did you mean 'shape'"),
 ]
@@ -166,6 +169,23 @@ def test_increasing_shape_is_a_cheap_linear_inequality(tmp_path: Path) -> None:
     T = ev[["T_rad[0]", "T_rad[1]", "T_rad[2]"]].to_numpy(float)
     assert len(T) == 1 + 4 + 2
     assert np.all(np.diff(T, axis=1) >= -1e-8 * 2200.0)
+
+
+def test_decreasing_shape_is_the_mirrored_inequality(tmp_path: Path) -> None:
+    study = load_study(_write(tmp_path, f'{{ schedule = 3, {RANGE}, shape = "decreasing" }}'))
+    assert study.spec.decreasing == ("T_rad",) and study.spec.increasing == ()
+    problem = ScalingProblem(study.spec)
+    (con,) = problem.cheap_constraints()
+    x = 0.5 * (problem.xl + problem.xu)
+    x[-3:] = [1600.0, 500.0, 1200.0]  # the last step increases by 700 K
+    np.testing.assert_allclose(con.fun(x), [-1100.0 / 2200.0, 700.0 / 2200.0], rtol=1e-14)
+    np.testing.assert_array_equal(con.jac(x)[:, -3:], np.array([[-1, 1, 0], [0, -1, 1]])
+                                  / 2200.0)
+    res = evaluate_whatif(study, {"T_rad[2]": 1700.0})  # 1400 -> 1700 K against the shape
+    (ineq,) = res["constraints"]["inequalities"]
+    assert ineq["name"] == "T_rad decreasing" and not ineq["satisfied"]
+    assert ineq["increase"] == pytest.approx(300.0)
+    assert any("increases by 300 K" in f for f in res["constraints"]["outside"])
 
 
 # -- what-ifs, seeds, laws -----------------------------------------------------------------
