@@ -28,7 +28,7 @@ import numpy as np
 from hypate.solvers.numerics.kriging import KrigingRegressor
 from scipy.linalg import solve_triangular
 
-__all__ = ["MultiFidelityKriging", "MultiFidelityModel"]
+__all__ = ["MultiFidelityKriging", "MultiFidelityModel", "gls_coefficients"]
 
 #: Range of ``rho`` in units of std(y_t) / std(mu_{t-1}(X_t)).
 RHO_RANGE = 5.0

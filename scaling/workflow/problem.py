@@ -436,9 +436,8 @@ class ScalingProblem(Problem):
     def _monotone_constraint(self, name: str, sign: int) -> CheapConstraint:
         """``sign (x[k] - x[k+1]) / span <= 0`` for the control points of schedule ``name``:
         ``T_rad`` does not decrease (``sign = 1``) or increase (``-1``) from one control
-        point to the next. Linear, so the
-        Jacobian is a constant matrix (rows scaled by the bounds' span, violations
-        comparable to the unit-box tolerance of the optimizer)."""
+        point to the next. Linear, so the Jacobian is a constant matrix (rows scaled by the
+        bounds' span, violations comparable to the unit-box tolerance of the optimizer)."""
         idx = self.spec.schedule_indices(name)
         D = np.zeros((len(idx) - 1, self.n_var))
         rows = np.arange(len(idx) - 1)
