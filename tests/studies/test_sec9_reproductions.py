@@ -39,11 +39,16 @@ EQ_9_2 = {"h": "h", "p_inf": "p_inf", "delta_T": "delta_T"}
 
 def _run_dir(name: str, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A finished run directory of ``studies/<name>.toml`` at seed 0 (reused from
-    $HYPATE_RUNS), by the runner of ``hypate reproduce``."""
+    $HYPATE_RUNS), by the runner of ``hypate reproduce``.
+
+    Without $HYPATE_RUNS the run goes to one directory per study under the session's base
+    temporary directory, so the tests that read one study (a Sec. 9.2.2 Pareto test and the
+    thickness law) run it once per test process: the runner reads a finished directory as
+    it is."""
     given = os.environ.get("HYPATE_RUNS")
     if given and (Path(given) / name / "design_point.json").exists():
         return run_directory(Optimization(name), given)  # finished: read as it is
-    return run_directory(Optimization(name), tmp_path_factory.mktemp(name))
+    return run_directory(Optimization(name), tmp_path_factory.getbasetemp() / "sec9_runs")
 
 
 def _design_point(run: Path) -> dict:
