@@ -36,6 +36,9 @@ def register_bench(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--iterations", type=int, default=None, help="BO iterations")
     p.add_argument("--acquisition", default=None,
                    help="hvlcb|hvei|hvpoi|ws|cheb (two objectives) or lcb|ei|poi (one)")
+    p.add_argument("--v-final", default="auto", metavar="V|auto|none",
+                   help="exploration weight of the last iteration (auto: the acquisition's "
+                   "schedule, HVLCB 1.5 -> 0.5; none: constant v)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--batch-size", type=int, default=1, help="designs per iteration (q)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
@@ -64,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
     if acq not in valid:
         raise InputError("--acquisition", f"for {bench.name} must be one of {'|'.join(valid)}")
     n_eval = n_init + n_iter * args.batch_size
+    v_final = _v_final(args.v_final)
 
     seconds = float("nan")
     if args.baseline == "nsga2":
@@ -73,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         opt = BayesianOptimizer(bench.problem, acquisition=acq, n_init=n_init, n_iter=n_iter,
                                 batch_size=args.batch_size, ref_point=bench.ref_point,
-                                seed=args.seed)
+                                v_final=v_final, seed=args.seed)
         res = opt.run()
         history = (res.hypervolume_history(bench.ref_point) if bench.multi_objective
                    else res.best_history())
@@ -103,3 +107,16 @@ def run(args: argparse.Namespace) -> int:
               f"{out['evaluations']} evaluations")
     print(f"median seconds per iteration (overhead): {seconds:.3f}")
     return 0
+
+
+def _v_final(text: str) -> float | str | None:
+    """``--v-final``: a weight >= 0, ``auto`` or ``none``."""
+    if text.lower() in ("auto", "none"):
+        return None if text.lower() == "none" else "auto"
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not value >= 0.0:
+        raise InputError("--v-final", f"must be a number >= 0, auto or none; got {text!r}")
+    return value

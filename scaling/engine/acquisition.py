@@ -431,6 +431,12 @@ class HypervolumeLCB(_Hypervolume):
     #: v = 2 costs DTLZ2 about 4 % of hypervolume regret-wise); see the closing note of
     #: issue 3.
     default_v = 1.5
+    #: Exploration weight of the last iteration when the settings leave it to the
+    #: acquisition (``v_final = "auto"``): v falls linearly from 1.5 to 0.5 over the run.
+    #: Exploiting the front at the end closes DTLZ2's gap to BoTorch's qLogNEHVI (mean
+    #: hypervolume over seeds 0-4, 20 + 50 evaluations: 0.3903 at constant 1.5, 0.3984 with
+    #: the fall, BoTorch 0.3930) and keeps the lead on ZDT1-3 and BraninCurrin (issue 19).
+    default_v_final = 0.5
 
     def __init__(self, model: Model, pareto_front_: np.ndarray, ref_point: np.ndarray,
                  v: float = default_v, max_cells: int = 200_000) -> None:

@@ -148,7 +148,8 @@ class MultiFidelityOptimizer(BayesianOptimizer):
         promoted = self.promotion(model, X, ok, level, F_top)
         if promoted is not None:
             return np.r_[promoted, float(self.top)][None]
-        acq = self._build_acquisition(model, F_top, np.ones(len(F_top), bool), F_top, rng)
+        acq = self._build_acquisition(model, F_top, np.ones(len(F_top), bool), F_top, rng,
+                                      iteration)
         span = self.design_bounds[:, 1] - self.design_bounds[:, 0]
         best = X[top][np.argsort(np.max(F_top, axis=1))[:3]]
         extra = best + 1e-3 * span * rng.standard_normal(best.shape)

@@ -350,8 +350,23 @@ class BayesianOptimizer:
         ideal, nadir = P.min(axis=0), P.max(axis=0)
         return nadir + 0.1 * np.where(nadir > ideal, nadir - ideal, np.maximum(abs(nadir), 1.0))
 
+    def exploration_weight(self, iteration: int) -> float | None:
+        """``v`` of iteration ``t``: ``settings.v`` (``None``: the acquisition's default), or
+        with ``settings.v_final`` the linear fall from it at ``t = 1`` to ``v_final`` at
+        ``t = n_iter`` (``"auto"``: the acquisition's ``default_v_final``). An acquisition
+        without a weight (PoI) or without a known start (a user's factory and ``v`` unset)
+        keeps ``settings.v``."""
+        s = self.settings
+        cls = ACQUISITIONS[self.acquisition] if isinstance(self.acquisition, str) else None
+        v_final = getattr(cls, "default_v_final", None) if s.v_final == "auto" else s.v_final
+        v0 = s.v if s.v is not None else getattr(cls, "default_v", None)
+        if v_final is None or v0 is None:
+            return s.v
+        frac = min(max((iteration - 1) / max(s.n_iter - 1, 1), 0.0), 1.0)
+        return v0 + (v_final - v0) * frac
+
     def _build_acquisition(self, model, F_obs: np.ndarray, feas: np.ndarray, F_ok: np.ndarray,
-                           rng: np.random.Generator) -> Acquisition:
+                           rng: np.random.Generator, iteration: int = 1) -> Acquisition:
         F_feas = F_obs[feas]
         base = F_feas if len(F_feas) else F_ok
         best_f = float(base[:, 0].min()) if len(base) else 0.0
@@ -362,7 +377,8 @@ class BayesianOptimizer:
         front = pareto_front(F_feas) if len(F_feas) else np.zeros((0, self.n_obj))
         if ref is None:
             ref = nadir + scale
-        ctx = AcquisitionContext(best_f, front, ref, ideal, scale, rng, v=self.settings.v,
+        ctx = AcquisitionContext(best_f, front, ref, ideal, scale, rng,
+                                 v=self.exploration_weight(iteration),
                                  weights=self.weights, g=self.settings.g)
         if callable(self.acquisition):
             return self.acquisition(model, ctx)
@@ -416,7 +432,7 @@ class BayesianOptimizer:
         cur_model = model
         for b in range(st.batch_size):
             # the acquisition first: a Monte Carlo HVEI draws its base samples from rng
-            acq = (self._build_acquisition(cur_model, F_obs, feas_obs, F[ok], rng)
+            acq = (self._build_acquisition(cur_model, F_obs, feas_obs, F[ok], rng, iteration)
                    if st.categorical is None else None)
             extra = X[best_idx] + 1e-3 * span * rng.standard_normal((len(best_idx), self.n_var))
             X_avoid = np.vstack([X] + [p[None] for p in pending])
@@ -431,7 +447,8 @@ class BayesianOptimizer:
                 else:
                     x = propose_by_level(
                         st.categorical, cur_model, model_constraints, self.bounds,
-                        lambda m: self._build_acquisition(m, F_obs, feas_obs, F[ok], rng),
+                        lambda m: self._build_acquisition(m, F_obs, feas_obs, F[ok], rng,
+                                                          iteration),
                         X_avoid, extra, rng, n_raw=st.n_raw, n_starts=st.n_starts,
                         cheap_constraints=st.cheap_constraints, min_distance=st.min_distance)
             except RuntimeError as exc:

@@ -275,7 +275,8 @@ class RobustBayesianOptimizer(BayesianOptimizer):
             threshold=FAILURE_THRESHOLD)]
         designs = self.designs(records)
         R_obs, _ = robust.predict_moments(designs)
-        acq = self._build_acquisition(robust, R_obs, np.ones(len(R_obs), bool), R_obs, rng)
+        acq = self._build_acquisition(robust, R_obs, np.ones(len(R_obs), bool), R_obs, rng,
+                                      iteration)
         best = designs[non_dominated_mask(R_obs)] if self.n_obj > 1 else \
             designs[np.argsort(R_obs[:, 0])[:3]]
         best = best[rng.permutation(len(best))[:5]]

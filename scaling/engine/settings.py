@@ -35,7 +35,8 @@ _INT_MIN = {"n_init": 0, "n_iter": 0, "batch_size": 1, "n_restarts": 0, "n_raw":
             "n_starts": 1, "seed": 0, "max_evaluations": 0, "convergence_window": 0,
             "blas_threads": 1, "polish": 0}
 #: Real fields: (low, high, low inclusive, high inclusive).
-_REAL_RANGE = {"v": (0.0, math.inf, True, False), "g": (1.0, math.inf, True, True),
+_REAL_RANGE = {"v": (0.0, math.inf, True, False), "v_final": (0.0, math.inf, True, False),
+               "g": (1.0, math.inf, True, True),
                "p_feasible": (0.0, 1.0, False, False),
                "min_distance": (0.0, math.inf, True, False),
                "resolution": (0.0, 1.0, True, False),
@@ -43,7 +44,7 @@ _REAL_RANGE = {"v": (0.0, math.inf, True, False), "g": (1.0, math.inf, True, Tru
                "convergence_tol": (0.0, math.inf, True, False),
                "polish_step": (0.0, 0.5, False, True)}
 #: Fields that may be ``None``.
-_OPTIONAL = {"acquisition", "v", "ref_point", "weights", "executor", "timeout", "store",
+_OPTIONAL = {"acquisition", "v", "v_final", "ref_point", "weights", "executor", "timeout", "store",
              "max_evaluations", "convergence_tol", "callback", "blas_threads", "coordinates",
              "categorical"}
 #: Fields of a fixed set of names.
@@ -118,6 +119,12 @@ class OptimizerSettings:
     v : float >= 0 or None
         Exploration weight; ``None``: each acquisition's ``default_v`` (LCB and the direct
         approach 2.0, HVLCB 1.5, EI 0).
+    v_final : float >= 0, "auto" or None
+        Exploration weight of the last iteration: ``v`` (or the acquisition's default)
+        at iteration 1 falls linearly to ``v_final`` at iteration ``n_iter``, exploration
+        first and exploitation of the front last; ``"auto"``: the acquisition's
+        ``default_v_final`` (HVLCB 0.5; the others none, i.e. constant); ``None``: ``v``
+        throughout (the studies' default: their Ch. 9 figures were measured so).
     ref_point : sequence of m floats or None
         Hypervolume reference point; ``None``: nadir of the Pareto set + 10 % of its range.
     weights : sequence of m floats >= 0 or None
@@ -204,6 +211,7 @@ class OptimizerSettings:
     batch_size: int = 1
     batch_strategy: Literal["believer", "liar"] = "believer"
     v: float | None = None
+    v_final: float | Literal["auto"] | None = "auto"
     ref_point: Sequence[float] | None = None
     weights: Sequence[float] | None = None
     g: float = 2.0
@@ -237,6 +245,10 @@ class OptimizerSettings:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             if value is None and f.name in _OPTIONAL:
+                continue
+            if f.name == "v_final" and isinstance(value, str):
+                if value != "auto":
+                    raise SettingError(f.name, "a float in [0, inf), 'auto' or None", value)
                 continue
             if f.name in _INT_MIN:
                 put(f.name, _check_int(f.name, value))

@@ -207,7 +207,8 @@ def _robust_campaign(study: Study, nominal: RunOutcome, store: EvaluationStore,
     settings = OptimizerSettings(
         acquisition=study.acquisition, n_init=unc.initial_samples,
         n_iter=opt.iterations if unc.iterations is None else unc.iterations,
-        v=opt.v, weights=opt.weights, cheap_constraints=problem.cheap_constraints(),
+        v=opt.v, v_final=opt.v_final, weights=opt.weights,
+        cheap_constraints=problem.cheap_constraints(),
         executor=executor, timeout=opt.timeout, store=store, seed=run_seed,
         callback=callback, output_transform=opt.transform,
         coordinates=joint_coordinates(study, problem, n_inputs))

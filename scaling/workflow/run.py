@@ -421,7 +421,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
             write_json(out / CLASSICAL_JSON, classical or {"status": "not available"})
             settings = OptimizerSettings(
                 acquisition=study.acquisition, n_init=opt.initial_samples,
-                n_iter=opt.iterations, batch_size=opt.batch_size, v=opt.v, weights=opt.weights,
+                n_iter=opt.iterations, batch_size=opt.batch_size, v=opt.v, v_final=opt.v_final,
+                weights=opt.weights,
                 cheap_constraints=problem.cheap_constraints(), executor=executor,
                 timeout=opt.timeout, store=store, seed=run_seed, callback=callback,
                 output_transform=opt.transform, coordinates=coordinates, polish=opt.polish,

@@ -225,6 +225,8 @@ class OptimizerSection(InputModel):
     approach: Literal["indirect", "direct"] = "indirect"
     acquisition: Literal["hvlcb", "hvei", "hvpoi", "ws", "cheb", "lcb", "ei", "poi"] | None = None
     v: Annotated[float, Field(ge=0.0, le=100.0)] | None = None
+    #: The exploration weight of the last iteration (v falls linearly to it; None: constant v).
+    v_final: Annotated[float, Field(ge=0.0, le=100.0)] | None = None
     weights: list[Annotated[float, Field(ge=0.0)]] | None = None
     initial_samples: Annotated[int, Field(ge=1, le=10000)] = 20
     iterations: Annotated[int, Field(ge=0, le=100000)] = 50

@@ -55,11 +55,30 @@ def test_human_output(capsys):
     ["--problem", "branin", "--acquisition", "hvlcb"],
     ["--problem", "zdt1", "--acquisition", "ei"],
     ["--problem", "zdt1", "--n-var", "1"],
+    ["--problem", "zdt1", "--v-final", "-0.5"],
+    ["--problem", "zdt1", "--v-final", "late"],
 ])
 def test_bad_input_exits_2_with_one_line(capsys, argv):
     assert main(["bench", "bo", *argv, "--iterations", "0"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("hypate: error:") and err.count("\n") == 1
+
+
+def test_v_final_none_is_the_constant_weight_and_auto_the_schedule(capsys):
+    # --v-final none reproduces the engine at constant v; auto (the default) is HVLCB's fall
+    # 1.5 -> 0.5, which changes the proposals once the weight has moved
+    base = ["bench", "bo", "--problem", "branincurrin", "--init", "6", "--iterations", "4",
+            "--seed", "2", "--json"]
+    bench = get_benchmark("branincurrin")
+    const = BayesianOptimizer(bench.problem, acquisition="hvlcb", n_init=6, n_iter=4,
+                              ref_point=bench.ref_point, v_final=None, seed=2).run()
+    assert _json(capsys, base + ["--v-final", "none"])["history"] == pytest.approx(
+        list(const.hypervolume_history(bench.ref_point)), rel=1e-12)
+    auto = BayesianOptimizer(bench.problem, acquisition="hvlcb", n_init=6, n_iter=4,
+                             ref_point=bench.ref_point, v=1.5, v_final=0.5, seed=2).run()
+    assert _json(capsys, base)["history"] == pytest.approx(
+        list(auto.hypervolume_history(bench.ref_point)), rel=1e-12)
+    assert not np.array_equal(const.F, auto.F)
 
 
 # ------------------------------------------------------------------------- slow

@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 from conftest import REPO, tiny_study_text
 from hypate.scaling.cli.main import main
+from hypate.scaling.workflow import run as run_module
 from hypate.scaling.workflow.study import load_study
 
 TINY = tiny_study_text()
@@ -50,6 +51,7 @@ MALFORMED = [
     ("zero xi", ("xi = 4.0", "xi = 0.0"), "study.xi"),
     ("bad equality", ("[optimizer]", '[constraints]\nequality = ["Mach"]\n[optimizer]'),
      "constraints.equality"),
+    ("negative v_final", ("[optimizer]", "[optimizer]\nv_final = -0.5"), "optimizer.v_final"),
 ]
 
 
@@ -122,6 +124,24 @@ def test_similarity_coordinates_run_and_zero_bounds_are_refused(tmp_path: Path, 
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "optimizer.coordinates" in err and "emissivity" in err
     assert not out2.exists()
+
+
+def test_v_final_reaches_the_optimizer_and_studies_default_to_a_constant_v(
+        tmp_path: Path, monkeypatch) -> None:
+    # the engine's own default is HVLCB's schedule ("auto"); a study without the key keeps
+    # a constant v (its figures were measured so), a study with it hands it on
+    seen: list[object] = []
+    real = run_module.OptimizerSettings
+
+    def spy(**kw):
+        seen.append(kw["v_final"])
+        return real(**kw)
+
+    monkeypatch.setattr(run_module, "OptimizerSettings", spy)
+    assert main(["run", str(_tiny(tmp_path)), "--out", str(tmp_path / "a")]) == 0
+    text = TINY.replace("[optimizer]", "[optimizer]\nv_final = 0.25")
+    assert main(["run", str(_tiny(tmp_path, text)), "--out", str(tmp_path / "b")]) == 0
+    assert seen == [None, 0.25]
 
 
 def test_seed_from_an_earlier_run(tmp_path: Path, capsys) -> None:
