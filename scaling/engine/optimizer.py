@@ -30,7 +30,7 @@ acquisition is built by name from :data:`hypate.scaling.engine.acquisition.ACQUI
 evaluations are :class:`hypate.scaling.engine.problem.Outcome` records committed as
 :class:`hypate.scaling.engine.store.Evaluation` rows.
 
-Size: about 650 lines, one class and the record of its leave-one-out check; the proposal,
+Size: about 670 lines, one class and the record of its leave-one-out check; the proposal,
 evaluation, polish and check share the optimizer's settings, surrogates and store, and the
 pieces that stand alone already have their own modules (inner, acquisition, executors,
 mixed: the per-level proposal of a categorical variable).
