@@ -6,6 +6,7 @@ import json
 import numpy as np
 import pytest
 from hypate.scaling.cli.main import main
+from hypate.scaling.engine.acquisition import HypervolumeLCB
 from hypate.scaling.engine.benchmarks import get_benchmark, run_nsga2
 from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.pareto import hypervolume
@@ -75,7 +76,8 @@ def test_v_final_none_is_the_constant_weight_and_auto_the_schedule(capsys):
     assert _json(capsys, base + ["--v-final", "none"])["history"] == pytest.approx(
         list(const.hypervolume_history(bench.ref_point)), rel=1e-12)
     auto = BayesianOptimizer(bench.problem, acquisition="hvlcb", n_init=6, n_iter=4,
-                             ref_point=bench.ref_point, v=1.5, v_final=0.5, seed=2).run()
+                             ref_point=bench.ref_point, v=HypervolumeLCB.default_v,
+                             v_final=HypervolumeLCB.default_v_final, seed=2).run()
     assert _json(capsys, base)["history"] == pytest.approx(
         list(auto.hypervolume_history(bench.ref_point)), rel=1e-12)
     assert not np.array_equal(const.F, auto.F)
