@@ -1,6 +1,6 @@
-"""``hypate reproduce [--quick] [--seeds N] [--out DIR] [--json]``: run the dissertation
-reproductions (Ch. 7 tables, Ch. 8 trends, Ch. 9 studies) and write ``reproduction.html``
-(:mod:`hypate.studies.scripts.reproduce`)."""
+"""``hypate reproduce [--quick] [--seeds N] [--jobs N|auto] [--out DIR] [--json]``: run the
+dissertation reproductions (Ch. 7 tables, Ch. 8 trends, Ch. 9 studies) and write
+``reproduction.html`` (:mod:`hypate.studies.scripts.reproduce`)."""
 from __future__ import annotations
 
 import argparse
@@ -8,7 +8,9 @@ import argparse
 from hypate.scaling.cli.arguments import integer_in, output_directory
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.progress import StepProgress
-from hypate.studies.scripts.reproduce import MAX_SEEDS, Config
+from hypate.scaling.engine.executors import usable_cores
+from hypate.solvers.errors import InputError
+from hypate.studies.scripts.reproduce import MAX_JOBS, MAX_SEEDS, Config
 from hypate.studies.scripts.reproduce import run as run_reproductions
 
 
@@ -22,11 +24,15 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "accepted findings explained next to their rows. Finished "
                        "optimizations are kept in DIR/runs and reused by a re-run.")
     p.add_argument("--quick", action="store_true", help="the coarse variants (4 x 4 meshes, "
-                   "small optimization budgets; measured on 2 cores: 2.2 min with one seed, 5.1 min "
-                   "with three)")
+                   "small optimization budgets; measured on 2 cores with --jobs 1: 2.2 min "
+                   "with one seed, 5.1 min with three)")
     p.add_argument("--seeds", type=int, default=1, metavar="N",
                    help=f"run every Ch. 9 optimization for seeds 0 .. N-1 (1-{MAX_SEEDS}); "
                    "the page shows the median and the min-max (default 1)")
+    p.add_argument("--jobs", default="auto", metavar="N",
+                   help="processes that run the optimizations and scripts side by side: a "
+                   f"number (1-{MAX_JOBS}; 1: one after another), or auto, the usable cores "
+                   "(default). The results do not depend on it")
     p.add_argument("--out", default="reproduction", metavar="DIR",
                    help="output directory (created)")
     p.add_argument("--json", action="store_true", help="print one JSON object at the end: "
@@ -36,13 +42,26 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+def jobs_count(value: str) -> int:
+    """The ``--jobs`` count: a number in [1, MAX_JOBS], or ``auto`` (the usable cores)."""
+    if value == "auto":
+        return min(usable_cores(), MAX_JOBS)
+    try:
+        jobs = int(value)
+    except ValueError:
+        raise InputError("--jobs", f"must be an integer in [1, {MAX_JOBS}] or auto; "
+                         f"got {value!r}") from None
+    return integer_in(jobs, "--jobs", 1, MAX_JOBS)
+
+
 def run(args: argparse.Namespace) -> int:
     seeds = integer_in(args.seeds, "--seeds", 1, MAX_SEEDS)
+    jobs = jobs_count(args.jobs)
     out = output_directory(args.out, "--out")
     progress = StepProgress("reproduce", quiet=args.quiet)
     try:
-        result = run_reproductions(Config(quick=args.quick, seeds=seeds, out=str(out)),
-                                   progress=progress)
+        result = run_reproductions(Config(quick=args.quick, seeds=seeds, out=str(out),
+                                          jobs=jobs), progress=progress)
     finally:
         progress.close()
     if args.json:

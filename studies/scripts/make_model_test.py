@@ -48,7 +48,7 @@ from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON, DESIGN_POINT_NPZ, 
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.study import Study, load_study, parse_study, study_data
 from hypate.solvers.coupling.response import Response
-from hypate.studies.scripts.reproduce import COARSE_9_2
+from hypate.studies.scripts.ch9_runs import COARSE_9_2
 
 #: Relative noise (of each history's RMS) and seed of the shipped sample.
 NOISE, SEED = 0.02, 4

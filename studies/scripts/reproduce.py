@@ -8,14 +8,14 @@ What runs (:func:`plan`):
   ``ch7_time_accuracy``, ``ch8_effects``, ``ch9_table9_3`` (``quick``: their ``--coarse``
   configurations; full: their defaults, ``ch7_flutter`` with its time-domain rows);
 * Sec. 9.1 (Table 9.3, Figs. 9.3-9.4): the Bayesian optimization of ``sec9_1_xi*`` per seed,
-  and the optimum of J_u next to Eq. 9.2 by Nelder-Mead (:func:`j_u_optimum`; the accepted
-  Poisson's-ratio finding, :data:`FINDING_POISSON`);
+  and the optimum of J_u next to Eq. 9.2 by Nelder-Mead (:func:`~.ch9_runs.j_u_optimum`; the
+  accepted Poisson's-ratio finding, :data:`FINDING_POISSON`);
 * Sec. 9.2.2 (Table 9.8), Sec. 9.2.3 (Tables 9.9-9.10, Fig. 9.13: Case 2 against Case 1,
   the accepted WT5 finding :data:`FINDING_WT5`) per seed; Sec. 9.2.4 (Table 9.11, the
   envelope sweep) per seed in the full run only.
 
-``quick`` runs the Ch. 9 studies as coarse variants (:data:`COARSE_9_1`,
-:data:`COARSE_9_2`: 4 x 4 meshes, fewer steps, 36-50 evaluations) with their own stated
+``quick`` runs the Ch. 9 studies as coarse variants (:data:`~.ch9_runs.COARSE_9_1`,
+:data:`~.ch9_runs.COARSE_9_2`: 4 x 4 meshes, fewer steps, 36-50 evaluations) with their own stated
 tolerances, or no verdict where such a budget cannot resolve the dissertation's number (the
 row says so: :class:`~.comparison.NotCompared`). Optimizations run for the seeds
 ``0 .. seeds - 1``; their rows show the median and the min-max over seeds, the verdict is
@@ -23,12 +23,22 @@ on the median.
 
 Nothing finished is lost: every optimization is a ``hypate run`` directory
 ``OUT/runs/{quick,full}/seed<k>/<study>`` (a finished one is read again, an interrupted one
-resumed, by :func:`run_directory`), and after each reproduction its table
+resumed, by :func:`~.ch9_runs.run_directory`), and after each reproduction its table
 (``OUT/tables/<key>.csv``, ``.md``), ``OUT/reproduction.json`` and the page are rewritten.
-The slow Ch. 9 tests read their run directories through :func:`run_directory` as well.
+The slow Ch. 9 tests read their run directories through :func:`~.ch9_runs.run_directory` as well.
 
-Run ``python -m hypate.studies.scripts.reproduce [--coarse] [--seeds N] [--out DIR]`` (the
-command line is ``hypate reproduce``).
+Side by side (``Config.jobs > 1``, ``hypate reproduce --jobs``): a local process pool runs
+the optimizations and the deterministic scripts in the order of :func:`schedule`, while this
+process writes the tables in page order as their inputs finish. Each optimization is the
+same run directory in either mode (bit-identical: tested), so the page does not depend on
+the number of jobs; only the wall time does.
+
+Run ``python -m hypate.studies.scripts.reproduce [--coarse] [--seeds N] [--jobs N]
+[--out DIR]`` (the command line is ``hypate reproduce``).
+
+Size: just over 600 lines because the plan, the builders of its tables and the run (serial
+and pooled) share :class:`Context`; the run directories live in :mod:`.ch9_runs`, the page
+and the row comparisons in :mod:`.reproduction_page` and :mod:`.comparison`.
 """
 from __future__ import annotations
 
@@ -38,26 +48,35 @@ import math
 import time
 import warnings
 from collections.abc import Callable, Sequence
+from concurrent.futures import Future, wait
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import minimize
+from hypate.scaling.engine.executors import ResilientProcessPool
+from hypate.scaling.workflow.rundir import SWEEP_CSV
 from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.run import run_study
-from hypate.scaling.workflow.rundir import (
-    DESIGN_POINT_JSON,
-    EVALUATIONS_CSV,
-    STORE,
-    SWEEP_CSV,
-    SWEEP_JSON,
+from hypate.studies.scripts.ch9_runs import (
+    EQ_9_2_VARIABLES,
+    TUNNELS_9_2_3,
+    Optimization,
+    best_minmax,
+    budget,
+    design_point,
+    eq_9_2_design,
+    j_u_optimum,
+    names_9_1,
+    names_9_2_2,
+    names_9_2_3,
+    names_9_2_4,
+    no_studies,
+    run_directory,
+    runs_root,
+    xis_9_1,
+    xis_9_2_2,
 )
-from hypate.scaling.workflow.shipped import shipped
-from hypate.scaling.workflow.similarity import analytical_scaling
-from hypate.scaling.workflow.study import Study, load_study, parse_study, study_data
-from hypate.scaling.workflow.sweep import run_sweep
 from hypate.studies.scripts import (
     ch7_benchmark,
     ch7_flutter,
@@ -84,15 +103,11 @@ from hypate.studies.scripts.reproduction_page import PAGE_NAME, write_page
 RESULT_JSON = "reproduction.json"
 #: Largest ``--seeds``: each seed repeats every Ch. 9 optimization.
 MAX_SEEDS = 20
+#: Largest ``--jobs`` (processes side by side).
+MAX_JOBS = 64
+#: Seconds between two progress reports while a pooled job is awaited.
+POLL_SECONDS = 5.0
 
-#: Coarse Sec. 9.1 variant: 4 x 4 mesh, 40 of the 100 steps, 10 + 40 evaluations of BO
-#: without the shipped studies' final polish (about 15 s each here).
-COARSE_9_1 = {"simulation": {"mesh": [4, 4], "steps": 40},
-              "optimizer": {"initial_samples": 10, "iterations": 40, "polish": 0}}
-#: Coarse Sec. 9.2 variant: 4 x 4 mesh, 8 steps of 20 s (the same 160 s), 12 + 24
-#: evaluations (about 12 s each here).
-COARSE_9_2 = {"simulation": {"mesh": [4, 4], "steps": 8, "time_step": 20.0},
-              "optimizer": {"initial_samples": 12, "iterations": 24}}
 #: Sec. 9.2.2 coarse bound on min max(J_u, J_T) over the evaluations (fraction): the full
 #: study's 10 % (Sec. 9.2.2) is out of reach of 36 evaluations on a 4 x 4 mesh; seed 0
 #: measured 11.9 % (J_u 9.3 %, J_T 11.9 %), so a seed-0 coarse run above 12 % is a
@@ -106,8 +121,6 @@ COARSE_9_2_2_BOUND = 0.12
 COARSE_9_1_RTOL = {"lambda_F": 0.02, "DeltaT_NTx_L2/Dxx": 0.03}
 #: Full Sec. 9.1 tolerance on Table 9.3's model parameters: 1 % (ch9_table9_3.RTOL_MODEL).
 FULL_9_1_RTOL = ch9_table9_3.RTOL_MODEL
-#: Design variables of Eq. (9.2) (Sec. 9.1) in the order of the studies' variables.
-EQ_9_2_VARIABLES = ("h", "p_inf", "delta_T")
 #: Agreement asked of the J_u optimum with Eq. 9.2 (percent of each design variable):
 #: issue 8's acceptance (2 %); with equal Poisson ratios, 0.5 % (measured within 0.1 %).
 EQ_9_2_TOLERANCE, EQ_9_2_TOLERANCE_EQUAL_NU = 2.0, 0.5
@@ -128,100 +141,6 @@ FINDING_WT5 = Finding(
 Progress = Callable[[str, int, int], None]
 
 
-# -- the Ch. 9 optimizations ------------------------------------------------------------------
-@dataclass(frozen=True)
-class Optimization:
-    """A shipped Ch. 9 study, as it is or coarsened (``quick``).
-
-    Parameters
-    ----------
-    name : str
-        Shipped study name (``studies/optimization/<name>.toml``).
-    quick : bool
-        The coarse variant (:data:`COARSE_9_1` for Sec. 9.1, :data:`COARSE_9_2` else).
-    """
-
-    name: str
-    quick: bool = False
-
-    def study(self) -> Study:
-        """The study to run (the shipped file, with the coarse settings when ``quick``)."""
-        study = load_study(shipped("study")[self.name])
-        if not self.quick:
-            return study
-        coarse = COARSE_9_1 if self.name.startswith("sec9_1") else COARSE_9_2
-        data = study_data(study)
-        for section, values in coarse.items():
-            data[section].update(values)
-        return parse_study(data, study.path)
-
-
-def runs_root(out: str | Path, quick: bool, seed: int) -> Path:
-    """``OUT/runs/{quick,full}/seed<k>``: the run directories of one seed."""
-    return Path(out) / "runs" / ("quick" if quick else "full") / f"seed{seed}"
-
-
-def run_directory(opt: Optimization, root: str | Path, seed: int = 0,
-                  progress: Callable[[int, int, Any], None] | None = None) -> Path:
-    """The finished run directory ``root/<name>`` of ``opt`` at optimizer ``seed``.
-
-    A finished directory (``design_point.json``, or ``sweep.csv`` of a finished sweep) is
-    read as it is; an interrupted one is resumed (nothing finished is evaluated again;
-    another study or seed there is refused by the run's campaign check); otherwise the
-    study runs (:func:`hypate.scaling.workflow.run.run_study`, or
-    :func:`~hypate.scaling.workflow.sweep.run_sweep` for a ``[sweep]`` study).
-    """
-    out = Path(root) / opt.name
-    study = opt.study()
-    if study.sweep is not None:
-        run_sweep(study, out, resume=(out / SWEEP_JSON).exists(), seed=seed, progress=progress)
-        return out
-    if (out / DESIGN_POINT_JSON).exists():
-        return out
-    run_study(study, out, resume=(out / STORE).exists(), seed=seed, progress=progress)
-    return out
-
-
-def design_point(run_dir: Path) -> dict:
-    """``design_point.json`` of a run directory."""
-    return json.loads((run_dir / DESIGN_POINT_JSON).read_text(encoding="utf-8"))
-
-
-def best_minmax(run_dir: Path) -> float:
-    """min over the successful evaluations of max(J_u, J_T) (fraction)."""
-    ev = pd.read_csv(run_dir / EVALUATIONS_CSV)
-    ok = ev[ev["status"] == "ok"]
-    return float(np.max(ok[["J_u", "J_T"]].to_numpy(), axis=1).min())
-
-
-def eq_9_2_design(study: Study, xi: float) -> np.ndarray:
-    """The analytical design (h, p_inf, Delta T) of Eq. (9.2) at scale ``xi``."""
-    law = analytical_scaling(study.spec.prototype, study.spec.model, xi).design()
-    return np.array([law[v] for v in EQ_9_2_VARIABLES])
-
-
-def j_u_optimum(problem: ScalingProblem, x0: np.ndarray, maxfev: int = 120
-                ) -> tuple[np.ndarray, float]:
-    """Nelder-Mead on J_u (Eq. 9.4) from ``x0`` in log coordinates (5 % simplex): the
-    optimum the BO should find, independent of it.
-
-    Returns
-    -------
-    x : ndarray of shape (3,)
-        The design (h m, p_inf Pa, Delta T K) at the optimum.
-    J_u : float
-        J_u there (fraction).
-    """
-    def f(z: np.ndarray) -> float:
-        return problem.errors(x0 * np.exp(z))["J_u"]
-
-    simplex = np.vstack([np.zeros(3), 0.05 * np.eye(3)])
-    res = minimize(f, np.zeros(3), method="Nelder-Mead",
-                   options={"initial_simplex": simplex, "xatol": 1e-3, "fatol": 1e-5,
-                            "maxfev": maxfev})
-    return x0 * np.exp(res.x), float(res.fun)
-
-
 # -- what each reproduction computes -------------------------------------------------------------
 @dataclass(frozen=True)
 class Context:
@@ -231,6 +150,13 @@ class Context:
     seeds: int
     out: Path
     progress: Progress | None = None
+    #: Optimizations running in a process pool (``jobs > 1``): ``(name, seed) -> future`` of
+    #: the warnings they raised; :meth:`run_dirs` waits for them instead of running them.
+    pending: dict[tuple[str, int], Future] = field(default_factory=dict)
+    #: Every job in the pool (optimizations and deterministic items), for the progress.
+    jobs: list[Future] = field(default_factory=list)
+    #: Warnings raised in the pool by the optimizations the current item read.
+    carried: list[str] = field(default_factory=list)
 
     def report(self, step: str, done: int, total: int) -> None:
         if self.progress is not None:
@@ -243,6 +169,8 @@ class Context:
             dirs = {}
             for name in names:
                 step = f"{title}: {name} seed {seed}"
+                if (name, seed) in self.pending:
+                    self.carried.extend(self._await(step, self.pending[name, seed]))
 
                 def tick(done: int, budget: int, _ev: Any, step: str = step) -> None:
                     self.report(step, done, budget)
@@ -251,6 +179,15 @@ class Context:
                                            runs_root(self.out, self.quick, seed), seed, tick)
             per_seed.append(dirs)
         return per_seed
+
+    def _await(self, step: str, future: Future) -> Any:
+        """The result of a pooled job; progress meanwhile counts the pool's finished jobs
+        (an optimization that failed there raises here)."""
+        while not future.done():
+            self.report(f"{step} (pool jobs finished)", sum(f.done() for f in self.jobs),
+                        len(self.jobs))
+            wait([future], timeout=POLL_SECONDS)
+        return future.result()
 
 
 @dataclass(frozen=True)
@@ -263,6 +200,8 @@ class Item:
     title: str
     build: Callable[[Context], pd.DataFrame]
     seeded: bool = False
+    #: The shipped studies the item reads, by ``quick`` (run per seed).
+    studies: Callable[[bool], tuple[str, ...]] = no_studies
 
 
 def _script(module: Any, full_config: Any = None) -> Callable[[Context], pd.DataFrame]:
@@ -277,11 +216,10 @@ def _script(module: Any, full_config: Any = None) -> Callable[[Context], pd.Data
 
 def _sec9_1_bo(ctx: Context) -> pd.DataFrame:
     """Table 9.3 (models found by the BO) and Fig. 9.3 (J_u < 4 %), per seed."""
-    xis = (2,) if ctx.quick else (2, 3, 4)
-    names = [f"sec9_1_xi{xi}" for xi in xis] + ([] if ctx.quick else ["sec9_1_xi2_equal_nu"])
+    xis = xis_9_1(ctx.quick)
     coarse = "coarse budget (4 x 4 mesh, 50 evaluations)"
     rows_by_seed = []
-    for dirs in ctx.run_dirs("Sec. 9.1", names):
+    for dirs in ctx.run_dirs("Sec. 9.1", names_9_1(ctx.quick)):
         rows: list[tuple] = []
         for xi in xis:
             dp = design_point(dirs[f"sec9_1_xi{xi}"])
@@ -342,10 +280,10 @@ def _sec9_1_optimum(ctx: Context) -> pd.DataFrame:
 
 def _sec9_2_2(ctx: Context) -> pd.DataFrame:
     """Table 9.8 / Fig. 9.9: the ideal tunnel (design point and best min-max error)."""
-    xis = (4,) if ctx.quick else (2, 3, 4, 5)
+    xis = xis_9_2_2(ctx.quick)
     coarse = "coarse budget (4 x 4 mesh, 36 evaluations): one of many near-optimal designs"
     rows_by_seed = []
-    for dirs in ctx.run_dirs("Sec. 9.2.2", [f"sec9_2_2_xi{xi}" for xi in xis]):
+    for dirs in ctx.run_dirs("Sec. 9.2.2", names_9_2_2(ctx.quick)):
         rows: list[tuple] = []
         for xi in xis:
             path = dirs[f"sec9_2_2_xi{xi}"]
@@ -364,12 +302,10 @@ def _sec9_2_2(ctx: Context) -> pd.DataFrame:
 
 def _sec9_2_3(ctx: Context) -> pd.DataFrame:
     """Fig. 9.13 / Tables 9.9-9.10: Case 2 (radiant heater) against Case 1 in WT5-WT7."""
-    tunnels = ("wt5", "wt6", "wt7")
-    names = [f"sec9_2_3_case{c}_{t}" for t in tunnels for c in (1, 2)]
     rows_by_seed = []
-    for dirs in ctx.run_dirs("Sec. 9.2.3", names):
+    for dirs in ctx.run_dirs("Sec. 9.2.3", names_9_2_3(ctx.quick)):
         rows: list[tuple] = []
-        for t in tunnels:
+        for t in TUNNELS_9_2_3:
             J = {c: 100.0 * best_minmax(dirs[f"sec9_2_3_case{c}_{t}"]) for c in (1, 2)}
             T = t.upper()
             rows.append((f"{T} Case 1 min max(J_u, J_T) (%)", None, J[1]))
@@ -395,7 +331,7 @@ def _sec9_2_4(ctx: Context) -> pd.DataFrame:
                 for i, h in enumerate(ch9_tables.ALTITUDES_KM)]
         return side_by_side_seeds([rows], rtol=ch9_tables.RTOL)
     rows_by_seed = []
-    for dirs in ctx.run_dirs("Sec. 9.2.4", ["sec9_2_4_envelope"]):
+    for dirs in ctx.run_dirs("Sec. 9.2.4", names_9_2_4(ctx.quick)):
         path = dirs["sec9_2_4_envelope"]
         rows_by_seed.append(ch9_tables.envelope_rows(path, {}) if (path / SWEEP_CSV).exists()
                             else [])
@@ -419,15 +355,15 @@ def plan() -> list[Item]:
         Item("ch9_table9_3", "Ch. 9", "Table 9.3: similarity parameters (Eq. 9.2 models)",
              _script(ch9_table9_3)),
         Item("sec9_1_bo", "Ch. 9", "Sec. 9.1: the Bayesian optimization recovers Table 9.3",
-             _sec9_1_bo, seeded=True),
+             _sec9_1_bo, seeded=True, studies=names_9_1),
         Item("sec9_1_optimum", "Ch. 9", "Sec. 9.1: the optimum of J_u and Eq. 9.2 "
              "(Poisson's ratio)", _sec9_1_optimum),
         Item("sec9_2_2", "Ch. 9", "Sec. 9.2.2 / Table 9.8: the ideal tunnel", _sec9_2_2,
-             seeded=True),
+             seeded=True, studies=names_9_2_2),
         Item("sec9_2_3", "Ch. 9", "Sec. 9.2.3 / Fig. 9.13: realistic tunnels, Case 2 against "
-             "Case 1", _sec9_2_3, seeded=True),
+             "Case 1", _sec9_2_3, seeded=True, studies=names_9_2_3),
         Item("sec9_2_4", "Ch. 9", "Sec. 9.2.4 / Table 9.11: errors over the flight envelope",
-             _sec9_2_4, seeded=True),
+             _sec9_2_4, seeded=True, studies=names_9_2_4),
     ]
 
 
@@ -476,12 +412,18 @@ class Config:
         ``runs/``).
     only : tuple of str
         Keys of the reproductions to run (empty: all of :func:`plan`).
+    jobs : int
+        Processes that run the optimizations and the deterministic scripts side by side
+        (1: one after another in this process; :func:`schedule` says in which order). The
+        results do not depend on it: each optimization is the same ``hypate run`` wherever
+        it runs.
     """
 
     quick: bool = False
     seeds: int = 1
     out: str = "reproduction"
     only: tuple[str, ...] = ()
+    jobs: int = 1
 
     @classmethod
     def coarse(cls) -> Config:
@@ -534,11 +476,79 @@ def check_config(config: Config) -> None:
     setting; the command line turns it into its flag)."""
     if not 1 <= int(config.seeds) <= MAX_SEEDS:
         raise ValueError(f"seeds must be an integer in [1, {MAX_SEEDS}]; got {config.seeds}")
+    if not 1 <= int(config.jobs) <= MAX_JOBS:
+        raise ValueError(f"jobs must be an integer in [1, {MAX_JOBS}]; got {config.jobs}")
     known = {item.key for item in plan()}
     unknown = sorted(set(config.only) - known)
     if unknown:
         raise ValueError(f"only: unknown reproduction(s) {', '.join(unknown)}; "
                          f"known: {', '.join(sorted(known))}")
+
+
+# -- side by side: a process pool (``jobs > 1``) -------------------------------------------------
+def schedule(items: Sequence[Item], ctx: Context) -> list[tuple[str, Any]]:
+    """The pool's jobs in submission order: ``("run", (name, seed))`` per optimization and
+    seed, ``("build", key)`` per deterministic item.
+
+    The costliest optimization goes first, then the deterministic scripts, then the other
+    optimizations costliest first (:func:`~.ch9_runs.budget`): one process stays on the long pole
+    (the full run's envelope sweep, about 70 min) while the others clear the scripts and
+    fill in behind it, so no long job starts last.
+    """
+    runs = [(name, seed) for item in items for name in item.studies(ctx.quick)
+            for seed in range(ctx.seeds)]
+    runs.sort(key=lambda r: -budget(Optimization(r[0], ctx.quick)))  # stable: page order
+    builds = [("build", item.key) for item in items if not item.seeded]
+    jobs = [("run", r) for r in runs]
+    return jobs[:1] + builds + jobs[1:]
+
+
+def _caught(fn: Callable[[], Any]) -> tuple[Any, tuple[str, ...]]:
+    """``fn()`` and the distinct warnings it raised (``"Category: message"``)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")  # each distinct warning once
+        value = fn()
+    return value, tuple(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
+
+
+def _run_job(name: str, quick: bool, out: str, seed: int) -> tuple[str, ...]:
+    """Pool job: one optimization's run directory (:func:`run_directory`); its warnings."""
+    return _caught(lambda: run_directory(Optimization(name, quick),
+                                         runs_root(out, quick, seed), seed))[1]
+
+
+def _build_job(key: str, quick: bool, seeds: int, out: str
+               ) -> tuple[pd.DataFrame, tuple[str, ...], float]:
+    """Pool job: a deterministic item's table, its warnings and its seconds."""
+    item = next(i for i in plan() if i.key == key)
+    start = time.monotonic()
+    table, seen = _caught(lambda: item.build(Context(quick, seeds, Path(out))))
+    return table, seen, time.monotonic() - start
+
+
+def _submit(pool: ResilientProcessPool, items: Sequence[Item], ctx: Context,
+            config: Config) -> dict[str, Future]:
+    """Submit :func:`schedule`'s jobs; the optimizations' futures go to ``ctx.pending``,
+    the deterministic items' are returned by key."""
+    built = {}
+    for kind, what in schedule(items, ctx):
+        if kind == "run":
+            job = ctx.pending[what] = pool.submit(_run_job, what[0], ctx.quick, config.out,
+                                                  what[1])
+        else:
+            job = built[what] = pool.submit(_build_job, what, ctx.quick, ctx.seeds, config.out)
+        ctx.jobs.append(job)
+    return built
+
+
+def _stop(pool: ResilientProcessPool) -> None:
+    """End the pool at once: queued jobs are cancelled, running ones terminated (their
+    evaluations so far are stored; a re-run resumes them)."""
+    processes = list(getattr(pool._pool, "_processes", {}).values())  # noqa: SLF001
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in processes:
+        if proc.is_alive():
+            proc.terminate()
 
 
 def run(config: Config | None = None, progress: Progress | None = None) -> Result:
@@ -565,20 +575,29 @@ def run(config: Config | None = None, progress: Progress | None = None) -> Resul
     result = Result(config, planned=len(items))
     ctx = Context(config.quick, int(config.seeds), out, progress)
     t0 = time.monotonic()
-    for item in items:
-        start = time.monotonic()
-        ctx.report(item.title, 0, 1)
-        with warnings.catch_warnings(record=True) as caught:  # solver warnings: counted
-            warnings.simplefilter("default")  # each distinct warning once
-            table = item.build(ctx)
-        seen = tuple(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
-        rep = Reproduction(item.key, item.chapter, item.title, table,
-                           time.monotonic() - start, ctx.seeds if item.seeded else 1, seen)
-        result.reproductions.append(rep)
-        result.seconds = time.monotonic() - t0
-        write_table(table, out / "tables", item.key, item.title)
-        _write(result, out)
-        ctx.report(item.title, 1, 1)
+    pool = ResilientProcessPool(int(config.jobs)) if config.jobs > 1 else None
+    built = _submit(pool, items, ctx, config) if pool is not None else {}
+    try:
+        for item in items:
+            start = time.monotonic()
+            ctx.report(item.title, 0, 1)
+            ctx.carried.clear()
+            if item.key in built:  # solver warnings: counted, each distinct one once
+                table, seen, seconds = ctx._await(item.title, built[item.key])
+            else:
+                table, seen = _caught(lambda item=item: item.build(ctx))
+                seen = tuple(dict.fromkeys(ctx.carried + list(seen)))
+                seconds = time.monotonic() - start
+            rep = Reproduction(item.key, item.chapter, item.title, table, seconds,
+                               ctx.seeds if item.seeded else 1, seen)
+            result.reproductions.append(rep)
+            result.seconds = time.monotonic() - t0
+            write_table(table, out / "tables", item.key, item.title)
+            _write(result, out)
+            ctx.report(item.title, 1, 1)
+    finally:
+        if pool is not None:
+            _stop(pool)
     return result
 
 
@@ -587,9 +606,10 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--coarse", action="store_true", help="the quick (coarse) variants")
     parser.add_argument("--seeds", type=int, default=1)
+    parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--out", default="reproduction")
     args = parser.parse_args(argv)
-    res = run(Config(quick=args.coarse, seeds=args.seeds, out=args.out))
+    res = run(Config(quick=args.coarse, seeds=args.seeds, out=args.out, jobs=args.jobs))
     for r in res.reproductions:
         print(f"{r.title}: {summary(r.table)}")
     print(res.page)

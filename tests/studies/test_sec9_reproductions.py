@@ -6,7 +6,7 @@ run directories ``DIR/<study name>/`` (from ``hypate run studies/<name>.toml --o
 DIR/<name>``, or ``hypate reproduce --out OUT``: ``DIR = OUT/runs/full/seed0``) instead of
 running the studies again. The fast tests run the coarse variants of ``hypate reproduce
 --quick`` (4 x 4 meshes, fewer steps, small budgets). Both obtain their run directories
-through the command's runner (:func:`hypate.studies.scripts.reproduce.run_directory`), so
+through the command's runner (:func:`hypate.studies.scripts.ch9_runs.run_directory`), so
 the tests and the reproduction page read the same results.
 """
 from __future__ import annotations
@@ -22,14 +22,14 @@ from conftest import REPO
 from hypate.scaling.workflow.laws import laws_of_run, load_runs
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.study import load_study
-from hypate.studies.scripts.reproduce import (
-    COARSE_9_2_2_BOUND,
+from hypate.studies.scripts.ch9_runs import (
     Optimization,
     best_minmax,
     eq_9_2_design,
     j_u_optimum,
     run_directory,
 )
+from hypate.studies.scripts.reproduce import COARSE_9_2_2_BOUND
 
 STUDIES = REPO / "studies" / "optimization"
 #: Similarity parameters of Table 9.3 and the design variables of Eq. (9.2).

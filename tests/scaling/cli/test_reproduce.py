@@ -26,6 +26,19 @@ def test_the_four_public_flags_parse() -> None:
     assert (args.quick, args.seeds, args.out, args.json) == (True, 3, "d", True)
     defaults = build_parser().parse_args(["reproduce"])
     assert (defaults.quick, defaults.seeds, defaults.out) == (False, 1, "reproduction")
+    assert defaults.jobs == "auto" and build_parser().parse_args(
+        ["reproduce", "--jobs", "2"]).jobs == "2"
+
+
+@pytest.mark.parametrize("jobs", ["0", "65", "two"])
+def test_bad_jobs_end_in_one_line_naming_the_flag(jobs: str, tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture) -> None:
+    out = tmp_path / "out"
+    assert main(["reproduce", "--quick", "--jobs", jobs, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("hypate: error: --jobs: must be an integer")
+    assert "[1, 64]" in err[0] and err[0].endswith(jobs if jobs.isdigit() else repr(jobs))
+    assert not out.exists()  # nothing written
 
 
 @pytest.mark.parametrize("seeds", ["0", "21", "-1"])

@@ -15,6 +15,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
+import pandas as pd
 import pytest
 from conftest import chromium
 from hypate.studies.scripts import reproduce
@@ -191,3 +192,68 @@ def test_page_renders_every_row_with_its_verdict(cheap_run: reproduce.Result,
     shot = tmp_path / "reproduction_1400.png"
     assert _browser(page, f"--screenshot={shot}").returncode == 0
     assert shot.read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
+
+
+# -- side by side (``jobs > 1``) ----------------------------------------------------------------
+def test_schedule_runs_the_long_pole_first_then_the_scripts_then_the_rest() -> None:
+    items = reproduce.plan()
+    ctx = reproduce.Context(quick=False, seeds=2, out=Path("unused"))
+    jobs = reproduce.schedule(items, ctx)
+    builds = [("build", i.key) for i in items if not i.seeded]
+    runs = [what for kind, what in jobs if kind == "run"]
+    # every (study, seed) of every item exactly once, every deterministic item once
+    expected = {(n, s) for i in items for n in i.studies(False) for s in (0, 1)}
+    assert len(runs) == len(set(runs)) and set(runs) == expected
+    assert len(expected) == 2 * (4 + 4 + 6 + 1)
+    # the envelope sweep (25 points) is the costliest, then the scripts in page order, then
+    # the other optimizations in non-increasing cost
+    assert jobs[0] == ("run", ("sec9_2_4_envelope", 0))
+    assert jobs[1:1 + len(builds)] == builds
+    costs = [reproduce.budget(reproduce.Optimization(n)) for n, _ in runs]
+    assert costs[0] == max(costs) and costs[1:] == sorted(costs[1:], reverse=True)
+
+
+#: One deterministic table and one quick optimization (sec9_2_2_xi4: 36 evaluations).
+POOLED = ("ch7_table7_3_modes", "sec9_2_2")
+
+
+def _evaluations(out: Path) -> pd.DataFrame:
+    ev = pd.read_csv(out / "runs" / "quick" / "seed0" / "sec9_2_2_xi4" / "evaluations.csv")
+    return ev.drop(columns=[c for c in ev.columns if "second" in c])  # timings differ
+
+
+def test_two_jobs_give_the_serial_run_bit_for_bit(tmp_path: Path) -> None:
+    res = {}
+    for jobs in (1, 2):
+        out = tmp_path / f"jobs{jobs}"
+        res[jobs] = reproduce.run(reproduce.Config(quick=True, out=str(out), only=POOLED,
+                                                   jobs=jobs))
+    assert res[2].finished and [r.key for r in res[2].reproductions] == list(POOLED)
+    for a, b in zip(res[1].reproductions, res[2].reproductions):
+        pd.testing.assert_frame_equal(a.table, b.table)
+        assert a.warnings == b.warnings  # the pool's warnings reach the table's record
+    a, b = _evaluations(tmp_path / "jobs1"), _evaluations(tmp_path / "jobs2")
+    assert len(a) == 37  # 12 + 24 and the classical seed
+    pd.testing.assert_frame_equal(a, b, check_exact=True)
+
+
+def test_a_failure_in_the_pool_ends_the_run_and_keeps_what_finished(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from hypate.studies.scripts import ch9_runs
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("simulated solver crash")
+
+    monkeypatch.setattr(ch9_runs, "run_study", broken)  # the forked workers inherit it
+    out = tmp_path / "out"
+    with pytest.raises(RuntimeError, match="simulated solver crash"):
+        reproduce.run(reproduce.Config(quick=True, out=str(out), only=POOLED, jobs=2))
+    record = json.loads((out / reproduce.RESULT_JSON).read_text())
+    assert [r["key"] for r in record["reproductions"]] == ["ch7_table7_3_modes"]
+    assert not record["finished"]
+
+
+def test_jobs_out_of_range_are_refused_before_anything_runs(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match=r"jobs must be an integer in \[1, 64\]; got 0"):
+        reproduce.run(reproduce.Config(quick=True, out=str(tmp_path / "o"), jobs=0))
+    assert not (tmp_path / "o").exists()
