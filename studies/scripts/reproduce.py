@@ -170,7 +170,7 @@ class Context:
             for name in names:
                 step = f"{title}: {name} seed {seed}"
                 if (name, seed) in self.pending:
-                    self.carried.extend(self._await(step, self.pending[name, seed]))
+                    self.carried.extend(self.wait_for(step, self.pending[name, seed]))
 
                 def tick(done: int, budget: int, _ev: Any, step: str = step) -> None:
                     self.report(step, done, budget)
@@ -180,7 +180,7 @@ class Context:
             per_seed.append(dirs)
         return per_seed
 
-    def _await(self, step: str, future: Future) -> Any:
+    def wait_for(self, step: str, future: Future) -> Any:
         """The result of a pooled job; progress meanwhile counts the pool's finished jobs
         (an optimization that failed there raises here)."""
         while not future.done():
@@ -583,7 +583,7 @@ def run(config: Config | None = None, progress: Progress | None = None) -> Resul
             ctx.report(item.title, 0, 1)
             ctx.carried.clear()
             if item.key in built:  # solver warnings: counted, each distinct one once
-                table, seen, seconds = ctx._await(item.title, built[item.key])
+                table, seen, seconds = ctx.wait_for(item.title, built[item.key])
             else:
                 table, seen = _caught(lambda item=item: item.build(ctx))
                 seen = tuple(dict.fromkeys(ctx.carried + list(seen)))
