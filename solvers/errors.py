@@ -14,3 +14,7 @@ class InputError(ValueError):
         self.field = field
         self.message = message
         super().__init__(f"{field}: {message}")
+
+    def __reduce__(self):
+        # pickled by its fields: raised in a pool worker, it reaches the parent as itself
+        return type(self), (self.field, self.message)

@@ -49,9 +49,11 @@ def jobs_count(value: str) -> int:
     try:
         jobs = int(value)
     except ValueError:
+        jobs = 0
+    if not 1 <= jobs <= MAX_JOBS:
         raise InputError("--jobs", f"must be an integer in [1, {MAX_JOBS}] or auto; "
-                         f"got {value!r}") from None
-    return integer_in(jobs, "--jobs", 1, MAX_JOBS)
+                         f"got {value!r}")
+    return jobs
 
 
 def run(args: argparse.Namespace) -> int:

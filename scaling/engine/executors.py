@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import signal
 import socket
 import sys
 import time
@@ -69,15 +70,20 @@ class ResilientProcessPool(Executor):
     ----------
     workers : int
         Number of worker processes.
+    ignore_interrupt : bool, keyword-only
+        Workers ignore SIGINT (a Ctrl-C in the terminal reaches the whole process group):
+        for long jobs that the parent ends with :meth:`terminate` instead.
     """
 
-    def __init__(self, workers: int) -> None:
+    def __init__(self, workers: int, *, ignore_interrupt: bool = False) -> None:
         self.workers = int(workers)
         self.restarts = 0
+        self.ignore_interrupt = bool(ignore_interrupt)
         self._pool = self._new_pool()
 
     def _new_pool(self) -> ProcessPoolExecutor:
-        return ProcessPoolExecutor(max_workers=self.workers, initializer=die_with_parent,
+        start = _worker_ignoring_interrupt if self.ignore_interrupt else die_with_parent
+        return ProcessPoolExecutor(max_workers=self.workers, initializer=start,
                                    initargs=(os.getpid(),))
 
     def submit(self, fn: Callable[..., T], /, *args: Any, **kwargs: Any) -> Any:
@@ -109,6 +115,26 @@ class ResilientProcessPool(Executor):
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
         self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
+
+    def terminate(self) -> None:
+        """End the pool now: queued work is cancelled, the workers are terminated (SIGTERM)
+        mid-job -- for jobs that store their own progress, such as whole optimizations."""
+        # concurrent.futures has no public handle on its workers; shutdown(wait=False)
+        # alone would let a running job go on until it ends, and the interpreter's exit
+        # would wait for it
+        procs = list((getattr(self._pool, "_processes", None) or {}).values())
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        for proc in procs:
+            if proc.is_alive():
+                proc.terminate()
+        for proc in procs:
+            proc.join(timeout=5.0)
+
+
+def _worker_ignoring_interrupt(parent: int) -> None:
+    """Pool initializer: :func:`die_with_parent`, and SIGINT ignored."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    die_with_parent(parent)
 
 
 # ------------------------------------------------------------------------- dask

@@ -56,6 +56,10 @@ class ExecutorError(ValueError):
         super().__init__(f"{field}: {message}")
         self.field, self.message = field, message
 
+    def __reduce__(self):
+        # pickled by its fields (a pool worker's error reaches the parent as itself)
+        return type(self), (self.field, self.message)
+
 
 class InfrastructureError(RuntimeError):
     """The pool or cluster evaluating designs is gone; no row was stored for the designs
@@ -76,6 +80,9 @@ class InfrastructureError(RuntimeError):
                 "evaluates them" if self.unfinished else "")
         super().__init__(f"lost {lost}{tail}")
 
+    def __reduce__(self):  # by its fields, not by its message ("lost lost ...")
+        return type(self), (self.lost, self.unfinished)
+
 
 class KilledItsWorker(Exception):
     """The process evaluating a design alone died :data:`SOLO_DEATHS` times: a design
@@ -85,6 +92,9 @@ class KilledItsWorker(Exception):
         self.deaths, self.last = int(deaths), last
         super().__init__(f"worker died while evaluating this design alone ({self.deaths} "
                          f"times; last: {last})")
+
+    def __reduce__(self):
+        return type(self), (self.deaths, self.last)
 
 
 def fault_kind(exc: BaseException) -> Literal["worker", "connection"] | None:

@@ -57,7 +57,11 @@ class SettingError(ValueError):
 
     def __init__(self, field: str, allowed: str, value: Any) -> None:
         super().__init__(f"{field} must be {allowed}, got {value!r}")
-        self.field = field
+        self.field, self.allowed, self.value = field, allowed, value
+
+    def __reduce__(self):
+        # pickled by its fields (a pool worker's error reaches the parent as itself)
+        return type(self), (self.field, self.allowed, self.value)
 
 
 def _interval(lo: float, hi: float, lo_closed: bool, hi_closed: bool) -> str:

@@ -82,11 +82,13 @@ def run_directory(opt: Optimization, root: str | Path, seed: int = 0,
                   progress: Callable[[int, int, Any], None] | None = None) -> Path:
     """The finished run directory ``root/<name>`` of ``opt`` at optimizer ``seed``.
 
-    A finished directory (``design_point.json``, or ``sweep.csv`` of a finished sweep) is
-    read as it is; an interrupted one is resumed (nothing finished is evaluated again;
-    another study or seed there is refused by the run's campaign check); otherwise the
-    study runs (:func:`hypate.scaling.workflow.run.run_study`, or
-    :func:`~hypate.scaling.workflow.sweep.run_sweep` for a ``[sweep]`` study).
+    A finished study directory (``design_point.json``) is read as it is; an interrupted one
+    is resumed (nothing finished is evaluated again; another study or seed there is refused
+    by the run's campaign check); otherwise the study runs
+    (:func:`hypate.scaling.workflow.run.run_study`). A ``[sweep]`` study always goes
+    through :func:`~hypate.scaling.workflow.sweep.run_sweep` with ``resume`` when it has
+    begun: a finished sweep evaluates nothing then, it re-reads its points and rewrites its
+    summary files (``sweep.json``, ``sweep.csv``).
     """
     out = Path(root) / opt.name
     study = opt.study()

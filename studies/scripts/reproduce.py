@@ -29,9 +29,11 @@ The slow Ch. 9 tests read their run directories through :func:`~.ch9_runs.run_di
 
 Side by side (``Config.jobs > 1``, ``hypate reproduce --jobs``): a local process pool runs
 the optimizations and the deterministic scripts in the order of :func:`schedule`, while this
-process writes the tables in page order as their inputs finish. Each optimization is the
-same run directory in either mode (bit-identical: tested), so the page does not depend on
-the number of jobs; only the wall time does.
+process writes the tables in page order as their inputs finish (the first failure in the
+pool ends the run; Ctrl-C terminates the workers, and a re-run resumes their runs). Each
+optimization stores the same evaluations in either mode (designs and objectives bit for
+bit: tested), so the page does not depend on the number of jobs; the wall time does, and a
+pooled table's seconds are its jobs' own.
 
 Run ``python -m hypate.studies.scripts.reproduce [--coarse] [--seeds N] [--jobs N]
 [--out DIR]`` (the command line is ``hypate reproduce``).
@@ -48,7 +50,7 @@ import math
 import time
 import warnings
 from collections.abc import Callable, Sequence
-from concurrent.futures import Future, wait
+from concurrent.futures import FIRST_EXCEPTION, Future, wait
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -150,13 +152,18 @@ class Context:
     seeds: int
     out: Path
     progress: Progress | None = None
-    #: Optimizations running in a process pool (``jobs > 1``): ``(name, seed) -> future`` of
-    #: the warnings they raised; :meth:`run_dirs` waits for them instead of running them.
+    #: Optimizations given to a process pool (``jobs > 1``): ``(name, seed) -> future`` of
+    #: (warnings raised, seconds); :meth:`run_dirs` waits for one before it reads its
+    #: finished run directory.
     pending: dict[tuple[str, int], Future] = field(default_factory=dict)
-    #: Every job in the pool (optimizations and deterministic items), for the progress.
+    #: Every job in the pool (optimizations and deterministic items): the progress counts
+    #: them, and the first failure among them ends the run.
     jobs: list[Future] = field(default_factory=list)
-    #: Warnings raised in the pool by the optimizations the current item read.
+    #: Warnings and seconds of the pooled optimizations the current item read, and the
+    #: seconds it waited for them.
     carried: list[str] = field(default_factory=list)
+    carried_seconds: list[float] = field(default_factory=list)
+    waited_seconds: list[float] = field(default_factory=list)
 
     def report(self, step: str, done: int, total: int) -> None:
         if self.progress is not None:
@@ -170,7 +177,11 @@ class Context:
             for name in names:
                 step = f"{title}: {name} seed {seed}"
                 if (name, seed) in self.pending:
-                    self.carried.extend(self.wait_for(step, self.pending[name, seed]))
+                    start = time.monotonic()
+                    seen, seconds = self.wait_for(title, self.pending[name, seed])
+                    self.waited_seconds.append(time.monotonic() - start)
+                    self.carried.extend(seen)
+                    self.carried_seconds.append(seconds)
 
                 def tick(done: int, budget: int, _ev: Any, step: str = step) -> None:
                     self.report(step, done, budget)
@@ -180,14 +191,20 @@ class Context:
             per_seed.append(dirs)
         return per_seed
 
-    def wait_for(self, step: str, future: Future) -> Any:
-        """The result of a pooled job; progress meanwhile counts the pool's finished jobs
-        (an optimization that failed there raises here)."""
-        while not future.done():
-            self.report(f"{step} (pool jobs finished)", sum(f.done() for f in self.jobs),
+    def wait_for(self, title: str, future: Future) -> Any:
+        """The result of a pooled job. Meanwhile the progress step ``"<title>: pool jobs
+        finished"`` counts the pool's finished jobs, and a job that failed anywhere in the
+        pool raises its error here at once (not when its table's turn comes)."""
+        while True:
+            failed = next((f for f in self.jobs if f.done() and f.exception() is not None),
+                          None)
+            if failed is not None:
+                failed.result()  # raises the job's error
+            if future.done():
+                return future.result()
+            self.report(f"{title}: pool jobs finished", sum(f.done() for f in self.jobs),
                         len(self.jobs))
-            wait([future], timeout=POLL_SECONDS)
-        return future.result()
+            wait(self.jobs, timeout=POLL_SECONDS, return_when=FIRST_EXCEPTION)
 
 
 @dataclass(frozen=True)
@@ -476,8 +493,8 @@ def check_config(config: Config) -> None:
     setting; the command line turns it into its flag)."""
     if not 1 <= int(config.seeds) <= MAX_SEEDS:
         raise ValueError(f"seeds must be an integer in [1, {MAX_SEEDS}]; got {config.seeds}")
-    if not 1 <= int(config.jobs) <= MAX_JOBS:
-        raise ValueError(f"jobs must be an integer in [1, {MAX_JOBS}]; got {config.jobs}")
+    if not (isinstance(config.jobs, int) and 1 <= config.jobs <= MAX_JOBS):
+        raise ValueError(f"jobs must be an integer in [1, {MAX_JOBS}]; got {config.jobs!r}")
     known = {item.key for item in plan()}
     unknown = sorted(set(config.only) - known)
     if unknown:
@@ -491,13 +508,15 @@ def schedule(items: Sequence[Item], ctx: Context) -> list[tuple[str, Any]]:
     seed, ``("build", key)`` per deterministic item.
 
     The costliest optimization goes first, then the deterministic scripts, then the other
-    optimizations costliest first (:func:`~.ch9_runs.budget`): one process stays on the long pole
-    (the full run's envelope sweep, about 70 min) while the others clear the scripts and
-    fill in behind it, so no long job starts last.
+    optimizations costliest first (:func:`~.ch9_runs.budget`; among equal costs seed by
+    seed, in page order, the order the tables read them): one process stays on the long
+    pole (the full run's envelope sweep, about 70 min) while the others clear the scripts
+    and fill in behind it, so no long job starts last.
     """
-    runs = [(name, seed) for item in items for name in item.studies(ctx.quick)
-            for seed in range(ctx.seeds)]
-    runs.sort(key=lambda r: -budget(Optimization(r[0], ctx.quick)))  # stable: page order
+    runs = [(name, seed) for seed in range(ctx.seeds) for item in items
+            for name in item.studies(ctx.quick)]
+    cost = {name: budget(Optimization(name, ctx.quick)) for name, _ in runs}
+    runs.sort(key=lambda r: -cost[r[0]])  # stable: seed by seed, page order
     builds = [("build", item.key) for item in items if not item.seeded]
     jobs = [("run", r) for r in runs]
     return jobs[:1] + builds + jobs[1:]
@@ -511,10 +530,13 @@ def _caught(fn: Callable[[], Any]) -> tuple[Any, tuple[str, ...]]:
     return value, tuple(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
 
 
-def _run_job(name: str, quick: bool, out: str, seed: int) -> tuple[str, ...]:
-    """Pool job: one optimization's run directory (:func:`run_directory`); its warnings."""
-    return _caught(lambda: run_directory(Optimization(name, quick),
+def _run_job(name: str, quick: bool, out: str, seed: int) -> tuple[tuple[str, ...], float]:
+    """Pool job: one optimization's run directory (:func:`run_directory`); its warnings and
+    seconds."""
+    start = time.monotonic()
+    seen = _caught(lambda: run_directory(Optimization(name, quick),
                                          runs_root(out, quick, seed), seed))[1]
+    return seen, time.monotonic() - start
 
 
 def _build_job(key: str, quick: bool, seeds: int, out: str
@@ -541,16 +563,6 @@ def _submit(pool: ResilientProcessPool, items: Sequence[Item], ctx: Context,
     return built
 
 
-def _stop(pool: ResilientProcessPool) -> None:
-    """End the pool at once: queued jobs are cancelled, running ones terminated (their
-    evaluations so far are stored; a re-run resumes them)."""
-    processes = list(getattr(pool._pool, "_processes", {}).values())  # noqa: SLF001
-    pool.shutdown(wait=False, cancel_futures=True)
-    for proc in processes:
-        if proc.is_alive():
-            proc.terminate()
-
-
 def run(config: Config | None = None, progress: Progress | None = None) -> Result:
     """Run the reproductions of ``config`` into ``config.out``.
 
@@ -575,19 +587,25 @@ def run(config: Config | None = None, progress: Progress | None = None) -> Resul
     result = Result(config, planned=len(items))
     ctx = Context(config.quick, int(config.seeds), out, progress)
     t0 = time.monotonic()
-    pool = ResilientProcessPool(int(config.jobs)) if config.jobs > 1 else None
-    built = _submit(pool, items, ctx, config) if pool is not None else {}
+    n_jobs = len(schedule(items, ctx)) if config.jobs > 1 else 0
+    # workers ignore Ctrl-C: the parent ends them (terminate: their runs resume on a re-run)
+    pool = (ResilientProcessPool(min(config.jobs, n_jobs), ignore_interrupt=True)
+            if n_jobs > 1 else None)
     try:
+        built = _submit(pool, items, ctx, config) if pool is not None else {}
         for item in items:
             start = time.monotonic()
             ctx.report(item.title, 0, 1)
-            ctx.carried.clear()
+            for carried in (ctx.carried, ctx.carried_seconds, ctx.waited_seconds):
+                carried.clear()
             if item.key in built:  # solver warnings: counted, each distinct one once
                 table, seen, seconds = ctx.wait_for(item.title, built[item.key])
             else:
                 table, seen = _caught(lambda item=item: item.build(ctx))
                 seen = tuple(dict.fromkeys(ctx.carried + list(seen)))
-                seconds = time.monotonic() - start
+                # pooled optimizations: their own seconds, not the wait for them
+                seconds = (time.monotonic() - start - sum(ctx.waited_seconds)
+                           + sum(ctx.carried_seconds))
             rep = Reproduction(item.key, item.chapter, item.title, table, seconds,
                                ctx.seeds if item.seeded else 1, seen)
             result.reproductions.append(rep)
@@ -597,12 +615,13 @@ def run(config: Config | None = None, progress: Progress | None = None) -> Resul
             ctx.report(item.title, 1, 1)
     finally:
         if pool is not None:
-            _stop(pool)
+            pool.terminate()
     return result
 
 
 def main(argv: list[str] | None = None) -> None:
-    """``python -m hypate.studies.scripts.reproduce [--coarse] [--seeds N] [--out DIR]``."""
+    """``python -m hypate.studies.scripts.reproduce [--coarse] [--seeds N] [--jobs N]
+    [--out DIR]``."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--coarse", action="store_true", help="the quick (coarse) variants")
     parser.add_argument("--seeds", type=int, default=1)

@@ -18,6 +18,7 @@ from concurrent.futures.process import BrokenProcessPool
 import pytest
 from hypate.scaling.engine.child import call_in_child, die_with_parent
 from hypate.scaling.engine.executors import (
+    ResilientProcessPool,
     check_scheduler_address,
     make_executor,
     run_batch,
@@ -202,3 +203,42 @@ def test_a_tls_scheduler_needs_the_clients_certificates(tmp_path):
     finally:
         scheduler.kill()
         scheduler.wait()
+
+
+# -- errors cross the pool as themselves; terminate ends running work -----------------------------
+def _raise(exc: BaseException) -> None:
+    raise exc
+
+
+def test_the_projects_errors_cross_a_process_pool_as_themselves() -> None:
+    # an exception whose __init__ takes its fields would not unpickle in the parent, and
+    # concurrent.futures then breaks the whole pool (BrokenProcessPool) instead
+    from hypate.scaling.engine.settings import SettingError
+    from hypate.solvers.errors import InputError
+
+    errors = [InputError("panel.h", "must be > 0"), ExecutorError("scheduler", "unreachable"),
+              InfrastructureError("the pool", 2), KilledItsWorker(3, "SIGKILL"),
+              SettingError("v", "a number >= 0", -1.0)]
+    pool = ResilientProcessPool(1)
+    try:
+        for exc in errors:
+            with pytest.raises(type(exc)) as caught:
+                pool.submit(_raise, exc).result(timeout=60)
+            assert str(caught.value) == str(exc) and vars(caught.value) == vars(exc)
+        assert pool.restarts == 0
+    finally:
+        pool.shutdown()
+
+
+def test_terminate_ends_a_running_job_at_once() -> None:
+    pool = ResilientProcessPool(1, ignore_interrupt=True)
+    running = pool.submit(time.sleep, 120.0)
+    queued = pool.submit(time.sleep, 120.0)
+    time.sleep(1.0)  # the first job has started
+    start = time.monotonic()
+    pool.terminate()
+    assert time.monotonic() - start < 30.0  # not the 120 s of the job
+    # neither job ever finishes: the queued one is cancelled, or fails with the running one
+    # (concurrent.futures hands one call ahead to its queue, and marks it running)
+    for job in (running, queued):
+        assert job.cancelled() or job.exception(timeout=30) is not None

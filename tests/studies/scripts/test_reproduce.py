@@ -13,6 +13,7 @@ import math
 import re
 import subprocess
 import tempfile
+import time
 from pathlib import Path
 
 import pandas as pd
@@ -239,18 +240,42 @@ def test_two_jobs_give_the_serial_run_bit_for_bit(tmp_path: Path) -> None:
 
 def test_a_failure_in_the_pool_ends_the_run_and_keeps_what_finished(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from hypate.solvers.errors import InputError
     from hypate.studies.scripts import ch9_runs
 
     def broken(*args, **kwargs):
-        raise RuntimeError("simulated solver crash")
+        time.sleep(10.0)  # after Table 7.3 (under 1 s) is written
+        raise InputError("optimizer.seed", "simulated bad campaign")
 
-    monkeypatch.setattr(ch9_runs, "run_study", broken)  # the forked workers inherit it
+    # the forked workers inherit the patch (Linux's fork start method)
+    monkeypatch.setattr(ch9_runs, "run_study", broken)
     out = tmp_path / "out"
-    with pytest.raises(RuntimeError, match="simulated solver crash"):
+    # the error reaches the parent as itself (pickled by its fields), field and message
+    with pytest.raises(InputError, match="optimizer.seed: simulated bad campaign"):
         reproduce.run(reproduce.Config(quick=True, out=str(out), only=POOLED, jobs=2))
     record = json.loads((out / reproduce.RESULT_JSON).read_text())
     assert [r["key"] for r in record["reproductions"]] == ["ch7_table7_3_modes"]
     assert not record["finished"]
+
+
+def test_the_first_failure_in_the_pool_ends_the_run_without_waiting_for_the_others(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from hypate.studies.scripts import ch7_table7_3_modes, ch9_runs
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("simulated solver crash")
+
+    def slow(config):  # the table the page waits for first
+        time.sleep(120.0)
+
+    monkeypatch.setattr(ch9_runs, "run_study", broken)
+    monkeypatch.setattr(ch7_table7_3_modes, "run", slow)
+    start = time.monotonic()
+    with pytest.raises(RuntimeError, match="simulated solver crash"):
+        reproduce.run(reproduce.Config(quick=True, out=str(tmp_path / "o"), only=POOLED,
+                                       jobs=2))
+    # raised at once and the sleeping worker terminated, not awaited (120 s)
+    assert time.monotonic() - start < 60.0
 
 
 def test_jobs_out_of_range_are_refused_before_anything_runs(tmp_path: Path) -> None:
