@@ -399,7 +399,7 @@ class HypervolumeEI(_Hypervolume):
             k_max = max(1, int(max_cells ** (1.0 / m)) - 1)
             # keep the k_max Pareto points of largest exclusive contribution proxy
             F = self.pareto_front
-            keep = np.argsort(np.prod(self.ref_point - F, axis=1))[::-1][:k_max]
+            keep = np.argsort(-np.prod(self.ref_point - F, axis=1), kind="stable")[:k_max]
             self.boxes = nondominated_boxes(F[keep], self.ref_point, max_cells=max_cells)
             self.base_samples = as_rng(rng).standard_normal((n_samples, m))
 

@@ -151,7 +151,7 @@ class MultiFidelityOptimizer(BayesianOptimizer):
         acq = self._build_acquisition(model, F_top, np.ones(len(F_top), bool), F_top, rng,
                                       iteration)
         span = self.design_bounds[:, 1] - self.design_bounds[:, 0]
-        best = X[top][np.argsort(np.max(F_top, axis=1))[:3]]
+        best = X[top][np.argsort(np.max(F_top, axis=1), kind="stable")[:3]]
         extra = best + 1e-3 * span * rng.standard_normal(best.shape)
         try:
             x, _ = optimize_acquisition(

@@ -420,7 +420,7 @@ class BayesianOptimizer:
         # exploitation starts: the best feasible designs (nudged off the data points)
         F_good = np.where(feas[:, None], F, np.inf)
         if self.n_obj == 1:
-            best_idx = np.argsort(F_good[:, 0])[:3]
+            best_idx = np.argsort(F_good[:, 0], kind="stable")[:3]
         else:
             idx = np.flatnonzero(feas)
             best_idx = idx[non_dominated_mask(F[idx])] if len(idx) else idx

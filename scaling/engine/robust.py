@@ -278,7 +278,7 @@ class RobustBayesianOptimizer(BayesianOptimizer):
         acq = self._build_acquisition(robust, R_obs, np.ones(len(R_obs), bool), R_obs, rng,
                                       iteration)
         best = designs[non_dominated_mask(R_obs)] if self.n_obj > 1 else \
-            designs[np.argsort(R_obs[:, 0])[:3]]
+            designs[np.argsort(R_obs[:, 0], kind="stable")[:3]]
         best = best[rng.permutation(len(best))[:5]]
         span = self.design_bounds[:, 1] - self.design_bounds[:, 0]
         extra = best + 1e-3 * span * rng.standard_normal(best.shape)

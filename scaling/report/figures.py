@@ -202,7 +202,7 @@ def _pareto_plot(run: RunData, F: np.ndarray, zoom: bool) -> tuple[Figure, int]:
     classical = np.array([[percent(cobj[o]) for o in objs]]) \
         if all(isinstance(cobj.get(o), (int, float)) for o in objs) else np.zeros((0, 2))
     mask = non_dominated_mask(F)
-    P = F[mask][np.argsort(F[mask][:, 0])]
+    P = F[mask][np.argsort(F[mask][:, 0], kind="stable")]
     frame = np.vstack([P, point]) if zoom else np.vstack([F, point, classical])
     positive = frame[frame > 0]
     log = positive.size == frame.size and positive.max() / positive.min() > LOG_RATIO

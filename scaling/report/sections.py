@@ -335,7 +335,7 @@ def _pareto_section(run: RunData) -> Section | None:
         return None
     F = ok[run.objectives].to_numpy(float)
     if len(run.objectives) == 2:
-        sel = ok[non_dominated_mask(F)].sort_values(run.objectives[0])
+        sel = ok[non_dominated_mask(F)].sort_values(run.objectives[0], kind="stable")
         title = f"Pareto set ({len(sel)} design{'s' if len(sel) != 1 else ''})"
     else:
         sel = ok.nsmallest(10, run.objectives[0])

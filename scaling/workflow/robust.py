@@ -277,7 +277,7 @@ def write_robust_outputs(study: Study, problem: ScalingProblem,
     for j, name in enumerate(stat_names):
         front[name] = R[:, j]
     front = front.iloc[finite_rows[non_dominated_mask(R[finite_rows])]]
-    _write_csv(front.sort_values(stat_names[0]), out / PARETO_CSV)
+    _write_csv(front.sort_values(stat_names[0], kind="stable"), out / PARETO_CSV)
     # the surrogate's robust optimum, verified on the simulator; the nominal optimum
     # (verified in its own campaign) is the fallback when it verifies better
     candidate = design_point_scatter(study, problem, designs[k], store, on_scatter)

@@ -141,7 +141,7 @@ def _from_lambda_g(lam_g: CArray) -> CArray:
 
 
 def _result(lam_p: CArray, warm_start: bool = False) -> StabilityResult:
-    order = np.argsort(np.abs(lam_p.imag) + 1e-9 * np.abs(lam_p.real))
+    order = np.argsort(np.abs(lam_p.imag) + 1e-9 * np.abs(lam_p.real), kind="stable")
     lam_p = lam_p[order]
     status, crit = classify(lam_p)
     return StabilityResult(lambda_p=lam_p, damping=lam_p.real, frequency=lam_p.imag,
@@ -289,5 +289,5 @@ def pep(K: sp.spmatrix, M: sp.spmatrix, C: sp.spmatrix | None = None,
     keep = lam_p.imag >= -COMPLEX_TOL * np.abs(lam_p)  # one of each conjugate pair
     lam_p = lam_p[keep]
     # complex conjugate duplicates of real roots may both survive: keep unique
-    lam_p = lam_p[np.argsort(np.abs(lam_p))][:count]
+    lam_p = lam_p[np.argsort(np.abs(lam_p), kind="stable")][:count]
     return _result(lam_p)

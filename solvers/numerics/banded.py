@@ -89,7 +89,7 @@ class BandedStorage:
 
     def __init__(self, position: IntArray, rows: IntArray, cols: IntArray) -> None:
         self.position = np.asarray(position).astype(np.int64)
-        self.perm = np.argsort(self.position)
+        self.perm = np.argsort(self.position, kind="stable")
         pr, pc = self.position[rows], self.position[cols]
         self.bw = int(np.max(np.abs(pr - pc))) if rows.size else 0
         self.n = int(self.position.size)
@@ -99,7 +99,7 @@ class BandedStorage:
         self.chol_index = (bw + pr[upper] - pc[upper]) * self.n + pc[upper]
         self.lu_index = (2 * bw + pr - pc) * self.n + pc
         diag = np.flatnonzero(rows == cols)
-        self.diag_entries = diag[np.argsort(self.position[rows[diag]])]
+        self.diag_entries = diag[np.argsort(self.position[rows[diag]], kind="stable")]
 
     def cholesky(self, data: Array) -> Factorization | None:
         """Banded Cholesky of the matrix with CSR values ``data``; None if not positive

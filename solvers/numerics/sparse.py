@@ -289,7 +289,7 @@ class FreePattern:
             # a diagonally dominant matrix on the pattern: no pivoting, so perm_c is MMD's
             ones = self.csc_from_block(np.ones(nnz)) + n * sp.identity(n, format="csc")
             perm_c = splu_symmetric(ones.tocsc(), "MMD_AT_PLUS_A").perm_c
-            p = np.argsort(perm_c)  # perm_c[old] = new, p[new] = old
+            p = np.argsort(perm_c, kind="stable")  # perm_c[old] = new, p[new] = old
             # entry positions (1-based: no entry may vanish) carried through the permutation
             pos = sp.csr_matrix((np.arange(1.0, nnz + 1.0), self.indices, self.indptr),
                                 shape=(n, n))

@@ -125,7 +125,7 @@ def buckling_delta_T(model: StructuralModel, count: int = 1,
         if not np.any(pos):
             raise RuntimeError("no buckling under a temperature rise (no compressive state)")
         mu_r = np.real(mu[pos])
-        order = np.argsort(-mu_r)
+        order = np.argsort(-mu_r, kind="stable")
         lam = 1.0 / mu_r[order]
         shapes = np.real(vec[:, pos][:, order])
         new = float(lam[0])

@@ -32,7 +32,7 @@ def shift_invert_eigs(K: sp.csr_matrix, M: sp.csr_matrix, fac: Factor, k: int,
     k = min(k, n - 2)
     op = spla.LinearOperator((n, n), matvec=fac.solve, dtype=float)
     vals, vecs = spla.eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=op)
-    order = np.argsort(vals)
+    order = np.argsort(vals, kind="stable")
     return vals[order], vecs[:, order]
 
 

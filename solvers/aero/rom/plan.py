@@ -67,7 +67,7 @@ class SmartOrder:
     def sequence(self, g: int) -> np.ndarray:
         """Sample indices of group ``g`` in computing order."""
         idx = np.flatnonzero(self.group == g)
-        return idx[np.argsort(self.position[idx])]
+        return idx[np.argsort(self.position[idx], kind="stable")]
 
 
 def _balanced_groups(X: Array, n_groups: int, rng: np.random.Generator) -> Array:
@@ -82,7 +82,7 @@ def _balanced_groups(X: Array, n_groups: int, rng: np.random.Generator) -> Array
     cap = np.full(n_groups, N // n_groups)
     cap[: N % n_groups] += 1
     group = np.full(N, -1)
-    for flat in np.argsort(dist, axis=None):
+    for flat in np.argsort(dist, axis=None, kind="stable"):
         i, g = divmod(int(flat), n_groups)
         if group[i] < 0 and cap[g] > 0:
             group[i] = g
