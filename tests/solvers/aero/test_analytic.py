@@ -112,6 +112,23 @@ def test_effective_shape_thickens_downstream_and_raises_pressure() -> None:
     assert np.all(p == 0.0) and np.all(p_bl > 0.0)  # growing layer = compression slope
 
 
+def test_effective_shape_is_a_slope_offset_that_ignores_the_deflection() -> None:
+    # the premise of the Ch. 8 finding on Table 8.2's RANS column: pt-bl is piston theory at
+    # the wall slope plus the Cox-Crabtree slope d(delta)/ds(x, T_w), which the deflection
+    # does not change -- so the boundary layer adds no out-of-phase pressure (Sec. 8.1)
+    pts = SurfacePoints.grid(1.0, 1.0, 1.0, 9, 1)
+    rng = np.random.default_rng(5)
+    T_w = 400.0 + 500.0 * pts.x
+    d_s = BoundaryLayerShape(M6_25KM).slope(pts.x_le, T_w, pts.streamwise_derivative @ T_w)[0]
+    bl, pt = AnalyticFluid("pt", effective_shape=True), AnalyticFluid("pt")
+    for amplitude in (0.0, 0.003, 0.01):
+        w = amplitude * np.sin(np.pi * pts.x) + rng.normal(0.0, 1e-4, pts.n)
+        slope, v = pts.streamwise_derivative @ w, rng.normal(0.0, 0.5, pts.n)
+        p_bl = bl.evaluate(pts, SurfaceState(w, slope, v, T_w), M6_25KM).pressure
+        p_at_offset = pt.evaluate(pts, SurfaceState(w, slope + d_s, v, T_w), M6_25KM).pressure
+        np.testing.assert_allclose(p_bl, p_at_offset, rtol=1e-13, atol=0.0)
+
+
 # -- Eckert --------------------------------------------------------------------------------
 def test_eckert_independent_check_values() -> None:
     # materials.md: M 6, 25 km, x = 1 m, T_w = 300 K. The dissertation's enthalpy form reduces
