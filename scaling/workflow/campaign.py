@@ -9,6 +9,8 @@ which keys changed, old -> new, and refuse before anything in the directory is t
 """
 from __future__ import annotations
 
+import copy
+
 import dataclasses
 import errno
 import fcntl
@@ -40,7 +42,7 @@ except ImportError:  # another numpy layout: the environment record then lists n
 __all__ = ["ENVIRONMENTS", "MAX_SEED", "campaign_identity", "changed_keys", "check_resume",
            "fingerprint", "check_run_settings", "package_version", "preflight",
            "record_campaign", "refuse_changes", "run_lock", "runtime_environment",
-           "stored_seed", "sweep_identity"]
+           "stored_seed", "sweep_changes", "sweep_identity"]
 
 #: Largest accepted seed: the store keeps it as a signed 64-bit SQLite integer.
 MAX_SEED = 2**63 - 1
@@ -203,6 +205,21 @@ def sweep_identity(study: Study) -> dict[str, Any]:
     the prototype case file's content (each point's store checks the rest)."""
     data = study_data(study)
     return {"study": data, "case": read_toml(Path(data["prototype"]["case"]))}
+
+
+def sweep_changes(stored: dict[str, Any], study: Study) -> list[str]:
+    """What differs between a sweep's ``sweep.json`` (``stored``) and ``study``: the study
+    data and the prototype case file's content. The case file's path counts only for a
+    sweep written before that content was recorded, so a finished sweep of a moved or
+    freshly cloned checkout resumes (its points' stores compare content alone as well)."""
+    new = sweep_identity(study)
+    old_study = copy.deepcopy(stored.get("study_data"))
+    if stored.get("case") is None:  # the path is all there is to compare
+        return changed_keys({"study": old_study}, {"study": new["study"]})
+    for data in (old_study, new["study"]):
+        if isinstance(data, dict) and isinstance(data.get("prototype"), dict):
+            data["prototype"].pop("case", None)
+    return changed_keys({"study": old_study, "case": stored["case"]}, new)
 
 
 def check_seed(seed: int | None) -> None:

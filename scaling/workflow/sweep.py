@@ -18,9 +18,9 @@ from hypate.scaling.engine.executors import LOST_AFTER
 from hypate.scaling.engine.problem import project_cheap
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.workflow.campaign import (
-    changed_keys,
     check_run_settings,
     refuse_changes,
+    sweep_changes,
     sweep_identity,
 )
 from hypate.scaling.workflow.laws import (
@@ -206,11 +206,7 @@ def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: i
         raise InputError("resume", f"{out} holds no sweep to resume")
     if resume:  # the same sweep, or nothing in the directory is touched
         stored = json.loads((out / SWEEP_JSON).read_text())
-        old = {"study": stored.get("study_data"), "case": stored.get("case")}
-        new = sweep_identity(study)
-        if old["case"] is None:  # written before the case was recorded
-            old.pop("case"), new.pop("case")
-        refuse_changes(out, changed_keys(old, new))
+        refuse_changes(out, sweep_changes(stored, study))
     out.mkdir(parents=True, exist_ok=True)
     subs = [study_at(study, p, first=(i == 0)) for i, p in enumerate(points)]
     records = [_point_record(p, sub, out / p.label, "pending", None)

@@ -2,8 +2,9 @@
 studies as they are or coarsened (:class:`Optimization`, :data:`COARSE_9_1`,
 :data:`COARSE_9_2`), where each seed's run lives (:func:`runs_root`), how a run directory is
 obtained (:func:`run_directory`: read, resumed or run) and read (:func:`design_point`,
-:func:`best_minmax`), which studies each Ch. 9 reproduction reads (``names_9_*``), and the
-Sec. 9.1 references computed without the BO (:func:`eq_9_2_design`, :func:`j_u_optimum`).
+:func:`best_minmax`), which studies each Ch. 9 reproduction reads (``names_9_*``), the
+Sec. 9.1 references computed without the BO (:func:`eq_9_2_design`, :func:`j_u_optimum`) and
+the dissertation's Sec. 9.2 design points evaluated by hypate (:func:`published_design_errors`).
 
 The reproduction runner (:mod:`.reproduce`) and the slow Ch. 9 tests both go through
 :func:`run_directory`, so they read the same results.
@@ -32,6 +33,8 @@ from hypate.scaling.workflow.study import (
     sweep_points,
 )
 from hypate.scaling.workflow.sweep import run_sweep
+from hypate.scaling.workflow.whatif import evaluate_whatif
+from hypate.studies.scripts.ch9_tables import published_design, study_of
 
 #: Coarse Sec. 9.1 variant: 4 x 4 mesh, 40 of the 100 steps, 10 + 40 evaluations of BO
 #: without the shipped studies' final polish (about 15 s each here).
@@ -111,6 +114,17 @@ def best_minmax(run_dir: Path) -> float:
     ev = pd.read_csv(run_dir / EVALUATIONS_CSV)
     ok = ev[ev["status"] == "ok"]
     return float(np.max(ok[["J_u", "J_T"]].to_numpy(), axis=1).min())
+
+
+def published_design_errors(table: str, col: str) -> dict[str, Any]:
+    """The dissertation's design point of column ``col`` of Table ``table`` (9.8-9.10)
+    evaluated by hypate in the column's shipped study, as ``hypate whatif --set`` does
+    (:func:`~hypate.scaling.workflow.whatif.evaluate_whatif`: ``objectives`` J_u, J_T, J_s
+    as fractions or None when the model failed; ``constraints`` with the bounds it lies
+    outside and the equality residuals). Values are taken as published, so a T0 that
+    misses the Eq. (9.7) equality shows as its residual, not as a corrected design."""
+    return evaluate_whatif(Optimization(study_of(table, col)).study(),
+                           published_design(table, col))
 
 
 def eq_9_2_design(study: Study, xi: float) -> np.ndarray:

@@ -12,7 +12,10 @@ What runs (:func:`plan`):
   accepted Poisson's-ratio finding, :data:`FINDING_POISSON`);
 * Sec. 9.2.2 (Table 9.8), Sec. 9.2.3 (Tables 9.9-9.10, Fig. 9.13: Case 2 against Case 1,
   the accepted WT5 finding :data:`FINDING_WT5`) per seed; Sec. 9.2.4 (Table 9.11, the
-  envelope sweep) per seed in the full run only.
+  envelope sweep) per seed in the full run only. The full run also evaluates each published
+  design point of Tables 9.8-9.10 in hypate and checks that the run's own design point beats
+  it (:func:`~.ch9_tables.published_rows`), the premise of the accepted finding on the
+  design-variable rows and Table 9.11 (:data:`~.ch9_tables.FINDING_SEC9_2_MODEL`).
 
 ``quick`` runs the Ch. 9 studies as coarse variants (:data:`~.ch9_runs.COARSE_9_1`,
 :data:`~.ch9_runs.COARSE_9_2`: 4 x 4 meshes, fewer steps, 36-50 evaluations) with their own stated
@@ -74,6 +77,7 @@ from hypate.studies.scripts.ch9_runs import (
     names_9_2_3,
     names_9_2_4,
     no_studies,
+    published_design_errors,
     run_directory,
     runs_root,
     xis_9_1,
@@ -299,15 +303,21 @@ def _sec9_2_2(ctx: Context) -> pd.DataFrame:
     """Table 9.8 / Fig. 9.9: the ideal tunnel (design point and best min-max error)."""
     xis = xis_9_2_2(ctx.quick)
     coarse = "coarse budget (4 x 4 mesh, 36 evaluations): one of many near-optimal designs"
+    published = {} if ctx.quick else {
+        xi: published_design_errors("9.8", f"xi{xi}") for xi in xis}
     rows_by_seed = []
     for dirs in ctx.run_dirs("Sec. 9.2.2", names_9_2_2(ctx.quick)):
         rows: list[tuple] = []
         for xi in xis:
             path = dirs[f"sec9_2_2_xi{xi}"]
-            found = ch9_tables.design_point_rows(path, design_point(path), "9.8", f"xi{xi}")
+            dp = design_point(path)
+            found = ch9_tables.design_point_rows(
+                path, dp, "9.8", f"xi{xi}", None if ctx.quick else ch9_tables.FINDING_SEC9_2_MODEL)
             if ctx.quick:
                 found = [(r[0], NotCompared(r[1], coarse) if r[1] is not None else None,
                           *r[2:]) for r in found]
+            else:
+                found += ch9_tables.published_rows("9.8", f"xi{xi}", published[xi], dp)
             rows += found
             bound = (Bound("<", 100.0 * COARSE_9_2_2_BOUND, "< 10 % (Sec. 9.2.2); coarse < 12 %")
                      if ctx.quick else Bound("<", 10.0, "< 10 % (Sec. 9.2.2)"))
@@ -319,6 +329,9 @@ def _sec9_2_2(ctx: Context) -> pd.DataFrame:
 
 def _sec9_2_3(ctx: Context) -> pd.DataFrame:
     """Fig. 9.13 / Tables 9.9-9.10: Case 2 (radiant heater) against Case 1 in WT5-WT7."""
+    published = {} if ctx.quick else {
+        (table, t): published_design_errors(table, t)
+        for t in TUNNELS_9_2_3 for table in ("9.9", "9.10")}
     rows_by_seed = []
     for dirs in ctx.run_dirs("Sec. 9.2.3", names_9_2_3(ctx.quick)):
         rows: list[tuple] = []
@@ -334,7 +347,10 @@ def _sec9_2_3(ctx: Context) -> pd.DataFrame:
             if not ctx.quick:
                 for c, table in ((1, "9.9"), (2, "9.10")):
                     path = dirs[f"sec9_2_3_case{c}_{t}"]
-                    rows += ch9_tables.design_point_rows(path, design_point(path), table, t)
+                    dp = design_point(path)
+                    rows += ch9_tables.design_point_rows(path, dp, table, t,
+                                                         ch9_tables.FINDING_SEC9_2_MODEL)
+                    rows += ch9_tables.published_rows(table, t, published[table, t], dp)
         rows_by_seed.append(rows)
     return side_by_side_seeds(rows_by_seed, rtol=ch9_tables.RTOL)
 
@@ -350,8 +366,8 @@ def _sec9_2_4(ctx: Context) -> pd.DataFrame:
     rows_by_seed = []
     for dirs in ctx.run_dirs("Sec. 9.2.4", names_9_2_4(ctx.quick)):
         path = dirs["sec9_2_4_envelope"]
-        rows_by_seed.append(ch9_tables.envelope_rows(path, {}) if (path / SWEEP_CSV).exists()
-                            else [])
+        rows_by_seed.append(ch9_tables.envelope_rows(path, {}, ch9_tables.FINDING_SEC9_2_MODEL)
+                            if (path / SWEEP_CSV).exists() else [])
     return side_by_side_seeds(rows_by_seed, rtol=ch9_tables.RTOL)
 
 

@@ -7,12 +7,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import REPO, tiny_study_text
+from conftest import PROTOTYPE_CASE, REPO, tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.workflow.rundir import STORE as STORE_NAME
 from hypate.scaling.workflow.study import load_study, study_at, sweep_points
 from hypate.scaling.workflow.sweep import run_sweep
+from hypate.solvers.errors import InputError
 
 TINY_SWEEP = tiny_study_text(name="tiny_sweep", xi=2.0, tail="""
 [sweep]
@@ -162,6 +163,37 @@ def interrupting_free(counter):
     def progress(done, budget, evaluation) -> None:
         counter["total"] += 1
     return progress
+
+
+def test_a_finished_sweep_resumes_from_a_moved_case_file_and_refuses_a_changed_one(
+        tmp_path: Path) -> None:
+    # A fresh clone (or a moved checkout) puts the prototype case at another absolute path:
+    # the same content resumes the finished sweep without evaluating; other content is
+    # refused naming the case (before: the path alone was refused, so `hypate reproduce`
+    # could not re-read a finished envelope sweep from another clone).
+    text = PROTOTYPE_CASE.read_text()
+    cases = {}
+    edited = text.replace("emissivity = 0.85", "emissivity = 0.8")
+    for where, content in (("a", text), ("b", text), ("c", edited)):
+        cases[where] = tmp_path / where / "case.toml"
+        cases[where].parent.mkdir()
+        cases[where].write_text(content)
+
+    def study(where: str):
+        path = tmp_path / f"sweep_{where}.toml"
+        path.write_text(tiny_study_text(name="tiny_moved", xi=2.0, initial=2, iterations=1,
+                                        tail="[sweep]\nxi = [2, 3]\nrecycle = 2\n")
+                        .replace(PROTOTYPE_CASE.as_posix(), cases[where].as_posix()))
+        return load_study(path)
+
+    out = tmp_path / "run"
+    run_sweep(study("a"), out)
+    rows = {p: _rows(out / p / STORE_NAME) for p in ("xi_2", "xi_3")}
+    outcome = run_sweep(study("b"), out, resume=True)
+    assert all(r["status"] == "done" for r in outcome.points)
+    assert {p: _rows(out / p / STORE_NAME) for p in rows} == rows  # nothing evaluated
+    with pytest.raises(InputError, match=r"different campaign \(case\."):
+        run_sweep(study("c"), out, resume=True)
 
 
 def test_envelope_study_grid_is_serpentine_with_the_table_9_11_budget() -> None:
