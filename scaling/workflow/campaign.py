@@ -10,7 +10,6 @@ which keys changed, old -> new, and refuse before anything in the directory is t
 from __future__ import annotations
 
 import copy
-
 import dataclasses
 import errno
 import fcntl
