@@ -136,17 +136,18 @@ def render(result: Any) -> str:
     out.append("<h2>Summary</h2>" + html_table(
         ("chapter", "reproduction", "rows", "compared", "match", "NO", "accepted findings",
          "seeds", "seconds"), summary_rows, css_class="summary"))
-    findings: dict[str, str] = {}
+    findings: dict[str, list[str]] = {}  # finding -> the reproductions with its rows
     for r in result.reproductions:
         if "finding" in r.table.columns:
             for f in r.table["finding"]:
-                if f:
-                    findings.setdefault(f, r.title)
+                if f and r.title not in findings.setdefault(f, []):
+                    findings[f].append(r.title)
     numbers = {f: k for k, f in enumerate(findings, start=1)}
     if findings:
         out.append("<h2>Accepted findings</h2><div class='notes'><ol>"
                    + "".join(f"<li>{html.escape(f)} <span class='note'>(rows in: "
-                             f"{html.escape(t)})</span></li>" for f, t in findings.items())
+                             f"{html.escape('; '.join(t))})</span></li>"
+                             for f, t in findings.items())
                    + "</ol></div>")
     chapter = None
     for r in result.reproductions:

@@ -29,7 +29,7 @@ from hypate.studies.scripts.comparison import (
     side_by_side_seeds,
     summary,
 )
-from hypate.studies.scripts.reproduction_page import PAGE_NAME, verdict
+from hypate.studies.scripts.reproduction_page import PAGE_NAME, render, verdict
 
 CHEAP = ("ch7_table7_3_modes", "ch9_table9_3", "sec9_1_optimum")
 
@@ -193,6 +193,21 @@ def test_page_renders_every_row_with_its_verdict(cheap_run: reproduce.Result,
     shot = tmp_path / "reproduction_1400.png"
     assert _browser(page, f"--screenshot={shot}").returncode == 0
     assert shot.read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
+
+
+def test_a_finding_lists_every_reproduction_that_has_its_rows() -> None:
+    # The Sec. 9.2 model finding stands in three reproductions (Tables 9.8, 9.9-9.10, 9.11):
+    # the page names all of them, once each, in page order.
+    shared, other = Finding("shared reason"), Finding("other reason")
+    tables = {"a": [("x", 1.0, 2.0, shared), ("y", 1.0, 3.0, shared)],
+              "b": [("z", 1.0, 1.0)], "c": [("w", 1.0, 5.0, shared), ("v", 1.0, 9.0, other)]}
+    result = reproduce.Result(
+        reproduce.Config(quick=True),
+        [reproduce.Reproduction(k, "Ch. 9", f"title {k}", side_by_side(rows), 0.0, 1)
+         for k, rows in tables.items()], planned=3)
+    text = render(result)
+    assert "shared reason <span class='note'>(rows in: title a; title c)</span>" in text
+    assert "other reason <span class='note'>(rows in: title c)</span>" in text
 
 
 # -- side by side (``jobs > 1``) ----------------------------------------------------------------
