@@ -366,8 +366,10 @@ def _sec9_2_4(ctx: Context) -> pd.DataFrame:
     rows_by_seed = []
     for dirs in ctx.run_dirs("Sec. 9.2.4", names_9_2_4(ctx.quick)):
         path = dirs["sec9_2_4_envelope"]
-        rows_by_seed.append(ch9_tables.envelope_rows(path, {}, ch9_tables.FINDING_SEC9_2_MODEL)
-                            if (path / SWEEP_CSV).exists() else [])
+        errors: dict[tuple[float, float], float] = {}
+        rows = (ch9_tables.envelope_rows(path, errors, ch9_tables.FINDING_SEC9_2_MODEL)
+                if (path / SWEEP_CSV).exists() else [])
+        rows_by_seed.append(rows + ch9_tables.envelope_trend_rows(errors))
     return side_by_side_seeds(rows_by_seed, rtol=ch9_tables.RTOL)
 
 

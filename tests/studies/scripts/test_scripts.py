@@ -188,6 +188,27 @@ def test_ch9_tables_reads_run_directories(tmp_path) -> None:
                         abs_tol=1e-9)
 
 
+def test_envelope_trend_rows_hold_on_table_9_11_itself_and_see_a_flat_envelope() -> None:
+    # The oracle is the published table: Sec. 9.2.4's text says the errors exceed 5 % at
+    # high Mach / low altitude and at low Mach / high altitude, and Table 9.11's own
+    # values put both regions above its mean (5.69 and 6.79 % against 4.04 %).
+    from hypate.studies.scripts.ch9_tables import (
+        ALTITUDES_KM,
+        HIGH_ERROR_REGIONS,
+        TABLE_9_11,
+        envelope_trend_rows,
+    )
+
+    table = {(m, h): v[i] for m, v in TABLE_9_11.items() for i, h in enumerate(ALTITUDES_KM)}
+    rows = envelope_trend_rows(table)
+    assert len(rows) == len(HIGH_ERROR_REGIONS) and all(r[2] is True for r in rows)
+    assert "6.8 % against 4.0 %" in rows[1][3]
+    flat = dict.fromkeys(table, 3.0)
+    assert all(r[2] is False for r in envelope_trend_rows(flat))
+    del table[5.0, 30.0]  # a region with a cell missing gives no row
+    assert len(envelope_trend_rows(table)) == 1 and envelope_trend_rows({}) == []
+
+
 def test_published_rows_measure_how_far_the_design_point_beats_the_published_design() -> None:
     from hypate.studies.scripts.ch9_tables import published_rows
     from hypate.studies.scripts.comparison import side_by_side
