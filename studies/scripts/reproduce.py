@@ -2,17 +2,18 @@
 studies, each a table ``quantity | dissertation | hypate | difference | matches``
 (:mod:`.comparison`), and the page ``reproduction.html`` (:mod:`.reproduction_page`).
 
-What runs (:func:`plan`):
+What runs (:func:`~.reproduction_plan.plan`, with the builders of the tables and their
+tolerances and accepted findings in :mod:`.reproduction_plan`):
 
 * the deterministic scripts once: ``ch7_table7_3_modes``, ``ch7_flutter``, ``ch7_benchmark``,
   ``ch7_time_accuracy``, ``ch8_effects``, ``ch9_table9_3`` (``quick``: their ``--coarse``
   configurations; full: their defaults, ``ch7_flutter`` with its time-domain rows);
 * Sec. 9.1 (Table 9.3, Figs. 9.3-9.4): the Bayesian optimization of ``sec9_1_xi*`` per seed,
   and the optimum of J_u next to Eq. 9.2 by Nelder-Mead (:func:`~.ch9_runs.j_u_optimum`; the
-  accepted Poisson's-ratio finding, :data:`FINDING_POISSON`);
+  accepted Poisson's-ratio finding, :data:`~.reproduction_plan.FINDING_POISSON`);
 * Sec. 9.2.2 (Table 9.8), Sec. 9.2.3 (Tables 9.9-9.10, Fig. 9.13: Case 2 against Case 1,
-  the accepted WT5 finding :data:`FINDING_WT5`) per seed; Sec. 9.2.4 (Table 9.11, the
-  envelope sweep) per seed in the full run only. The full run also evaluates each published
+  the accepted WT5 finding :data:`~.reproduction_plan.FINDING_WT5`) per seed; Sec. 9.2.4
+  (Table 9.11, the envelope sweep) per seed in the full run only. The full run also evaluates each published
   design point of Tables 9.8-9.10 in hypate and checks that the run's own design point beats
   it (:func:`~.ch9_tables.published_rows`), the premise of the accepted finding on the
   design-variable rows and Table 9.11 (:data:`~.ch9_tables.FINDING_SEC9_2_MODEL`).
@@ -40,10 +41,6 @@ pooled table's seconds are its jobs' own.
 
 Run ``python -m hypate.studies.scripts.reproduce [--coarse] [--seeds N] [--jobs N]
 [--out DIR]`` (the command line is ``hypate reproduce``).
-
-Size: just over 600 lines because the plan, the builders of its tables and the run (serial
-and pooled) share :class:`Context`; the run directories live in :mod:`.ch9_runs`, the page
-and the row comparisons in :mod:`.reproduction_page` and :mod:`.comparison`.
 """
 from __future__ import annotations
 
@@ -53,57 +50,22 @@ import math
 import time
 import warnings
 from collections.abc import Callable, Sequence
-from concurrent.futures import FIRST_EXCEPTION, Future, wait
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 from hypate.scaling.engine.executors import ResilientProcessPool
-from hypate.scaling.workflow.rundir import SWEEP_CSV
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.studies.scripts.ch9_runs import (
-    EQ_9_2_VARIABLES,
-    TUNNELS_9_2_3,
-    Optimization,
-    best_minmax,
-    budget,
-    design_point,
-    eq_9_2_design,
-    j_u_optimum,
-    names_9_1,
-    names_9_2_2,
-    names_9_2_3,
-    names_9_2_4,
-    no_studies,
-    published_design_errors,
-    run_directory,
-    runs_root,
-    xis_9_1,
-    xis_9_2_2,
-)
-from hypate.studies.scripts import (
-    ch7_benchmark,
-    ch7_flutter,
-    ch7_table7_3_modes,
-    ch7_time_accuracy,
-    ch8_effects,
-    ch9_table9_3,
-    ch9_tables,
-)
+from hypate.studies.scripts.ch9_runs import Optimization, budget, run_directory, runs_root
 from hypate.studies.scripts.comparison import (
-    Approx,
-    Bound,
-    Finding,
-    NotCompared,
     accepted_findings,
     mismatches,
-    side_by_side_seeds,
     summary,
     write_table,
 )
 from hypate.studies.scripts.reproduction_page import PAGE_NAME, write_page
+from hypate.studies.scripts.reproduction_plan import Context, Item, Progress, plan
 
 #: The JSON record of a reproduction run (every table's rows), next to the page.
 RESULT_JSON = "reproduction.json"
@@ -111,297 +73,6 @@ RESULT_JSON = "reproduction.json"
 MAX_SEEDS = 20
 #: Largest ``--jobs`` (processes side by side).
 MAX_JOBS = 64
-#: Seconds between two progress reports while a pooled job is awaited.
-POLL_SECONDS = 5.0
-
-#: Sec. 9.2.2 coarse bound on min max(J_u, J_T) over the evaluations (fraction): the full
-#: study's 10 % (Sec. 9.2.2) is out of reach of 36 evaluations on a 4 x 4 mesh; seed 0
-#: measured 11.9 % (J_u 9.3 %, J_T 11.9 %), so a seed-0 coarse run above 12 % is a
-#: regression (the fast test's bound). Other seeds land higher (seeds 0-2: 11.9, 14.5,
-#: 16.7 %): with ``--seeds 3`` the median row says NO, which is what the coarse budget gives.
-COARSE_9_2_2_BOUND = 0.12
-#: Coarse Sec. 9.1 tolerances on Table 9.3's model parameters (fractions): measured at
-#: seed 0 lambda_F +0.45 % and the thermal load +1.35 % off the prototype (the
-#: dissertation's own models lie up to 0.8 % off it), so 2 % and 3 %; h/L is not resolved
-#: by the coarse budget (14 % off).
-COARSE_9_1_RTOL = {"lambda_F": 0.02, "DeltaT_NTx_L2/Dxx": 0.03}
-#: Full Sec. 9.1 tolerance on Table 9.3's model parameters: 1 % (ch9_table9_3.RTOL_MODEL).
-FULL_9_1_RTOL = ch9_table9_3.RTOL_MODEL
-#: Agreement asked of the J_u optimum with Eq. 9.2 (percent of each design variable):
-#: issue 8's acceptance (2 %); with equal Poisson ratios, 0.5 % (measured within 0.1 %).
-EQ_9_2_TOLERANCE, EQ_9_2_TOLERANCE_EQUAL_NU = 2.0, 0.5
-
-FINDING_POISSON = Finding(
-    "Accepted finding (Sec. 9.1, issue 8): Eq. 9.1a leaves out Poisson's ratio (Inconel 718 "
-    "0.29, Ti 6242 0.32; the von Karman membrane energy has A_12 = nu A_11), so for the "
-    "Table 9.1 pair the optimum of J_u is not Eq. 9.2 (full mesh, Nelder-Mead: J_u 1.44 % "
-    "at h -1.0 %, p_inf -3.0 %, Delta T -0.9 %); with equal ratios (sec9_1_xi2_equal_nu) "
-    "the optimum lies within 0.1 % of Eq. 9.2.")
-FINDING_WT5 = Finding(
-    "Accepted finding (Sec. 9.2.3, issues 8 and 10): in this heating model WT5 is not "
-    "heat-starved, so the radiant heater (Case 2) does not beat Case 1 there (full studies: "
-    "Case 1 8.4-8.7 %, Case 2 seeded from Case 1's best designs 8.43 %); WT6 and WT7 show "
-    "the dissertation's finding.")
-
-#: progress(step, done, total): the callback of :class:`hypate.scaling.cli.progress.StepProgress`.
-Progress = Callable[[str, int, int], None]
-
-
-# -- what each reproduction computes -------------------------------------------------------------
-@dataclass(frozen=True)
-class Context:
-    """Settings of one reproduction run, handed to every item."""
-
-    quick: bool
-    seeds: int
-    out: Path
-    progress: Progress | None = None
-    #: Optimizations given to a process pool (``jobs > 1``): ``(name, seed) -> future`` of
-    #: (warnings raised, seconds); :meth:`run_dirs` waits for one before it reads its
-    #: finished run directory.
-    pending: dict[tuple[str, int], Future] = field(default_factory=dict)
-    #: Every job in the pool (optimizations and deterministic items): the progress counts
-    #: them, and the first failure among them ends the run.
-    jobs: list[Future] = field(default_factory=list)
-    #: Warnings and seconds of the pooled optimizations the current item read, and the
-    #: seconds it waited for them.
-    carried: list[str] = field(default_factory=list)
-    carried_seconds: list[float] = field(default_factory=list)
-    waited_seconds: list[float] = field(default_factory=list)
-
-    def report(self, step: str, done: int, total: int) -> None:
-        if self.progress is not None:
-            self.progress(step, done, total)
-
-    def run_dirs(self, title: str, names: Sequence[str]) -> list[dict[str, Path]]:
-        """Run directories ``{name: dir}`` of ``names`` for every seed (run when missing)."""
-        per_seed = []
-        for seed in range(self.seeds):
-            dirs = {}
-            for name in names:
-                step = f"{title}: {name} seed {seed}"
-                if (name, seed) in self.pending:
-                    start = time.monotonic()
-                    seen, seconds = self.wait_for(title, self.pending[name, seed])
-                    self.waited_seconds.append(time.monotonic() - start)
-                    self.carried.extend(seen)
-                    self.carried_seconds.append(seconds)
-
-                def tick(done: int, budget: int, _ev: Any, step: str = step) -> None:
-                    self.report(step, done, budget)
-
-                dirs[name] = run_directory(Optimization(name, self.quick),
-                                           runs_root(self.out, self.quick, seed), seed, tick)
-            per_seed.append(dirs)
-        return per_seed
-
-    def wait_for(self, title: str, future: Future) -> Any:
-        """The result of a pooled job. Meanwhile the progress step ``"<title>: pool jobs
-        finished"`` counts the pool's finished jobs, and a job that failed anywhere in the
-        pool raises its error here at once (not when its table's turn comes)."""
-        while True:
-            failed = next((f for f in self.jobs if f.done() and f.exception() is not None),
-                          None)
-            if failed is not None:
-                failed.result()  # raises the job's error
-            if future.done():
-                return future.result()
-            self.report(f"{title}: pool jobs finished", sum(f.done() for f in self.jobs),
-                        len(self.jobs))
-            wait(self.jobs, timeout=POLL_SECONDS, return_when=FIRST_EXCEPTION)
-
-
-@dataclass(frozen=True)
-class Item:
-    """One reproduction: a key (file names), its chapter and title, and how to build its
-    table from a :class:`Context`."""
-
-    key: str
-    chapter: str
-    title: str
-    build: Callable[[Context], pd.DataFrame]
-    seeded: bool = False
-    #: The shipped studies the item reads, by ``quick`` (run per seed).
-    studies: Callable[[bool], tuple[str, ...]] = no_studies
-
-
-def _script(module: Any, full_config: Any = None) -> Callable[[Context], pd.DataFrame]:
-    """A deterministic script's table: ``run(Config.coarse())`` or ``run(full_config)``."""
-
-    def build(ctx: Context) -> pd.DataFrame:
-        config = module.Config.coarse() if ctx.quick else (full_config or module.Config())
-        return module.run(config).table
-
-    return build
-
-
-def _sec9_1_bo(ctx: Context) -> pd.DataFrame:
-    """Table 9.3 (models found by the BO) and Fig. 9.3 (J_u < 4 %), per seed."""
-    xis = xis_9_1(ctx.quick)
-    coarse = "coarse budget (4 x 4 mesh, 50 evaluations)"
-    rows_by_seed = []
-    for dirs in ctx.run_dirs("Sec. 9.1", names_9_1(ctx.quick)):
-        rows: list[tuple] = []
-        for xi in xis:
-            dp = design_point(dirs[f"sec9_1_xi{xi}"])
-            sim = {s["name"]: s["model"] for s in dp.get("similarity", [])}
-            ref = ch9_table9_3.OPTIMIZED[float(xi)]
-            for n in ch9_table9_3.NAMES:
-                if ctx.quick:
-                    d = (Approx(ref[n], rel=COARSE_9_1_RTOL[n]) if n in COARSE_9_1_RTOL else
-                         NotCompared(ref[n], f"{coarse} does not resolve h (seed 0: 14 % off)"))
-                    note = f"{coarse}: ±{100 * COARSE_9_1_RTOL[n]:g} %" \
-                        if n in COARSE_9_1_RTOL else None
-                else:  # h/L and the thermal load sit ~1 % off where nu differs
-                    d = Approx(ref[n], rel=FULL_9_1_RTOL)
-                    note = None if n == "lambda_F" else FINDING_POISSON
-                rows.append((f"Table 9.3 xi = {xi} model {n} (BO)", d, sim.get(n), note))
-            J = 100.0 * float(dp["objectives"]["J_u"])
-            fig = Bound("<", 4.0, "< 4 % (Fig. 9.3)")
-            rows.append((f"xi = {xi} J_u at the design point (%)",
-                         NotCompared(fig, f"{coarse} does not reach it") if ctx.quick else fig,
-                         J, None if ctx.quick else FINDING_POISSON))
-        if not ctx.quick:  # Eq. 9.1a complete: the BO alone recovers Eq. 9.2 (Fig. 9.4)
-            study = Optimization("sec9_1_xi2_equal_nu").study()
-            dp = design_point(dirs["sec9_1_xi2_equal_nu"])
-            x = np.array([dp["design"][v] for v in EQ_9_2_VARIABLES])
-            for v, dev in zip(EQ_9_2_VARIABLES, 100.0 * (x / eq_9_2_design(study, 2.0) - 1.0)):
-                rows.append((f"equal nu, xi = 2: BO design {v} relative to Eq. 9.2 (%)",
-                             Approx(0.0, abs=EQ_9_2_TOLERANCE), float(dev),
-                             "Fig. 9.4: the BO recovers the analytical laws"))
-        rows_by_seed.append(rows)
-    return side_by_side_seeds(rows_by_seed)
-
-
-def _sec9_1_optimum(ctx: Context) -> pd.DataFrame:
-    """The optimum of J_u next to Eq. 9.2, Table 9.1 pair and equal Poisson ratios
-    (deterministic: Nelder-Mead, once)."""
-    rows: list[tuple] = []
-    names = ("sec9_1_xi2", "sec9_1_xi2_equal_nu")
-    for k, name in enumerate(names):
-        ctx.report("Sec. 9.1 optimum of J_u (Nelder-Mead)", k, len(names))
-        study = Optimization(name, ctx.quick).study()
-        problem = ScalingProblem(study.spec)
-        x0 = eq_9_2_design(study, 2.0)
-        J0 = problem.errors(x0)["J_u"]
-        x, J = j_u_optimum(problem, x0)
-        equal = name.endswith("equal_nu")
-        label = "equal nu" if equal else "Table 9.1 pair"
-        tol = EQ_9_2_TOLERANCE_EQUAL_NU if equal else EQ_9_2_TOLERANCE
-        note = ("Eq. 9.1a complete (model nu = 0.29)" if equal else FINDING_POISSON)
-        rows.append((f"{label}: J_u at Eq. 9.2 (%)", None, 100.0 * J0))
-        rows.append((f"{label}: J_u at its optimum (%)", Bound("<", 4.0, "< 4 % (Fig. 9.3)"),
-                     100.0 * J))
-        for v, dev in zip(EQ_9_2_VARIABLES, 100.0 * (x / x0 - 1.0)):
-            rows.append((f"{label}: optimum {v} relative to Eq. 9.2 (%)",
-                         Approx(0.0, abs=tol), float(dev), note))
-    ctx.report("Sec. 9.1 optimum of J_u (Nelder-Mead)", len(names), len(names))
-    return side_by_side_seeds([rows])
-
-
-def _sec9_2_2(ctx: Context) -> pd.DataFrame:
-    """Table 9.8 / Fig. 9.9: the ideal tunnel (design point and best min-max error)."""
-    xis = xis_9_2_2(ctx.quick)
-    coarse = "coarse budget (4 x 4 mesh, 36 evaluations): one of many near-optimal designs"
-    published = {} if ctx.quick else {
-        xi: published_design_errors("9.8", f"xi{xi}") for xi in xis}
-    rows_by_seed = []
-    for dirs in ctx.run_dirs("Sec. 9.2.2", names_9_2_2(ctx.quick)):
-        rows: list[tuple] = []
-        for xi in xis:
-            path = dirs[f"sec9_2_2_xi{xi}"]
-            dp = design_point(path)
-            found = ch9_tables.design_point_rows(
-                path, dp, "9.8", f"xi{xi}", None if ctx.quick else ch9_tables.FINDING_SEC9_2_MODEL)
-            if ctx.quick:
-                found = [(r[0], NotCompared(r[1], coarse) if r[1] is not None else None,
-                          *r[2:]) for r in found]
-            else:
-                found += ch9_tables.published_rows("9.8", f"xi{xi}", published[xi], dp)
-            rows += found
-            bound = (Bound("<", 100.0 * COARSE_9_2_2_BOUND, "< 10 % (Sec. 9.2.2); coarse < 12 %")
-                     if ctx.quick else Bound("<", 10.0, "< 10 % (Sec. 9.2.2)"))
-            rows.append((f"Table 9.8 xi{xi} min over evaluations of max(J_u, J_T) (%)", bound,
-                         100.0 * best_minmax(path), "Fig. 9.9: a design below 10 % in both"))
-        rows_by_seed.append(rows)
-    return side_by_side_seeds(rows_by_seed, rtol=ch9_tables.RTOL)
-
-
-def _sec9_2_3(ctx: Context) -> pd.DataFrame:
-    """Fig. 9.13 / Tables 9.9-9.10: Case 2 (radiant heater) against Case 1 in WT5-WT7."""
-    published = {} if ctx.quick else {
-        (table, t): published_design_errors(table, t)
-        for t in TUNNELS_9_2_3 for table in ("9.9", "9.10")}
-    rows_by_seed = []
-    for dirs in ctx.run_dirs("Sec. 9.2.3", names_9_2_3(ctx.quick)):
-        rows: list[tuple] = []
-        for t in TUNNELS_9_2_3:
-            J = {c: 100.0 * best_minmax(dirs[f"sec9_2_3_case{c}_{t}"]) for c in (1, 2)}
-            T = t.upper()
-            rows.append((f"{T} Case 1 min max(J_u, J_T) (%)", None, J[1]))
-            rows.append((f"{T} Case 2 min max(J_u, J_T) (%)", None, J[2]))
-            rows.append((f"{T} Case 2 better than Case 1 (Case 1 - Case 2, % points)",
-                         Bound(">", 0.0, "Case 2 better (Fig. 9.13)"), J[1] - J[2],
-                         FINDING_WT5 if t == "wt5" else
-                         ("coarse: 36 evaluations per case" if ctx.quick else None)))
-            if not ctx.quick:
-                for c, table in ((1, "9.9"), (2, "9.10")):
-                    path = dirs[f"sec9_2_3_case{c}_{t}"]
-                    dp = design_point(path)
-                    rows += ch9_tables.design_point_rows(path, dp, table, t,
-                                                         ch9_tables.FINDING_SEC9_2_MODEL)
-                    rows += ch9_tables.published_rows(table, t, published[table, t], dp)
-        rows_by_seed.append(rows)
-    return side_by_side_seeds(rows_by_seed, rtol=ch9_tables.RTOL)
-
-
-def _sec9_2_4(ctx: Context) -> pd.DataFrame:
-    """Table 9.11: errors over the flight envelope in WT7 (the sweep; full run only)."""
-    if ctx.quick:
-        rows = [(f"Table 9.11 error at M = {m:g}, H = {h:g} km (%)",
-                 NotCompared(ref[i], "not run with --quick (25 optimizations, hours)"), None)
-                for m, ref in ch9_tables.TABLE_9_11.items()
-                for i, h in enumerate(ch9_tables.ALTITUDES_KM)]
-        return side_by_side_seeds([rows], rtol=ch9_tables.RTOL)
-    rows_by_seed = []
-    for dirs in ctx.run_dirs("Sec. 9.2.4", names_9_2_4(ctx.quick)):
-        path = dirs["sec9_2_4_envelope"]
-        errors: dict[tuple[float, float], float] = {}
-        rows = (ch9_tables.envelope_rows(path, errors, ch9_tables.FINDING_SEC9_2_MODEL)
-                if (path / SWEEP_CSV).exists() else [])
-        rows_by_seed.append(rows + ch9_tables.envelope_trend_rows(errors))
-    return side_by_side_seeds(rows_by_seed, rtol=ch9_tables.RTOL)
-
-
-def plan() -> list[Item]:
-    """Every reproduction, in page order."""
-    flutter_full = ch7_flutter.Config(time_domain=True)
-    return [
-        Item("ch7_table7_3_modes", "Ch. 7", "Table 7.3: natural frequencies of the clamped "
-             "panel", _script(ch7_table7_3_modes)),
-        Item("ch7_flutter", "Ch. 7", "Sec. 7.2.3: flutter of the heated panel",
-             _script(ch7_flutter, flutter_full)),
-        Item("ch7_benchmark", "Ch. 7", "Sec. 7.3: aerothermoelastic benchmark (snap-through "
-             "onset)", _script(ch7_benchmark)),
-        Item("ch7_time_accuracy", "Ch. 7", "Sec. 7.3.2.2 / Fig. 7.17: time and energy "
-             "accuracy of S1 and S2", _script(ch7_time_accuracy)),
-        Item("ch8_effects", "Ch. 8", "Ch. 8: boundary layer, aspect ratio, flow angle and "
-             "orthotropy (trends)", _script(ch8_effects)),
-        Item("ch9_table9_3", "Ch. 9", "Table 9.3: similarity parameters (Eq. 9.2 models)",
-             _script(ch9_table9_3)),
-        Item("sec9_1_bo", "Ch. 9", "Sec. 9.1: the Bayesian optimization recovers Table 9.3",
-             _sec9_1_bo, seeded=True, studies=names_9_1),
-        Item("sec9_1_optimum", "Ch. 9", "Sec. 9.1: the optimum of J_u and Eq. 9.2 "
-             "(Poisson's ratio)", _sec9_1_optimum),
-        Item("sec9_2_2", "Ch. 9", "Sec. 9.2.2 / Table 9.8: the ideal tunnel", _sec9_2_2,
-             seeded=True, studies=names_9_2_2),
-        Item("sec9_2_3", "Ch. 9", "Sec. 9.2.3 / Fig. 9.13: realistic tunnels, Case 2 against "
-             "Case 1", _sec9_2_3, seeded=True, studies=names_9_2_3),
-        Item("sec9_2_4", "Ch. 9", "Sec. 9.2.4 / Table 9.11: errors over the flight envelope",
-             _sec9_2_4, seeded=True, studies=names_9_2_4),
-    ]
-
-
 # -- the run ---------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Reproduction:

@@ -29,7 +29,7 @@ from hypate.studies.scripts.ch9_runs import (
     j_u_optimum,
     run_directory,
 )
-from hypate.studies.scripts.reproduce import COARSE_9_2_2_BOUND
+from hypate.studies.scripts.reproduction_plan import COARSE_9_2_2_BOUND
 
 STUDIES = REPO / "studies" / "optimization"
 #: Similarity parameters of Table 9.3 and the design variables of Eq. (9.2).

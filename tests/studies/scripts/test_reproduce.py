@@ -19,7 +19,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 from conftest import chromium
-from hypate.studies.scripts import reproduce
+from hypate.studies.scripts import reproduce, reproduction_plan
+from hypate.studies.scripts.ch9_runs import EQ_9_2_VARIABLES, Optimization, budget
 from hypate.studies.scripts.comparison import (
     Approx,
     Bound,
@@ -73,15 +74,15 @@ def test_side_by_side_is_unchanged_without_the_new_kinds() -> None:
 
 # -- the runner ------------------------------------------------------------------------------------
 def test_plan_covers_every_script_and_the_ch9_studies() -> None:
-    keys = [item.key for item in reproduce.plan()]
+    keys = [item.key for item in reproduction_plan.plan()]
     assert len(keys) == len(set(keys))
     for script in ("ch7_table7_3_modes", "ch7_flutter", "ch7_benchmark", "ch7_time_accuracy",
                    "ch8_effects", "ch9_table9_3"):
         assert script in keys
     assert {"sec9_1_bo", "sec9_1_optimum", "sec9_2_2", "sec9_2_3", "sec9_2_4"} <= set(keys)
     # the quick variants are the coarse settings, the full ones the shipped studies
-    quick = reproduce.Optimization("sec9_2_3_case2_wt7", quick=True).study()
-    full = reproduce.Optimization("sec9_2_3_case2_wt7").study()
+    quick = Optimization("sec9_2_3_case2_wt7", quick=True).study()
+    full = Optimization("sec9_2_3_case2_wt7").study()
     assert (quick.optimizer.initial_samples, quick.optimizer.iterations) == (12, 24)
     assert (full.optimizer.initial_samples, full.optimizer.iterations) == (20, 50)
     assert quick.raw.simulation.steps * quick.raw.simulation.time_step == \
@@ -118,8 +119,8 @@ def test_quick_tables_against_the_dissertation(cheap_run: reproduce.Result) -> N
     opt = by_key["sec9_1_optimum"]
     p = opt.loc["Table 9.1 pair: optimum p_inf relative to Eq. 9.2 (%)"]
     assert p["hypate"] < -2.0 and p["matches"] is False
-    assert p["finding"] == reproduce.FINDING_POISSON.text
-    for v in reproduce.EQ_9_2_VARIABLES:
+    assert p["finding"] == reproduction_plan.FINDING_POISSON.text
+    for v in EQ_9_2_VARIABLES:
         row = opt.loc[f"equal nu: optimum {v} relative to Eq. 9.2 (%)"]
         assert abs(row["hypate"]) < 0.5 and row["matches"] is True
     assert opt.loc["Table 9.1 pair: J_u at its optimum (%)", "hypate"] < \
@@ -212,8 +213,8 @@ def test_a_finding_lists_every_reproduction_that_has_its_rows() -> None:
 
 # -- side by side (``jobs > 1``) ----------------------------------------------------------------
 def test_schedule_runs_the_long_pole_first_then_the_scripts_then_the_rest() -> None:
-    items = reproduce.plan()
-    ctx = reproduce.Context(quick=False, seeds=2, out=Path("unused"))
+    items = reproduction_plan.plan()
+    ctx = reproduction_plan.Context(quick=False, seeds=2, out=Path("unused"))
     jobs = reproduce.schedule(items, ctx)
     builds = [("build", i.key) for i in items if not i.seeded]
     runs = [what for kind, what in jobs if kind == "run"]
@@ -225,7 +226,7 @@ def test_schedule_runs_the_long_pole_first_then_the_scripts_then_the_rest() -> N
     # the other optimizations in non-increasing cost
     assert jobs[0] == ("run", ("sec9_2_4_envelope", 0))
     assert jobs[1:1 + len(builds)] == builds
-    costs = [reproduce.budget(reproduce.Optimization(n)) for n, _ in runs]
+    costs = [budget(Optimization(n)) for n, _ in runs]
     assert costs[0] == max(costs) and costs[1:] == sorted(costs[1:], reverse=True)
 
 
