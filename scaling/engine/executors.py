@@ -38,8 +38,8 @@ from hypate.scaling.engine.faults import (
 )
 
 __all__ = ["CLOSE_TIMEOUT", "DASHBOARD_PORT", "DaskExecutor", "HEALTH_INTERVAL", "LOST_AFTER",
-           "REACH_TIMEOUT", "ResilientProcessPool", "check_scheduler_address", "make_executor",
-           "run_batch"]
+           "REACH_TIMEOUT", "ResilientProcessPool", "check_scheduler_address", "fault_tolerant",
+           "make_executor", "run_batch"]
 
 T = TypeVar("T")
 
@@ -436,7 +436,7 @@ class _Plain:
         pass
 
 
-def _fault_tolerant(executor: Any) -> Any:
+def fault_tolerant(executor: Any) -> Any:
     """``executor`` with the protocol of :func:`run_batch` (``submit``, ``wait_result``,
     ``check_alive``): ours as they are, a bare ``distributed.Client`` watched by a
     :class:`DaskExecutor`, anything else as it is."""
@@ -510,7 +510,7 @@ def run_batch(executor: Any, fn: Callable[..., T], calls: Sequence[tuple], *,
         for k, args in enumerate(calls):
             yield k, fn(*args)
         return
-    ex = _fault_tolerant(executor)
+    ex = fault_tolerant(executor)
     slots = [_Slot(k, tuple(args)) for k, args in enumerate(calls)]
     pending = list(slots)
     emitted = 0

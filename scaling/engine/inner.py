@@ -7,6 +7,7 @@ unit-box coordinates ``u`` (``x = lo + u span``) so that SLSQP sees a well-scale
 """
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import warnings
 from collections.abc import Callable, Sequence
@@ -23,6 +24,7 @@ from hypate.scaling.engine.problem import (
     scipy_constraints,
 )
 from hypate.scaling.engine.surrogate import ProbabilisticConstraint
+from hypate.solvers.numerics.kriging import Mapper
 from hypate.solvers.numerics.random import as_rng, raw_latin_hypercube
 from scipy.optimize import Bounds, minimize
 
@@ -161,6 +163,39 @@ def _slsqp(search: _UnitSearch, u0: np.ndarray, model_cons: list[dict[str, Any]]
     return search.feasible(u)
 
 
+@dataclass(frozen=True)
+class _PolishStart:
+    """One SLSQP start as a picklable call: ``start -> (violates, loss, u)`` or None. The
+    search travels without its scipy-form constraints (closures do not pickle); they are
+    rebuilt from the cheap constraints where the start runs."""
+
+    search: _UnitSearch
+    maxiter: int
+    ftol: float
+
+    def _here(self) -> tuple[_UnitSearch, list[dict[str, Any]]]:
+        s = self.search
+        if s.cheap_constraints and not s.cheap:
+            s = dataclasses.replace(s, cheap=scipy_constraints(s.cheap_constraints, s.lo,
+                                                               s.span))
+        return s, s.scipy_model_constraints()
+
+    @staticmethod
+    def _candidate(search: _UnitSearch, u: np.ndarray | None):
+        if u is None:
+            return None
+        return search.model_violation(u) > MODEL_VIOLATION_TOL, search.loss(u)[0], u
+
+    def __call__(self, u0: np.ndarray) -> tuple[bool, float, np.ndarray] | None:
+        search, model_cons = self._here()
+        return self._candidate(search, _slsqp(search, u0, model_cons, self.maxiter, self.ftol))
+
+    def serial(self, starts: Sequence[np.ndarray]) -> list:
+        search, model_cons = self._here()
+        return [self._candidate(search, _slsqp(search, u0, model_cons, self.maxiter, self.ftol))
+                for u0 in starts]
+
+
 #: A coordinate within this of 0 or 1 (unit box) sits on its bound.
 ON_BOUND = 1e-9
 
@@ -225,6 +260,7 @@ def optimize_acquisition(
     maxiter: int = 200,
     ftol: float = 1e-9,
     resolution: Resolution | None = None,
+    mapper: Mapper | None = None,
 ) -> tuple[np.ndarray, float]:
     """Multistart SLSQP maximization (or minimization) of an acquisition (Sec. 6.3.3).
 
@@ -259,6 +295,10 @@ def optimize_acquisition(
         of a row of ``X_avoid`` that sits on a bound with no row near it off that bound,
         the proposal is the best point of the inward half of the sphere of that radius
         around the row (:func:`_bound_probe`).
+    mapper : callable or None
+        ``mapper(fn, starts)``: how the SLSQP starts are spread (e.g. over the run's
+        workers, :class:`hypate.scaling.engine.sharing.WorkerMap`); None: one after another.
+        The candidates do not depend on it.
 
     Returns
     -------
@@ -284,13 +324,10 @@ def optimize_acquisition(
     search = _UnitSearch(acquisition, lo, span, sign, scale, cheap_constraints,
                          scipy_constraints(cheap_constraints, lo, span), model_constraints,
                          U_avoid, min_distance)
-    model_cons = search.scipy_model_constraints()
-    candidates: list[tuple[bool, float, np.ndarray]] = []
-    for u0 in U[order[:n_starts]]:  # loop over starts
-        u = _slsqp(search, u0, model_cons, maxiter, ftol)
-        if u is not None:
-            candidates.append((search.model_violation(u) > MODEL_VIOLATION_TOL,
-                               search.loss(u)[0], u))
+    starts = list(U[order[:n_starts]])
+    polish = _PolishStart(dataclasses.replace(search, cheap=[]), maxiter, ftol)
+    polished = polish.serial(starts) if mapper is None else mapper(polish, starts)
+    candidates = [c for c in polished if c is not None]
     candidates.sort(key=lambda c: (c[0], c[1]))
     if resolution is not None and U_avoid is not None and candidates:
         candidates = _bound_probe(search, candidates, resolution, np.atleast_2d(X_avoid), rng)

@@ -25,15 +25,20 @@ Each iteration (Sec. 6.3.1 step 4):
    pool or cluster ends the run with
    :class:`~hypate.scaling.engine.faults.InfrastructureError`.
 
+With an executor, steps 1 and 2 borrow its workers: the columns' likelihood optimizations
+and the SLSQP starts are spread over this process and the pool
+(:class:`hypate.scaling.engine.sharing.WorkerMap`), with the serial results bit for bit.
+
 The options are one frozen :class:`hypate.scaling.engine.settings.OptimizerSettings`; the
 acquisition is built by name from :data:`hypate.scaling.engine.acquisition.ACQUISITIONS`;
 evaluations are :class:`hypate.scaling.engine.problem.Outcome` records committed as
 :class:`hypate.scaling.engine.store.Evaluation` rows.
 
-Size: about 670 lines, one class and the record of its leave-one-out check; the proposal,
+Size: about 700 lines, one class and the record of its leave-one-out check; the proposal,
 evaluation, polish and check share the optimizer's settings, surrogates and store, and the
 pieces that stand alone already have their own modules (inner, acquisition, executors,
-mixed: the per-level proposal of a categorical variable).
+sharing: the workers' hand in a proposal, mixed: the per-level proposal of a categorical
+variable).
 
 Reproducibility: the random numbers of iteration ``t`` come from
 ``numpy.random.default_rng([seed, t])`` and a proposal depends only on the evaluations of
@@ -46,6 +51,7 @@ import math
 import time
 import warnings
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -75,7 +81,9 @@ from hypate.scaling.engine.store import (
     EvaluationStore,
     evaluations_to_dataframe,
 )
-from hypate.scaling.engine.surrogate import ProbabilisticConstraint, fit_surrogate
+from hypate.scaling.engine.sharing import WorkerMap
+from hypate.scaling.engine.surrogate import ProbabilisticConstraint, surrogate_regressor
+from hypate.solvers.numerics.kriging import fit_together
 from hypate.solvers.numerics.random import latin_hypercube, raw_latin_hypercube
 from hypate.solvers.numerics.threads import blas_threads
 from scipy.optimize import minimize
@@ -258,15 +266,30 @@ class BayesianOptimizer:
         KrigingRegressor or WarpedModel
             Fitted, with ``predict_moments``, ``predict_with_gradients`` and ``condition``.
         """
+        return self.surrogates([(X, Y, kw)], rng)[0]
+
+    def surrogates(self, data: Sequence[tuple[np.ndarray, np.ndarray, dict[str, Any]]],
+                   rng: np.random.Generator | int | None = None) -> list:
+        """:meth:`surrogate` of each ``(X, Y, options)``, in order, with all their columns'
+        likelihood optimizations spread over the run's workers (:attr:`worker_map`): the
+        same models as one :meth:`surrogate` call after another."""
         s, coords = self.settings, self.settings.coordinates
         if s.categorical is not None:
             coords = MixedCoordinates(s.categorical, self.n_var, coords)
-        if coords is None:
-            return fit_surrogate(X, Y, self.bounds, kernel=s.kernel, n_restarts=s.n_restarts,
-                                 rng=rng, **kw)
-        gp = fit_surrogate(coords(X), Y, coords.box(self.bounds), kernel=s.kernel,
-                           n_restarts=s.n_restarts, rng=rng, **kw)
-        return WarpedModel(gp, coords)
+        box = self.bounds if coords is None else coords.box(self.bounds)
+        jobs = [(surrogate_regressor(box, kernel=s.kernel, n_restarts=s.n_restarts, rng=rng,
+                                     **kw),
+                 X if coords is None else coords(X), np.asarray(Y, float).reshape(len(Y), -1))
+                for X, Y, kw in data]
+        fitted = fit_together(jobs, self.worker_map)
+        return fitted if coords is None else [WarpedModel(gp, coords) for gp in fitted]
+
+    @property
+    def worker_map(self) -> WorkerMap | None:
+        """The run's executor lent to the proposal's independent pieces (None: in-process,
+        ``--workers 1``)."""
+        ex = self.settings.executor
+        return None if ex is None else WorkerMap(ex, blas=self.settings.blas_threads)
 
     def resolution(self, model: Any) -> Resolution | None:
         """The objective surrogates' metric (:class:`~hypate.scaling.engine.inner.Resolution`):
@@ -407,16 +430,20 @@ class BayesianOptimizer:
             # nothing to model: explore with an OLH point far from the samples
             U = latin_hypercube(st.batch_size, self.bounds, rng)
             return U if st.categorical is None else st.categorical.snap(U)
-        model = self.surrogate(X[ok], F[ok], rng)
+        # objectives, expensive constraints, failure indicator: fitted together
+        data = [(X[ok], F[ok], {})]
+        if self.n_constr:
+            data.append((X[ok], G[ok], {}))
+        if not np.all(ok):
+            data.append((X, (~ok).astype(float)[:, None],
+                         {"nugget": FAILURE_NUGGET, "length_scale_bounds": FAILURE_LENGTH_SCALES}))
+        model, *others = self.surrogates(data, rng)
         model_constraints: list[ProbabilisticConstraint] = []
         if self.n_constr:
-            gm = self.surrogate(X[ok], G[ok], rng)
-            model_constraints.append(ProbabilisticConstraint(gm, p_min=st.p_feasible))
-        if not np.all(ok):
-            fm = self.surrogate(X, (~ok).astype(float)[:, None], rng, nugget=FAILURE_NUGGET,
-                           length_scale_bounds=FAILURE_LENGTH_SCALES)
+            model_constraints.append(ProbabilisticConstraint(others.pop(0), p_min=st.p_feasible))
+        if others:
             model_constraints.append(
-                ProbabilisticConstraint(fm, p_min=0.5, threshold=FAILURE_THRESHOLD))
+                ProbabilisticConstraint(others[0], p_min=0.5, threshold=FAILURE_THRESHOLD))
         # exploitation starts: the best feasible designs (nudged off the data points)
         F_good = np.where(feas[:, None], F, np.inf)
         if self.n_obj == 1:
@@ -430,6 +457,7 @@ class BayesianOptimizer:
         X_obs, F_obs, feas_obs = X[ok], F[ok], feas[ok]
         pending: list[np.ndarray] = []
         cur_model = model
+        workers = self.worker_map
         for b in range(st.batch_size):
             # the acquisition first: a Monte Carlo HVEI draws its base samples from rng
             acq = (self._build_acquisition(cur_model, F_obs, feas_obs, F[ok], rng, iteration)
@@ -443,7 +471,7 @@ class BayesianOptimizer:
                         cheap_constraints=st.cheap_constraints,
                         model_constraints=model_constraints, X_avoid=X_avoid,
                         min_distance=st.min_distance, extra_starts=extra, rng=rng,
-                        resolution=resolution)
+                        resolution=resolution, mapper=workers)
                 else:
                     x = propose_by_level(
                         st.categorical, cur_model, model_constraints, self.bounds,
@@ -638,7 +666,14 @@ class BayesianOptimizer:
         X0 = self.initial_design()
         todo = [i for i in range(len(X0)) if (0, i) not in done]
         todo = todo[: max(0, self._budget_left(records))]
-        if todo:
+        if todo and self.settings.executor is not None:
+            with ThreadPoolExecutor(1) as here:
+                # the inner optimization's start design is built once per process (about
+                # 0.5 s): here, while the workers evaluate the initial design, instead of
+                # in the first proposal
+                here.submit(raw_latin_hypercube, self.settings.n_raw, self.bounds, 0)
+                self._evaluate(X0[todo], 0, todo, store, records)
+        elif todo:
             self._evaluate(X0[todo], 0, todo, store, records)
         for t in range(1, self.settings.n_iter + 1):
             if all((t, i) in done for i in range(self.settings.batch_size)):
@@ -647,11 +682,8 @@ class BayesianOptimizer:
                 break
             t0 = time.perf_counter()
             prior = [r for r in records if r.iteration < t]
-            if self.settings.blas_threads is None:
+            with blas_threads(self.settings.blas_threads):
                 Xb = self.propose(prior, t)
-            else:
-                with blas_threads(self.settings.blas_threads):
-                    Xb = self.propose(prior, t)
             overhead.append(time.perf_counter() - t0)
             todo = [i for i in range(self.settings.batch_size) if (t, i) not in done]
             stored = {r.batch_index: r.x for r in records if r.iteration == t}

@@ -21,7 +21,7 @@ import numpy as np
 from hypate.solvers.numerics.kriging import KrigingRegressor
 from scipy.special import ndtr, ndtri
 
-__all__ = ["fit_surrogate", "ProbabilisticConstraint"]
+__all__ = ["fit_surrogate", "surrogate_regressor", "ProbabilisticConstraint"]
 
 
 def fit_surrogate(
@@ -58,9 +58,24 @@ def fit_surrogate(
         Fitted, with ``predict_moments`` and ``predict_with_gradients``.
     """
     Y = np.asarray(Y, dtype=float)
+    return surrogate_regressor(bounds, kernel=kernel, n_restarts=n_restarts, nugget=nugget,
+                               length_scale_bounds=length_scale_bounds,
+                               rng=rng).fit(X, Y.reshape(len(Y), -1))
+
+
+def surrogate_regressor(
+    bounds: np.ndarray,
+    *,
+    kernel: str = "matern52",
+    n_restarts: int = 2,
+    nugget: float = 1e-8,
+    length_scale_bounds: tuple[float, float] = (1e-2, 1e2),
+    rng: np.random.Generator | int | None = None,
+) -> KrigingRegressor:
+    """The unfitted regressor of :func:`fit_surrogate` (same parameters), e.g. for
+    :func:`hypate.solvers.numerics.kriging.fit_together`."""
     return KrigingRegressor(kernel=kernel, bounds=np.asarray(bounds, float), n_restarts=n_restarts,
-                            nugget=nugget, length_scale_bounds=length_scale_bounds,
-                            rng=rng).fit(X, Y.reshape(len(Y), -1))
+                            nugget=nugget, length_scale_bounds=length_scale_bounds, rng=rng)
 
 
 class ProbabilisticConstraint:

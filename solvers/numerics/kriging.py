@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import copy
 import warnings
-from typing import Literal
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
 
 import numpy as np
 from hypate.solvers.numerics.random import as_rng
@@ -34,7 +36,7 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import RBF, ConstantKernel, Matern
 
-__all__ = ["KrigingRegressor", "KERNELS"]
+__all__ = ["KrigingRegressor", "KERNELS", "ColumnFit", "Mapper", "fit_together"]
 
 #: Kernels offered (anisotropic, times a constant amplitude).
 KERNELS: tuple[str, ...] = ("matern52", "rbf")
@@ -92,6 +94,92 @@ def kernel_matrix(
             return K, None
         return K, -K[..., None] * D * inv_l2
     raise ValueError(f"kernel must be one of {KERNELS}, got {kernel!r}")
+
+
+def _sk_kernel(kernel: str, theta: np.ndarray, length_scale_bounds: tuple[float, float],
+               amplitude_bounds: tuple[float, float]):
+    c = ConstantKernel(np.exp(theta[0]), amplitude_bounds)
+    ls = np.exp(theta[1:])
+    if kernel == "matern52":
+        return c * Matern(ls, length_scale_bounds, nu=2.5)
+    return c * RBF(ls, length_scale_bounds)
+
+
+@dataclass(frozen=True)
+class ColumnFit:
+    """The likelihood optimization of one output column: plain data, so that a process
+    pool can run it (:func:`fit_together`). Calling it returns ``(theta, lml)``."""
+
+    U: np.ndarray                 # training inputs in the unit box, (n, d)
+    Ys: np.ndarray                # the standardized outputs, (n, m)
+    column: int                   # the one fitted here
+    start: np.ndarray             # starting log-hyperparameters [log c, log l]
+    seed: int                     # of the random restarts
+    kernel: str
+    nugget: float
+    n_restarts: int
+    length_scale_bounds: tuple[float, float]
+    amplitude_bounds: tuple[float, float]
+
+    def __call__(self) -> tuple[np.ndarray, float]:
+        """Maximize the log marginal likelihood (sklearn, log-space L-BFGS-B + restarts);
+        a singular correlation matrix keeps the start (likelihood NaN)."""
+        d = self.U.shape[1]
+        lsb, ab = np.log(self.length_scale_bounds), np.log(self.amplitude_bounds)
+        lo = np.r_[ab[0], np.full(d, lsb[0])]
+        hi = np.r_[ab[1], np.full(d, lsb[1])]
+        start = np.clip(self.start, lo, hi)
+        gpr = GaussianProcessRegressor(
+            _sk_kernel(self.kernel, start, self.length_scale_bounds, self.amplitude_bounds),
+            alpha=self.nugget, n_restarts_optimizer=self.n_restarts, normalize_y=False,
+            random_state=np.random.RandomState(self.seed), copy_X_train=False)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            try:
+                # a column view, as a serial fit takes it: a contiguous copy (what a
+                # pickled column would be) rounds differently, at 1e-13
+                gpr.fit(self.U, self.Ys[:, self.column])
+            except np.linalg.LinAlgError:
+                return start, float("nan")
+        return gpr.kernel_.theta.copy(), float(gpr.log_marginal_likelihood_value_)
+
+
+def _run(task: ColumnFit) -> tuple[np.ndarray, float]:
+    return task()
+
+
+#: ``map(fn, items)`` returning ``[fn(item) for item in items]`` in order, e.g. spread over
+#: the worker processes of an optimization run.
+Mapper = Callable[[Callable[[Any], Any], Sequence[Any]], list]
+
+
+def fit_together(jobs: Sequence[tuple["KrigingRegressor", np.ndarray, np.ndarray]],
+                 mapper: Mapper | None = None) -> list["KrigingRegressor"]:
+    """Fit several regressors (``(regressor, X, y)`` each) with one ``mapper`` call over
+    all their columns' likelihood optimizations.
+
+    The columns are independent and their restart seeds are drawn (in order) before any
+    is optimized, so the result does not depend on how ``mapper`` spreads them: the same
+    hyperparameters as ``regressor.fit(X, y)`` one after another.
+    """
+    plans = [reg._column_fits(X, y) for reg, X, y in jobs]
+    tasks = [t for plan in plans for t in plan if isinstance(t, ColumnFit)]
+    done = iter((mapper or (lambda fn, items: [fn(i) for i in items]))(_run, tasks))
+    fitted = []
+    for (reg, _, _), plan in zip(jobs, plans):
+        results = []
+        for t in plan:
+            if isinstance(t, ColumnFit):
+                theta, lml = next(done)
+                if np.isnan(lml):
+                    warnings.warn("likelihood optimization failed (singular correlation "
+                                  "matrix); keeping the starting hyperparameters",
+                                  RuntimeWarning, stacklevel=3)
+                results.append((theta, lml))
+            else:
+                results.append((t, float("nan")))
+        fitted.append(reg._finish_fit(results))
+    return fitted
 
 
 class KrigingRegressor(RegressorMixin, BaseEstimator):
@@ -175,6 +263,11 @@ class KrigingRegressor(RegressorMixin, BaseEstimator):
         -------
         self
         """
+        return fit_together([(self, X, y)])[0]
+
+    def _column_fits(self, X: np.ndarray, y: np.ndarray) -> list[ColumnFit | np.ndarray]:
+        """The first half of a fit: check and scale the data, and return each column's
+        likelihood optimization (a :class:`ColumnFit`), or its fixed hyperparameters."""
         if self.kernel not in KERNELS:
             raise ValueError(f"kernel must be one of {KERNELS}, got {self.kernel!r}")
         X = np.atleast_2d(np.asarray(X, dtype=float))
@@ -204,54 +297,35 @@ class KrigingRegressor(RegressorMixin, BaseEstimator):
         self.n_outputs_ = m
         self.n_features_in_ = d
 
+        self._Ys_ = Ys
         rng = as_rng(self.rng)
         theta0 = None if self.theta0 is None else np.atleast_2d(np.asarray(self.theta0, float))
         if theta0 is not None and theta0.shape != (m, d + 1):
             raise ValueError(f"theta0 must have shape {(m, d + 1)}, got {theta0.shape}")
         if not self.optimize and theta0 is None:
             raise ValueError("optimize=False needs theta0")
-        thetas, lmls = [], []
+        tasks: list[ColumnFit | np.ndarray] = []
         for j in range(m):
             start = theta0[j] if theta0 is not None else np.r_[0.0, np.full(d, np.log(0.5))]
             if self.optimize and n >= 2:
-                theta, lml = self._optimize_hyperparameters(
-                    self.U_train_, Ys[:, j], start, np.random.RandomState(rng.integers(2**31)))
+                # the seeds are drawn in column order, before any column is optimized: a
+                # mapped (parallel) fit draws exactly what a serial one does
+                tasks.append(ColumnFit(self.U_train_, Ys, j, np.asarray(start, float),
+                                       int(rng.integers(2**31)), self.kernel, self.nugget,
+                                       self.n_restarts, self.length_scale_bounds,
+                                       self.amplitude_bounds))
             else:
-                theta, lml = np.asarray(start, float), np.nan
-            thetas.append(theta)
-            lmls.append(lml)
-        self.theta_ = np.array(thetas)
-        self.log_marginal_likelihood_ = np.array(lmls)
+                tasks.append(np.asarray(start, float))
+        return tasks
+
+    def _finish_fit(self, results: Sequence[tuple[np.ndarray, float]]) -> "KrigingRegressor":
+        """Take the columns' hyperparameters and factorize (the second half of a fit)."""
+        self.theta_ = np.array([theta for theta, _ in results])
+        self.log_marginal_likelihood_ = np.array([lml for _, lml in results])
+        Ys = self._Ys_
+        del self._Ys_
         self._factorize(Ys)
         return self
-
-    def _sk_kernel(self, d: int, theta: np.ndarray):
-        c = ConstantKernel(np.exp(theta[0]), self.amplitude_bounds)
-        ls = np.exp(theta[1:])
-        if self.kernel == "matern52":
-            return c * Matern(ls, self.length_scale_bounds, nu=2.5)
-        return c * RBF(ls, self.length_scale_bounds)
-
-    def _optimize_hyperparameters(self, U, ys, start, random_state):
-        """Maximize the log marginal likelihood (sklearn, log-space L-BFGS-B + restarts)."""
-        d = U.shape[1]
-        lsb, ab = np.log(self.length_scale_bounds), np.log(self.amplitude_bounds)
-        lo = np.r_[ab[0], np.full(d, lsb[0])]
-        hi = np.r_[ab[1], np.full(d, lsb[1])]
-        start = np.clip(start, lo, hi)
-        gpr = GaussianProcessRegressor(
-            self._sk_kernel(d, start), alpha=self.nugget, n_restarts_optimizer=self.n_restarts,
-            normalize_y=False, random_state=random_state, copy_X_train=False)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", ConvergenceWarning)
-            try:
-                gpr.fit(U, ys)
-            except np.linalg.LinAlgError:
-                warnings.warn("likelihood optimization failed (singular correlation matrix); "
-                              "keeping the starting hyperparameters", RuntimeWarning,
-                              stacklevel=4)
-                return start, float("nan")
-        return gpr.kernel_.theta.copy(), float(gpr.log_marginal_likelihood_value_)
 
     def _factorize(self, Ys: np.ndarray) -> None:
         n = self.U_train_.shape[0]
