@@ -15,7 +15,11 @@ run's target and final values count its top-level evaluations only.
 JSON (public): ``{"study", "target", "seeds", "seconds_to_target": [...],
 "median_seconds_to_target", "final": {"J_u", "J_T", "hypervolume", "evaluations",
 "simulator_seconds"}, "compare": {the same fields} or null, "speedup": median ratio or
-null}``, plus ``workers``, ``evaluations_to_target`` and ``simulator_seconds_to_target``.
+null}``, plus ``workers``, ``evaluations_to_target``, ``simulator_seconds_to_target``,
+``evaluations_per_second`` (per seed: the evaluations committed after the first one over
+the wall time from the first to the last; the prototype simulation and the report are not
+in it) with its ``median_evaluations_per_second``, and ``throughput`` (the median
+evaluations per second against the compared configuration's, or null).
 """
 from __future__ import annotations
 
@@ -89,6 +93,10 @@ def _trace(study: Study, out: Path, workers: int, seed: int) -> dict[str, Any]:
             "simulator_seconds": float(np.sum(outcome.result.data["seconds"]))}
 
 
+def _text(value: float | None) -> str:
+    return "-" if value is None else f"{value:.2f}"
+
+
 def single_fidelity(study: Study) -> Study:
     """The study without its ``[[fidelity]]`` levels (itself when it has none)."""
     if not study.lower_levels:
@@ -122,6 +130,7 @@ def measure(study: Study, seeds: list[int], target: float, workers: int, root: P
         print(f"bench study: {label}, seed {s} ...", file=sys.stderr, flush=True)
         runs.append(_trace(study, seed_directory(root / label, s), workers, s))
     hits = [_to_target(r["rows"], target) for r in runs]
+    rates = [_rate(r["rows"]) for r in runs]
     final = {key: _median([r[key] for r in runs]) for key in
              ("J_u", "J_T", "hypervolume", "simulator_seconds")}
     final["evaluations"] = int(np.median([r["evaluations"] for r in runs]))
@@ -129,7 +138,16 @@ def measure(study: Study, seeds: list[int], target: float, workers: int, root: P
             "seconds_to_target": [h[0] for h in hits],
             "median_seconds_to_target": _median([h[0] for h in hits]),
             "simulator_seconds_to_target": [h[1] for h in hits],
-            "evaluations_to_target": [h[2] for h in hits], "final": final}
+            "evaluations_to_target": [h[2] for h in hits],
+            "evaluations_per_second": rates, "median_evaluations_per_second": _median(rates),
+            "final": final}
+
+
+def _rate(rows: list[tuple[float, float, float]]) -> float | None:
+    """Evaluations committed per wall second, from the first commit to the last."""
+    if len(rows) < 2 or rows[-1][0] <= rows[0][0]:
+        return None
+    return (len(rows) - 1) / (rows[-1][0] - rows[0][0])
 
 
 def run(args: argparse.Namespace) -> int:
@@ -152,7 +170,12 @@ def run(args: argparse.Namespace) -> int:
     if compare is not None and main["median_seconds_to_target"] and \
             compare["median_seconds_to_target"] is not None:
         speedup = compare["median_seconds_to_target"] / main["median_seconds_to_target"]
-    out = {**main, "compare": compare, "speedup": speedup}
+    throughput = None
+    if compare is not None and main["median_evaluations_per_second"] and \
+            compare["median_evaluations_per_second"]:
+        throughput = (main["median_evaluations_per_second"]
+                      / compare["median_evaluations_per_second"])
+    out = {**main, "compare": compare, "speedup": speedup, "throughput": throughput}
     if args.json:
         print(dumps(out, indent=2))
         return 0
@@ -165,7 +188,11 @@ def run(args: argparse.Namespace) -> int:
               + ", ".join("-" if v is None else f"{v:.1f} s" for v in block["seconds_to_target"])
               + f" (median {'not reached' if med is None else f'{med:.1f} s'}); final J_u "
               f"{f['J_u']:.4g}, J_T {f['J_T']:.4g}, HV {f['hypervolume']}, "
-              f"{f['evaluations']:.0f} evaluations, {f['simulator_seconds']:.1f} simulator s")
+              f"{f['evaluations']:.0f} evaluations, {f['simulator_seconds']:.1f} simulator s, "
+              f"{_text(block['median_evaluations_per_second'])} evaluations/s (median)")
     if speedup is not None:
         print(f"speed-up (single / {workers} worker(s), median time to target): {speedup:.2f}x")
+    if throughput is not None:
+        print(f"throughput ({workers} worker(s) / single, median evaluations per second): "
+              f"{throughput:.2f}x")
     return 0

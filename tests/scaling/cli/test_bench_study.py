@@ -3,7 +3,9 @@ medians over seeds, side by side with the one-worker configuration."""
 from __future__ import annotations
 
 import json
+import sqlite3
 
+import numpy as np
 import pandas as pd
 import pytest
 from conftest import tiny_study_text
@@ -42,6 +44,19 @@ def test_bench_study_json_fields_and_their_runs(bench, capsys):
     assert data["final"]["J_u"] == data["compare"]["final"]["J_u"]
     assert data["speedup"] == pytest.approx(data["compare"]["median_seconds_to_target"]
                                             / data["median_seconds_to_target"])
+    # evaluations per second, first to last commit: the store's commit times say the same
+    # (the callback runs right after each commit: 20 ms allowed over the span)
+    for block, label in ((data, "main"), (data["compare"], "single")):
+        for s, rate in zip(block["seeds"], block["evaluations_per_second"]):
+            with sqlite3.connect(out / label / f"seed-{s}" / "evaluations.sqlite") as con:
+                created = [row[0] for row in con.execute(
+                    "SELECT created FROM evaluations ORDER BY id")]
+            span = created[-1] - created[0]
+            assert (len(created) - 1) / rate == pytest.approx(span, abs=0.02)
+        assert block["median_evaluations_per_second"] == pytest.approx(
+            float(np.median(block["evaluations_per_second"])))
+    assert data["throughput"] == pytest.approx(data["median_evaluations_per_second"]
+                                               / data["compare"]["median_evaluations_per_second"])
 
 
 def test_an_unreached_target_is_null(bench, capsys):
@@ -50,7 +65,7 @@ def test_an_unreached_target_is_null(bench, capsys):
                  "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["seconds_to_target"] == [None] and data["median_seconds_to_target"] is None
-    assert data["compare"] is None and data["speedup"] is None
+    assert data["compare"] is None and data["speedup"] is None and data["throughput"] is None
 
 
 @pytest.mark.parametrize("argv, field", [(["--target", "0"], "--target"),
