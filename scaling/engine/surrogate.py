@@ -17,50 +17,13 @@ this module adapts it to the optimizer (Sec. 6.3.1, step 4(a)):
 """
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from hypate.solvers.numerics.kriging import KrigingRegressor
 from scipy.special import ndtr, ndtri
 
 __all__ = ["fit_surrogate", "surrogate_regressor", "ProbabilisticConstraint"]
-
-
-def fit_surrogate(
-    X: np.ndarray,
-    Y: np.ndarray,
-    bounds: np.ndarray,
-    *,
-    kernel: str = "matern52",
-    n_restarts: int = 2,
-    nugget: float = 1e-8,
-    length_scale_bounds: tuple[float, float] = (1e-2, 1e2),
-    rng: np.random.Generator | int | None = None,
-) -> KrigingRegressor:
-    """Fit independent kriging models to the columns of ``Y``.
-
-    Parameters
-    ----------
-    X : ndarray of shape (n, d)
-    Y : ndarray of shape (n, m)
-    bounds : ndarray of shape (d, 2)
-        Design box (inputs are scaled to the unit box).
-    kernel : {"matern52", "rbf"}
-    n_restarts : int
-        Random restarts of the likelihood optimization.
-    nugget : float
-        Diagonal jitter (standardized outputs); larger values smooth (regression).
-    length_scale_bounds : tuple of float
-        In unit-box coordinates.
-    rng : numpy.random.Generator, int or None
-
-    Returns
-    -------
-    KrigingRegressor
-        Fitted, with ``predict_moments`` and ``predict_with_gradients``.
-    """
-    Y = np.asarray(Y, dtype=float)
-    return surrogate_regressor(bounds, kernel=kernel, n_restarts=n_restarts, nugget=nugget,
-                               length_scale_bounds=length_scale_bounds,
-                               rng=rng).fit(X, Y.reshape(len(Y), -1))
 
 
 def surrogate_regressor(
@@ -72,10 +35,46 @@ def surrogate_regressor(
     length_scale_bounds: tuple[float, float] = (1e-2, 1e2),
     rng: np.random.Generator | int | None = None,
 ) -> KrigingRegressor:
-    """The unfitted regressor of :func:`fit_surrogate` (same parameters), e.g. for
-    :func:`hypate.solvers.numerics.kriging.fit_together`."""
+    """The optimizer's kriging regressor, unfitted (e.g. for
+    :func:`hypate.solvers.numerics.kriging.fit_together`).
+
+    Parameters
+    ----------
+    bounds : ndarray of shape (d, 2)
+        Design box (inputs are scaled to the unit box).
+    kernel : {"matern52", "rbf"}
+    n_restarts : int
+        Random restarts of the likelihood optimization.
+    nugget : float
+        Diagonal jitter (standardized outputs); larger values smooth (regression).
+    length_scale_bounds : tuple of float
+        In unit-box coordinates.
+    rng : numpy.random.Generator, int or None
+    """
     return KrigingRegressor(kernel=kernel, bounds=np.asarray(bounds, float), n_restarts=n_restarts,
                             nugget=nugget, length_scale_bounds=length_scale_bounds, rng=rng)
+
+
+def fit_surrogate(X: np.ndarray, Y: np.ndarray, bounds: np.ndarray,
+                  **options: Any) -> KrigingRegressor:
+    """Fit independent kriging models to the columns of ``Y``.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n, d)
+    Y : ndarray of shape (n, m)
+    bounds : ndarray of shape (d, 2)
+    **options
+        Those of :func:`surrogate_regressor` (``kernel``, ``n_restarts``, ``nugget``,
+        ``length_scale_bounds``, ``rng``).
+
+    Returns
+    -------
+    KrigingRegressor
+        Fitted, with ``predict_moments`` and ``predict_with_gradients``.
+    """
+    Y = np.asarray(Y, dtype=float)
+    return surrogate_regressor(bounds, **options).fit(X, Y.reshape(len(Y), -1))
 
 
 class ProbabilisticConstraint:
