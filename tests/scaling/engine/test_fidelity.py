@@ -2,6 +2,9 @@
 Forrester function (Forrester, Sobester & Keane 2007)."""
 from __future__ import annotations
 
+import dataclasses
+from concurrent.futures import ProcessPoolExecutor
+
 import numpy as np
 import pytest
 from hypate.scaling.engine.fidelity import MultiFidelityOptimizer
@@ -112,3 +115,21 @@ def test_no_promotion_when_the_top_level_is_already_best_or_everything_ran_there
     assert _promotion(opt, X_low, np.array([0.0, 0.4, X_MIN, 1.0])) is None
     # every cheap design has run at the top: nothing left to promote
     assert _promotion(opt, X_low, X_low.copy()) is None
+
+
+def _two_objectives(z: np.ndarray) -> list[float]:
+    return [two_level(z), (z[0] - 0.3) ** 2 + 0.1 * z[1]]
+
+
+def test_workers_store_the_serial_campaign():
+    """With a process pool (the nested initial design evaluated two at a time, the start
+    design built beside it) the campaign is the in-process one, bit for bit."""
+    problem = FunctionProblem(_two_objectives, [(0.0, 1.0), (0.0, 1.0)], n_obj=2)
+    settings = OptimizerSettings(acquisition="hvlcb", n_init=3, n_iter=6, seed=2,
+                                 ref_point=[20.0, 2.0])
+    serial = MultiFidelityOptimizer(problem, settings, costs=COSTS, low_samples=[5]).run()
+    with ProcessPoolExecutor(2) as pool:
+        shared = MultiFidelityOptimizer(problem, dataclasses.replace(settings, executor=pool),
+                                        costs=COSTS, low_samples=[5]).run()
+    assert np.array_equal(serial.X, shared.X) and np.array_equal(serial.F, shared.F)
+    assert len(np.unique(serial.X[:, 1])) == 2  # both levels were used
