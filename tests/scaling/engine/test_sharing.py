@@ -92,9 +92,8 @@ def test_starts_polished_on_workers_give_the_serial_proposal(make):
     ctx = AcquisitionContext(0.0, front, Y.max(axis=0) + 0.1, Y.min(axis=0), np.ptp(Y, axis=0),
                              np.random.default_rng(3), v=1.5)
     acq = ACQUISITIONS["hvlcb"].from_context(model, ctx)
-    kw = dict(n_raw=64, n_starts=5, X_avoid=X, rng=None)
-    x_serial, v_serial = optimize_acquisition(acq, BOUNDS, **{**kw, "rng": 11})
+    kw = dict(n_raw=64, n_starts=5, X_avoid=X, rng=11)  # a seed: a fresh generator per call
+    x_serial, v_serial = optimize_acquisition(acq, BOUNDS, **kw)
     with make() as ex:
-        x_shared, v_shared = optimize_acquisition(acq, BOUNDS, mapper=WorkerMap(ex),
-                                                  **{**kw, "rng": 11})
+        x_shared, v_shared = optimize_acquisition(acq, BOUNDS, mapper=WorkerMap(ex), **kw)
     assert np.array_equal(x_serial, x_shared) and v_serial == v_shared
