@@ -34,11 +34,10 @@ acquisition is built by name from :data:`hypate.scaling.engine.acquisition.ACQUI
 evaluations are :class:`hypate.scaling.engine.problem.Outcome` records committed as
 :class:`hypate.scaling.engine.store.Evaluation` rows.
 
-Size: about 700 lines, one class and the record of its leave-one-out check; the proposal,
-evaluation, polish and check share the optimizer's settings, surrogates and store, and the
-pieces that stand alone already have their own modules (inner, acquisition, executors,
-sharing: the workers' hand in a proposal, mixed: the per-level proposal of a categorical
-variable).
+The pieces that stand alone have their own modules: inner (the acquisition's SLSQP
+multistart), acquisition, executors, sharing (the workers' hand in a proposal), mixed (the
+per-level proposal of a categorical variable), polish (the final Nelder-Mead search) and
+check (the leave-one-out check of the final surrogates).
 
 Reproducibility: the random numbers of iteration ``t`` come from
 ``numpy.random.default_rng([seed, t])`` and a proposal depends only on the evaluations of
@@ -47,7 +46,6 @@ earlier iterations, so a resumed run proposes exactly what the uninterrupted run
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 import warnings
 from collections.abc import Sequence
@@ -63,11 +61,13 @@ from hypate.scaling.engine.acquisition import (
     AcquisitionContext,
     AcquisitionFactory,
 )
+from hypate.scaling.engine.check import SurrogateCheck, leave_one_out_check
 from hypate.scaling.engine.coordinates import WarpedModel
 from hypate.scaling.engine.executors import run_batch
 from hypate.scaling.engine.inner import Resolution, optimize_acquisition
 from hypate.scaling.engine.mixed import MixedCoordinates, propose_by_level
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
+from hypate.scaling.engine.polish import polish_best
 from hypate.scaling.engine.problem import (
     Outcome,
     evaluate_design,
@@ -86,7 +86,6 @@ from hypate.scaling.engine.surrogate import ProbabilisticConstraint, surrogate_r
 from hypate.solvers.numerics.kriging import fit_together
 from hypate.solvers.numerics.random import latin_hypercube, raw_latin_hypercube
 from hypate.solvers.numerics.threads import blas_threads
-from scipy.optimize import minimize
 
 __all__ = ["BayesianOptimizer", "SurrogateCheck"]
 
@@ -102,42 +101,7 @@ FAILURE_THRESHOLD = 0.15
 MAX_METRIC_LENGTH = 1.0
 
 
-@dataclasses.dataclass(frozen=True)
-class SurrogateCheck:
-    """How well the final surrogates know one evaluation: their leave-one-out prediction.
-
-    The kriging model fitted to every successful evaluation interpolates them (its std at
-    a sample is ~0, which says nothing); the model without that sample, hyperparameters
-    kept, predicts it from the rest of the data. A prediction within a few std of the
-    observed value says the surrogate has learned the neighbourhood; an observed value far
-    below it marks a point the surrogate did not expect (a narrow valley, or a spike).
-
-    Attributes (arrays of shape (m,), one entry per objective)
-    ----------
-    observed : the evaluated objective values.
-    mean : predicted objective (with the ``"log"`` transform: ``exp`` of the predicted
-        ``ln J``, the median of the log-normal prediction).
-    std : standard deviation of the prediction in the surrogate's output space (objective
-        units, or of ``ln J`` with the ``"log"`` transform).
-    lower, upper : the one-std band in objective units.
-    z : ``(observed - predicted) / std`` in the surrogate's output space.
-    transform : the output transform (``"none"`` or ``"log"``).
-    """
-
-    observed: np.ndarray
-    mean: np.ndarray
-    std: np.ndarray
-    lower: np.ndarray
-    upper: np.ndarray
-    z: np.ndarray
-    transform: str
-
-
 # --------------------------------------------------------------------- optimizer
-class _PolishDone(Exception):
-    """The polish budget is spent."""
-
-
 class BayesianOptimizer:
     """Surrogate-based (Bayesian) optimization of a pymoo Problem, Sec. 6.3.
 
@@ -325,44 +289,14 @@ class BayesianOptimizer:
         return F
 
     def leave_one_out(self, result: OptimizationResult, row: int) -> SurrogateCheck:
-        """The final surrogates' leave-one-out prediction of evaluation ``row``.
+        """The final surrogates' leave-one-out prediction of evaluation ``row`` of
+        ``result`` (:func:`hypate.scaling.engine.check.leave_one_out_check`; the surrogates
+        as the optimizer fits them, with the random numbers of iteration ``n_iter + 1``)."""
+        def fit(X: np.ndarray, F: np.ndarray) -> Any:
+            return self.surrogate(X, F, self._rng(self.settings.n_iter + 1))
 
-        Parameters
-        ----------
-        result : OptimizationResult
-            The run's evaluations (those of :meth:`run`).
-        row : int
-            A successful evaluation (row of ``result.data``), e.g. the design point.
-
-        Returns
-        -------
-        SurrogateCheck
-
-        Raises
-        ------
-        ValueError
-            If ``row`` is not a successful evaluation, or fewer than 3 evaluations succeeded.
-        """
-        ok = result.ok
-        if not 0 <= row < len(ok) or not ok[row]:
-            raise ValueError(f"evaluation {row} is not a successful evaluation")
-        if ok.sum() < 3:
-            raise ValueError("a leave-one-out check needs at least 3 successful evaluations")
-        F = self._model_space(result.F[ok])
-        model = self.surrogate(result.X[ok], F, self._rng(self.settings.n_iter + 1))
-        mean, std = model.leave_one_out()
-        k = int(np.count_nonzero(ok[:row]))
-        m, s, y = mean[k], std[k], F[k]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            z = np.where(s > 0, (y - m) / s, np.nan)
-        if self.settings.output_transform == "log":
-            back = np.exp
-        else:
-            def back(v: np.ndarray) -> np.ndarray:
-                return v
-        return SurrogateCheck(observed=result.F[row].copy(), mean=back(m), std=s,
-                              lower=back(m - s), upper=back(m + s), z=z,
-                              transform=self.settings.output_transform)
+        return leave_one_out_check(result, row, fit, self._model_space,
+                                   self.settings.output_transform)
 
     def _reference_point(self, F_feas: np.ndarray) -> np.ndarray | None:
         if self.ref_point is not None:
@@ -579,66 +513,16 @@ class BayesianOptimizer:
         return old > 0 and (now - old) <= self.settings.convergence_tol * old
 
     def _polish(self, store: EvaluationStore, records: list[Evaluation]) -> None:
-        """Final Nelder-Mead search from the best feasible design (see ``polish``)."""
-        if self.settings.polish <= 0:
-            return
+        """Final Nelder-Mead search from the best feasible design (``polish``;
+        :func:`hypate.scaling.engine.polish.polish_best`), stored as iteration n_iter + 1."""
         t = self.settings.n_iter + 1
-        X, F, G, ok, feas = self._arrays([r for r in records if r.iteration < t])
-        if not feas.any():
-            return
-        lo, hi = self.bounds[:, 0], self.bounds[:, 1]
-        span = hi - lo
-        x_best = X[feas][int(np.argmin(F[feas, 0]))]
-        coords = self.settings.coordinates
-        if coords is None:  # the unit box
-            z0, z_span = (x_best - lo) / span, np.ones(self.n_var)
-        else:
-            box = coords.box(self.bounds)
-            z0, z_span = coords(x_best)[0], box[:, 1] - box[:, 0]
-            A_inv = np.linalg.inv(coords.matrix)
-        cheap = self.settings.cheap_constraints
-        cons = scipy_constraints(cheap, lo, span) if cheap else []
-        stored = {r.batch_index: r for r in records if r.iteration == t}
-        seen = {tuple(np.round(r.x, 12)): r for r in records if r.iteration < t}
-        count = [0]
 
-        def design(z: np.ndarray) -> np.ndarray:
-            x = lo + z * span if coords is None else np.exp(A_inv @ z)
-            x = np.clip(x, lo, hi)
-            if cons:
-                x = lo + project_unit((x - lo) / span, cons) * span
-            return x
+        def evaluate(x: np.ndarray, k: int) -> Evaluation:
+            self._evaluate(x[None], t, [k], store, records)
+            return records[-1]
 
-        def value(z: np.ndarray) -> float:
-            x = design(z)
-            ev = seen.get(tuple(np.round(x, 12)))
-            if ev is None:
-                k = count[0]
-                if k >= self.settings.polish or self._budget_left(records) <= 0:
-                    raise _PolishDone
-                if k in stored:
-                    ev = stored[k]
-                    if not np.allclose(ev.x, x, rtol=0, atol=1e-9):
-                        warnings.warn("polish: resumed point differs from the stored one",
-                                      RuntimeWarning, stacklevel=2)
-                else:
-                    self._evaluate(x[None], t, [k], store, records)
-                    ev = records[-1]
-                count[0] += 1
-                seen[tuple(np.round(x, 12))] = ev
-            good = ev.ok and np.all(np.asarray(ev.G) <= 0.0) and np.isfinite(ev.F[0])
-            return float(ev.F[0]) if good else math.inf
-
-        step = self.settings.polish_step * z_span
-        simplex = z0 + np.vstack([np.zeros(self.n_var), np.diag(step)])
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)
-                minimize(value, z0, method="Nelder-Mead",
-                         options={"initial_simplex": simplex, "maxfev": 100 * self.settings.polish,
-                                  "xatol": 1e-9, "fatol": 0.0})
-        except _PolishDone:
-            pass
+        polish_best(self.settings, self.bounds, records, evaluate,
+                    lambda: self._budget_left(records))
 
     def run(self) -> OptimizationResult:
         """Run (or resume) the optimization.
