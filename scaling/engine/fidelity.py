@@ -23,6 +23,13 @@ prediction against the top level's observed front. Each iteration
    from run to run and would make two runs of one seed differ);
 3. simulates the design at that level.
 
+A batch (``batch_size`` q > 1, for q workers) repeats 1-2 on the model that believes the
+members chosen so far (kriging believer,
+:meth:`~hypate.scaling.engine.multifidelity.MultiFidelityModel.condition`: each member's
+own level takes its predicted mean as an observation, which lowers the variance there and,
+at the top level, adds the believed result to the front), so the next member looks
+elsewhere or at another level; the promotion can only be a batch's first member.
+
 The initial design is nested (Le Gratiet's recursive form is exact on nested designs): the
 top level's ``n_init`` OLH designs are simulated at every level, each lower level ``l``
 adds ``low_samples[l]`` OLH designs of its own.
@@ -54,8 +61,8 @@ class MultiFidelityOptimizer(BayesianOptimizer):
         Variables ``(x, level)``; the last one's bounds are ``[0, s - 1]``; no expensive
         constraints.
     settings : OptimizerSettings
-        ``n_init``: top-level initial designs; one proposal per iteration; no polish, no
-        surrogate coordinates.
+        ``n_init``: top-level initial designs; ``batch_size`` proposals per iteration (the
+        believer's batch); no polish, no surrogate coordinates.
     costs : sequence of float
         Cost of one simulation of each level (cheapest first; any common unit).
     low_samples : sequence of int
@@ -78,10 +85,12 @@ class MultiFidelityOptimizer(BayesianOptimizer):
             raise SettingError("problem", f"the last variable is the level, bounds [0, "
                                f"{self.n_levels - 1}]", self.bounds[-1].tolist())
         s = self.settings
-        if self.n_constr or s.batch_size != 1 or s.polish or s.coordinates is not None:
-            raise SettingError("settings", "no expensive constraints, batch_size 1, no "
-                               "polish and no surrogate coordinates for multi-fidelity BO",
-                               (self.n_constr, s.batch_size, s.polish))
+        if (self.n_constr or s.polish or s.coordinates is not None
+                or (s.batch_size > 1 and s.batch_strategy != "believer")):
+            raise SettingError("settings", "no expensive constraints, no polish, no surrogate "
+                               "coordinates and batches by the kriging believer for "
+                               "multi-fidelity BO", (self.n_constr, s.polish,
+                                                     s.batch_strategy))
         self.costs = np.asarray(costs, float)
         self.low_samples = [int(n) for n in low_samples]
         self.n_design = self.n_var - 1
@@ -134,34 +143,62 @@ class MultiFidelityOptimizer(BayesianOptimizer):
 
     # ------------------------------------------------------------ proposal
     def propose(self, records: list[Evaluation], iteration: int) -> np.ndarray:
-        """One ``(x, level)``: the top level's acquisition over ``x``, then the level of the
-        largest expected gain per second (module docstring)."""
-        st = self.settings
+        """``batch_size`` rows ``(x, level)``: the top level's acquisition over ``x``, then
+        the level of the largest expected gain per second (module docstring); each further
+        member of a batch on the model that believes the ones before it
+        (:meth:`~hypate.scaling.engine.multifidelity.MultiFidelityModel.condition`)."""
         rng = self._rng(iteration)
         X, F, ok, level = self._by_level(records)
         model = self.fit(records, rng)
+        q = self.settings.batch_size
         if model is None:  # nothing to model at the top yet: explore it
-            x = self._project(latin_hypercube(1, self.design_bounds, rng))[0]
-            return np.r_[x, float(self.top)][None]
+            U = self._project(latin_hypercube(q, self.design_bounds, rng))
+            return np.hstack([U, np.full((q, 1), float(self.top))])
         top = ok & (level == self.top)
         F_top = F[top]
         promoted = self.promotion(model, X, ok, level, F_top)
-        if promoted is not None:
-            return np.r_[promoted, float(self.top)][None]
-        acq = self._build_acquisition(model, F_top, np.ones(len(F_top), bool), F_top, rng,
-                                      iteration)
+        rows: list[np.ndarray] = []
+        F_believed = F_top
+        for b in range(q):
+            if b == 0 and promoted is not None:
+                row = np.r_[promoted, float(self.top)]
+            else:
+                row = self._propose_one(model, X, ok, level, F_believed, rows, rng,
+                                        iteration, records)
+            rows.append(row)
+            if b + 1 < q:
+                lev = int(row[-1])  # one of model.levels (choose_level's, or the top)
+                if lev == self.top:  # the believed top-level result joins the front
+                    mean = model.predict_moments(row[None, :-1])[0]
+                    F_believed = np.vstack([F_believed, mean])
+                model = model.condition(row[:-1], lev)
+        return np.array(rows)
+
+    def _propose_one(self, model: MultiFidelityModel, X: np.ndarray, ok: np.ndarray,
+                     level: np.ndarray, F_believed: np.ndarray, pending: list[np.ndarray],
+                     rng: np.random.Generator, iteration: int,
+                     records: Sequence[Evaluation]) -> np.ndarray:
+        """One ``(x, level)``: the acquisition of ``model`` against the (believed) top-level
+        front over ``x``, away from the top level's designs and the batch's ``pending``
+        rows, then :meth:`choose_level`."""
+        st = self.settings
+        top = ok & (level == self.top)
+        F_top = F_believed[: np.count_nonzero(top)]
+        acq = self._build_acquisition(model, F_believed, np.ones(len(F_believed), bool),
+                                      F_top, rng, iteration)
         span = self.design_bounds[:, 1] - self.design_bounds[:, 0]
         best = X[top][np.argsort(np.max(F_top, axis=1), kind="stable")[:3]]
         extra = best + 1e-3 * span * rng.standard_normal(best.shape)
+        X_avoid = np.vstack([X[level == self.top]] + [p[None, :-1] for p in pending])
         try:
             x, _ = optimize_acquisition(
                 acq, self.design_bounds, n_raw=st.n_raw, n_starts=st.n_starts,
-                cheap_constraints=st.cheap_constraints, X_avoid=X[level == self.top],
+                cheap_constraints=st.cheap_constraints, X_avoid=X_avoid,
                 min_distance=st.min_distance, extra_starts=extra, rng=rng)
         except RuntimeError:
             x = self._project(latin_hypercube(1, self.design_bounds, rng))[0]
-            return np.r_[x, float(self.top)][None]
-        return np.r_[x, float(self.choose_level(model, x, records))][None]
+            return np.r_[x, float(self.top)]
+        return np.r_[x, float(self.choose_level(model, x, records, pending))]
 
     def promotion(self, model: MultiFidelityModel, X: np.ndarray, ok: np.ndarray,
                   level: np.ndarray, F_top: np.ndarray) -> np.ndarray | None:
@@ -186,13 +223,17 @@ class MultiFidelityOptimizer(BayesianOptimizer):
         return cand[k] if worst[k] < float(np.min(np.max(F_top, axis=1))) else None
 
     def choose_level(self, model: MultiFidelityModel, x: np.ndarray,
-                     records: Sequence[Evaluation]) -> int:
+                     records: Sequence[Evaluation], pending: Sequence[np.ndarray] = ()) -> int:
         """The level of the largest variance share per second at ``x``; a level that has
-        already simulated ``x`` (within ``min_distance`` of the unit box) is skipped."""
+        already simulated ``x``, or will in this batch (``pending`` rows ``(x, level)``),
+        within ``min_distance`` of the unit box, is skipped."""
         X, F, ok, level = self._by_level(records)
+        top = F[ok & (level == self.top)]
+        if len(pending):
+            P = np.asarray(pending)
+            X, level = np.vstack([X, P[:, :-1]]), np.r_[level, np.rint(P[:, -1]).astype(int)]
         use = model.levels
         shares = model.level_variances(x)                    # (m, len(use))
-        top = F[ok & (level == self.top)]
         spread = np.std(top, axis=0) if len(top) > 1 else np.ones(self.n_obj)
         gain = np.sum(shares / np.maximum(spread, 1e-300)[:, None] ** 2, axis=0)
         cost = self.costs[use]

@@ -22,6 +22,7 @@ not be nested (the recursive form's exact-variance property needs nesting; witho
 """
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 
 import numpy as np
@@ -65,17 +66,40 @@ class MultiFidelityKriging:
             raise ValueError("need one (X, y) pair per fidelity, cheapest first")
         self.levels: list[KrigingRegressor] = []
         self.rho: list[float] = []
+        # each level's kriging data: y_t - rho_t mu_{t-1}(X_t), for condition()
+        self.targets: list[np.ndarray] = []
         for t, (Xt, yt) in enumerate(zip(X, y)):
             Xt = np.atleast_2d(np.asarray(Xt, float))
             yt = np.asarray(yt, float).reshape(-1)
             if t == 0:
-                rho, model = 0.0, self._kriging(Xt, yt)
+                rho, model, target = 0.0, self._kriging(Xt, yt), yt
             else:
                 prev = self._predict(Xt, len(self.levels))[0]
                 rho, model = self._profile_rho(Xt, yt, prev)
+                target = yt - rho * prev
             self.rho.append(rho)
             self.levels.append(model)
+            self.targets.append(target)
         return self
+
+    def condition(self, x: np.ndarray, level: int) -> MultiFidelityKriging:
+        """A copy that believes model level ``level`` at the design ``x``: its kriging
+        (of ``delta_level``) takes its own predicted mean at ``x`` as an observation, with
+        the hyperparameters and ``rho`` kept (the kriging believer of a batch proposal).
+
+        The fantasy is the mean of a kriging model with a known trend, so no level's mean
+        moves anywhere; only ``sigma_level`` shrinks near ``x``, and the top level's
+        variance with it by ``(prod_{j > level} rho_j)^2`` (the formula of the module
+        docstring).
+        """
+        x = np.atleast_2d(np.asarray(x, float))
+        gp = self.levels[level]
+        y_f = gp.predict_moments(x)[0][:, 0]
+        new = copy.copy(self)
+        new.levels, new.targets = list(self.levels), list(self.targets)
+        new.targets[level] = np.r_[self.targets[level], y_f]
+        new.levels[level] = gp.condition(np.vstack([gp.X_train_, x]), new.targets[level])
+        return new
 
     def _kriging(self, X: np.ndarray, y: np.ndarray, theta0: np.ndarray | None = None,
                  n_restarts: int | None = None) -> KrigingRegressor:
@@ -151,6 +175,12 @@ class MultiFidelityModel:
         parts = [m.predict_with_gradients(X) for m in self.models]
         return (np.column_stack([p[0] for p in parts]), np.column_stack([p[1] for p in parts]),
                 np.stack([p[2] for p in parts], axis=1), np.stack([p[3] for p in parts], axis=1))
+
+    def condition(self, x: np.ndarray, level: int) -> MultiFidelityModel:
+        """Every objective's :meth:`MultiFidelityKriging.condition` at ``x`` on fidelity
+        ``level`` (one of :attr:`levels`)."""
+        k = self.levels.index(level)
+        return MultiFidelityModel([m.condition(x, k) for m in self.models], self.levels)
 
     def level_variances(self, x: np.ndarray) -> np.ndarray:
         """Per objective and level ``l``, the share of the top-level predictive variance at

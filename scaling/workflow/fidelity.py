@@ -51,7 +51,7 @@ class FidelitySection(InputModel):
 
 
 def check_fidelity(levels: Sequence[FidelitySection], *, steps: int, categorical: bool,
-                   robust: bool, sweep: bool, polish: int, batch_size: int,
+                   robust: bool, sweep: bool, polish: int,
                    coordinates: str) -> None:
     """Cross-key checks of ``[[fidelity]]`` (ValueError naming the key; nothing runs)."""
     if not levels:
@@ -76,13 +76,11 @@ def check_fidelity(levels: Sequence[FidelitySection], *, steps: int, categorical
                              f"= {steps} into at least 2 steps; got {f.time_step_factor:g}")
     clashes = {"variables.material (a categorical variable)": categorical,
                "[robust]": robust, "[sweep]": sweep, f"optimizer.polish = {polish}": polish > 0,
-               f"optimizer.batch_size = {batch_size}": batch_size != 1,
                f"optimizer.coordinates = {coordinates!r}": coordinates != "design"}
     bad = [k for k, v in clashes.items() if v]
     if bad:
-        raise ValueError(f"fidelity: the multi-fidelity search runs one proposal per "
-                         f"iteration over the design coordinates, without {', '.join(bad)};"
-                         " remove one or the other")
+        raise ValueError(f"fidelity: the multi-fidelity search runs over the design "
+                         f"coordinates, without {', '.join(bad)}; remove one or the other")
 
 
 def level_data(data: dict[str, Any], level: FidelitySection) -> dict[str, Any]:

@@ -300,8 +300,7 @@ class StudyFile(InputModel):
         check_fidelity(self.fidelity, steps=self.simulation.steps,
                        categorical=any(n in self.variables for n in CATEGORICAL),
                        robust=self.robust is not None, sweep=self.sweep is not None,
-                       polish=opt.polish, batch_size=opt.batch_size,
-                       coordinates=opt.coordinates)
+                       polish=opt.polish, coordinates=opt.coordinates)
         return self
 
 

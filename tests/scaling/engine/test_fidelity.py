@@ -133,3 +133,39 @@ def test_workers_store_the_serial_campaign():
                                         costs=COSTS, low_samples=[5]).run()
     assert np.array_equal(serial.X, shared.X) and np.array_equal(serial.F, shared.F)
     assert len(np.unique(serial.X[:, 1])) == 2  # both levels were used
+
+
+def test_a_batch_believes_its_members_and_keeps_both_levels(tmp_path):
+    """batch_size 2: each iteration stores two distinct designs; the first is the serial
+    proposal's (the same model and random numbers); a process pool stores the same
+    campaign; the top-level minimum is still found."""
+    problem = FunctionProblem(two_level, [(0.0, 1.0), (0.0, 1.0)])
+    settings = OptimizerSettings(acquisition="lcb", n_init=3, n_iter=6, seed=0, batch_size=2,
+                                 store=str(tmp_path / "b.sqlite"))
+    result = MultiFidelityOptimizer(problem, settings, costs=COSTS, low_samples=[6]).run()
+    it = result.data["iteration"].to_numpy()
+    assert len(it) == 3 * 2 + 6 + 6 * 2
+    for t in range(1, 7):
+        rows = result.X[it == t]
+        assert len(rows) == 2 and abs(rows[0, 0] - rows[1, 0]) > 1e-6
+    with EvaluationStore(tmp_path / "b.sqlite") as store:
+        initial = [r for r in store.load() if r.iteration == 0]
+    serial = MultiFidelityOptimizer(problem, dataclasses.replace(settings, batch_size=1,
+                                                                 store=None),
+                                    costs=COSTS, low_samples=[6])
+    assert np.array_equal(serial.propose(initial, 1)[0], result.X[it == 1][0])
+    with ProcessPoolExecutor(2) as pool:
+        shared = MultiFidelityOptimizer(problem, dataclasses.replace(settings, executor=pool,
+                                                                     store=None),
+                                        costs=COSTS, low_samples=[6]).run()
+    assert np.array_equal(result.X, shared.X) and np.array_equal(result.F, shared.F)
+    top = np.rint(result.X[:, 1]) == 1
+    k = int(np.argmin(np.where(top, result.F[:, 0], np.inf)))
+    assert result.F[k, 0] == pytest.approx(F_MIN, abs=0.02)
+
+
+def test_a_batch_needs_the_believer():
+    settings = OptimizerSettings(n_init=3, n_iter=1, batch_size=2, batch_strategy="liar")
+    with pytest.raises(SettingError, match="believer"):
+        MultiFidelityOptimizer(FunctionProblem(two_level, [(0.0, 1.0), (0.0, 1.0)]), settings,
+                               costs=COSTS, low_samples=[1])

@@ -105,3 +105,27 @@ def test_rho_recovers_a_known_linear_relation():
     mf = MultiFidelityKriging(b).fit([Xl, Xh], [forrester_low(Xl[:, 0]),
                                                 2 * forrester_low(Xh[:, 0]) + 1])
     assert mf.rho[1] == pytest.approx(2.0, rel=1e-3)
+
+
+@pytest.mark.parametrize("level", [0, 1])
+def test_believing_a_level_keeps_every_mean_and_shrinks_its_variance_share(forrester_models,
+                                                                           level):
+    """Kriging believer on one level (the batch proposal's fantasy): the mean of a kriging
+    model with a known trend at its own prediction does not move (to 1e-9 of the output
+    scale); the top-level variance at the design drops by exactly the believed level's share
+    ``(prod_{j > l} rho_j)^2 sigma_l^2`` less what that level keeps after the fantasy."""
+    mf = forrester_models[0]
+    x0 = np.array([0.23])
+    new = mf.condition(x0, level)
+    x = np.linspace(0, 1, 101)[:, None]
+    assert new.predict(x) == pytest.approx(mf.predict(x), abs=1e-9 * np.ptp(mf.predict(x)))
+    gain = float(np.prod(mf.rho[level + 1:]))
+    before = [m.predict_moments(x0[None])[1][0, 0] for m in mf.levels]
+    after = [m.predict_moments(x0[None])[1][0, 0] for m in new.levels]
+    assert after[level] < 0.1 * before[level]  # the believed level is pinned at x0
+    assert [a for t, a in enumerate(after) if t != level] == \
+        [b for t, b in enumerate(before) if t != level]  # the other levels are untouched
+    drop = mf.predict(x0[None], return_std=True)[1][0] ** 2 \
+        - new.predict(x0[None], return_std=True)[1][0] ** 2
+    assert drop == pytest.approx(gain**2 * (before[level] ** 2 - after[level] ** 2), rel=1e-6)
+    assert len(new.targets[level]) == len(mf.targets[level]) + 1  # the original is unchanged

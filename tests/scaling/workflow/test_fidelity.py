@@ -69,11 +69,11 @@ def test_bad_levels_are_refused_naming_the_key(levels: str, key: str) -> None:
     assert key in str(err.value)
 
 
-def test_levels_refuse_a_batch() -> None:
+def test_levels_take_a_batch() -> None:
     data = _data()
     data["optimizer"]["batch_size"] = 2
-    with pytest.raises(InputError, match="batch_size"):
-        parse_study(data)
+    study = parse_study(data)
+    assert study.budget == 4 + 4 + 4 + 2 * study.optimizer.iterations
 
 
 @pytest.fixture(scope="module")
