@@ -105,24 +105,28 @@ def test_twenty_random_sigkills_resume_to_the_same_campaign(
     _sigkills_resume_to_the_same_campaign(tmp_path, reference, (7, 7, 6))
 
 
-#: The campaign study with a coarse fidelity (issue 19): 7 top designs at both levels + 4
-#: coarse ones + 12 iterations, each choosing its level.
-MF_STUDY = tiny_study_text(name="campaign_mf", mesh=2, steps=4, initial=6, iterations=12,
-                           seed=5, tail='[[fidelity]]\nname = "coarse"\nmesh = [1, 1]\n'
-                           'time_step_factor = 2.0\ninitial_samples = 4\n'
-                           '[[fidelity]]\nname = "full"\n')
+#: The campaign study with a coarse fidelity (issue 19): 6 designs at both levels, the
+#: classical seed, 4 coarse designs and 12 iterations (or 6 of a batch of 2), each
+#: choosing its level.
+MF_LEVELS = ('[[fidelity]]\nname = "coarse"\nmesh = [1, 1]\ntime_step_factor = 2.0\n'
+             'initial_samples = 4\n[[fidelity]]\nname = "full"\n')
 
 
-def test_sigkills_of_a_multi_fidelity_run_resume_to_the_same_campaign(tmp_path: Path) -> None:
+@pytest.mark.parametrize("batch", [1, 2])
+def test_sigkills_of_a_multi_fidelity_run_resume_to_the_same_campaign(tmp_path: Path,
+                                                                      batch: int) -> None:
     # the stored level is part of each design: a resumed run replays it and chooses the
     # later levels as the uninterrupted run did (levels cost a deterministic model, not
-    # the measured seconds)
+    # the measured seconds); a batch of 2 runs on --workers auto's pool
     study = tmp_path / "campaign_mf.toml"
-    study.write_text(MF_STUDY)
+    study.write_text(tiny_study_text(name="campaign_mf", mesh=2, steps=4, initial=6,
+                                     iterations=12 // batch, seed=5,
+                                     tail=f"batch_size = {batch}\n{MF_LEVELS}"))
     assert main(["run", str(study), "--out", str(tmp_path / "whole"), "-q"]) == 0
     whole = _campaign(tmp_path / "whole")
     levels = {row[2][-1] for row in whole}
     assert levels == {0.0, 1.0}
+    assert len(whole) == 6 * 2 + 1 + 4 + 12
     _kill_and_resume(study, tmp_path / "killed", len(whole), 2, np.random.default_rng(19))
     assert _campaign(tmp_path / "killed") == whole
 

@@ -29,9 +29,10 @@ def two_level(z: np.ndarray) -> float:
     return high(z[0]) if round(z[1]) == 1 else low(z[0])
 
 
-def _optimizer(seed: int, n_iter: int = 10, store=None) -> MultiFidelityOptimizer:
+def _optimizer(seed: int, n_iter: int = 10, store=None, batch: int = 1
+               ) -> MultiFidelityOptimizer:
     settings = OptimizerSettings(acquisition="lcb", n_init=3, n_iter=n_iter, seed=seed,
-                                 store=store)
+                                 store=store, batch_size=batch)
     return MultiFidelityOptimizer(FunctionProblem(two_level, [(0.0, 1.0), (0.0, 1.0)]),
                                   settings, costs=COSTS, low_samples=[6])
 
@@ -59,12 +60,14 @@ def test_nested_initial_design_and_level_bookkeeping():
     assert all(np.any(np.all(np.isclose(low_rows[:, :1], t[:1]), axis=1)) for t in top_rows)
 
 
-def test_resumed_run_replays_the_stored_levels(tmp_path):
-    full = _optimizer(1, n_iter=5, store=str(tmp_path / "a.sqlite")).run()
+@pytest.mark.parametrize("batch", [1, 2])
+def test_resumed_run_replays_the_stored_levels(tmp_path, batch):
+    full = _optimizer(1, n_iter=5, store=str(tmp_path / "a.sqlite"), batch=batch).run()
     with EvaluationStore(tmp_path / "b.sqlite") as store:
-        _optimizer(1, n_iter=2, store=store).run()
-    again = _optimizer(1, n_iter=5, store=str(tmp_path / "b.sqlite")).run()
+        _optimizer(1, n_iter=2, store=store, batch=batch).run()
+    again = _optimizer(1, n_iter=5, store=str(tmp_path / "b.sqlite"), batch=batch).run()
     assert np.array_equal(full.X, again.X) and np.array_equal(full.F, again.F)
+    assert len(full.X) == 3 * 2 + 6 + 5 * batch
 
 
 def test_settings_are_checked():
