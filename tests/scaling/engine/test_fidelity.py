@@ -138,7 +138,7 @@ def test_workers_store_the_serial_campaign():
     assert len(np.unique(serial.X[:, 1])) == 2  # both levels were used
 
 
-def test_a_batch_believes_its_members_and_keeps_both_levels(tmp_path):
+def test_a_batch_believes_its_members(tmp_path):
     """batch_size 2: each iteration stores two distinct designs; the first is the serial
     proposal's (the same model and random numbers); a process pool stores the same
     campaign; the top-level minimum is still found."""
