@@ -179,8 +179,11 @@ class MultiFidelityOptimizer(BayesianOptimizer):
                      rng: np.random.Generator, iteration: int,
                      records: Sequence[Evaluation]) -> np.ndarray:
         """One ``(x, level)``: the acquisition of ``model`` against the (believed) top-level
-        front over ``x``, away from the top level's designs and the batch's ``pending``
-        rows, then :meth:`choose_level`."""
+        front over ``x``, then :meth:`choose_level`. ``x`` keeps ``min_distance`` from the
+        top level's designs (a lower level's earlier design may come back at the top: the
+        promotion's way) and from every design ``pending`` in this batch, at any level (so
+        no two members share a design). When the search fails, a random OLH design at the
+        top (as before batches; it may fall near a pending one)."""
         st = self.settings
         top = ok & (level == self.top)
         F_top = F_believed[: np.count_nonzero(top)]
@@ -198,7 +201,7 @@ class MultiFidelityOptimizer(BayesianOptimizer):
         except RuntimeError:
             x = self._project(latin_hypercube(1, self.design_bounds, rng))[0]
             return np.r_[x, float(self.top)]
-        return np.r_[x, float(self.choose_level(model, x, records, pending))]
+        return np.r_[x, float(self.choose_level(model, x, records))]
 
     def promotion(self, model: MultiFidelityModel, X: np.ndarray, ok: np.ndarray,
                   level: np.ndarray, F_top: np.ndarray) -> np.ndarray | None:
@@ -223,17 +226,13 @@ class MultiFidelityOptimizer(BayesianOptimizer):
         return cand[k] if worst[k] < float(np.min(np.max(F_top, axis=1))) else None
 
     def choose_level(self, model: MultiFidelityModel, x: np.ndarray,
-                     records: Sequence[Evaluation], pending: Sequence[np.ndarray] = ()) -> int:
+                     records: Sequence[Evaluation]) -> int:
         """The level of the largest variance share per second at ``x``; a level that has
-        already simulated ``x``, or will in this batch (``pending`` rows ``(x, level)``),
-        within ``min_distance`` of the unit box, is skipped."""
+        already simulated ``x`` (within ``min_distance`` of the unit box) is skipped."""
         X, F, ok, level = self._by_level(records)
-        top = F[ok & (level == self.top)]
-        if len(pending):
-            P = np.asarray(pending)
-            X, level = np.vstack([X, P[:, :-1]]), np.r_[level, np.rint(P[:, -1]).astype(int)]
         use = model.levels
         shares = model.level_variances(x)                    # (m, len(use))
+        top = F[ok & (level == self.top)]
         spread = np.std(top, axis=0) if len(top) > 1 else np.ones(self.n_obj)
         gain = np.sum(shares / np.maximum(spread, 1e-300)[:, None] ** 2, axis=0)
         cost = self.costs[use]

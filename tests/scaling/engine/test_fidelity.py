@@ -139,8 +139,9 @@ def test_workers_store_the_serial_campaign():
 
 
 def test_a_batch_believes_its_members(tmp_path):
-    """batch_size 2: each iteration stores two distinct designs; the first is the serial
-    proposal's (the same model and random numbers); a process pool stores the same
+    """batch_size 2: each iteration stores two designs at least min_distance apart; the
+    first is the serial proposal's from the same records (the same model and random
+    numbers; a promotion or the acquisition's design); a process pool stores the same
     campaign; the top-level minimum is still found."""
     problem = FunctionProblem(two_level, [(0.0, 1.0), (0.0, 1.0)])
     settings = OptimizerSettings(acquisition="lcb", n_init=3, n_iter=6, seed=0, batch_size=2,
@@ -148,15 +149,16 @@ def test_a_batch_believes_its_members(tmp_path):
     result = MultiFidelityOptimizer(problem, settings, costs=COSTS, low_samples=[6]).run()
     it = result.data["iteration"].to_numpy()
     assert len(it) == 3 * 2 + 6 + 6 * 2
-    for t in range(1, 7):
-        rows = result.X[it == t]
-        assert len(rows) == 2 and abs(rows[0, 0] - rows[1, 0]) > 1e-6
     with EvaluationStore(tmp_path / "b.sqlite") as store:
-        initial = [r for r in store.load() if r.iteration == 0]
+        records = store.load()
     serial = MultiFidelityOptimizer(problem, dataclasses.replace(settings, batch_size=1,
                                                                  store=None),
                                     costs=COSTS, low_samples=[6])
-    assert np.array_equal(serial.propose(initial, 1)[0], result.X[it == 1][0])
+    for t in range(1, 7):
+        rows = result.X[it == t]
+        assert len(rows) == 2 and abs(rows[0, 0] - rows[1, 0]) >= settings.min_distance
+        first = serial.propose([r for r in records if r.iteration < t], t)
+        assert np.array_equal(first[0], rows[0])
     with ProcessPoolExecutor(2) as pool:
         shared = MultiFidelityOptimizer(problem, dataclasses.replace(settings, executor=pool,
                                                                      store=None),

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypate.scaling.engine.multifidelity import MultiFidelityKriging, gls_coefficients
+from hypate.scaling.engine.multifidelity import (MultiFidelityKriging, MultiFidelityModel,
+                                                 gls_coefficients)
 from hypate.solvers.numerics.kriging import KrigingRegressor
 from scipy.stats import qmc
 
@@ -116,6 +117,7 @@ def test_believing_a_level_keeps_every_mean_and_shrinks_its_variance_share(forre
     ``(prod_{j > l} rho_j)^2 sigma_l^2`` less what that level keeps after the fantasy."""
     mf = forrester_models[0]
     x0 = np.array([0.23])
+    std0 = mf.predict(x0[None], return_std=True)[1][0]
     new = mf.condition(x0, level)
     x = np.linspace(0, 1, 101)[:, None]
     assert new.predict(x) == pytest.approx(mf.predict(x), abs=1e-9 * np.ptp(mf.predict(x)))
@@ -125,7 +127,19 @@ def test_believing_a_level_keeps_every_mean_and_shrinks_its_variance_share(forre
     assert after[level] < 0.1 * before[level]  # the believed level is pinned at x0
     assert [a for t, a in enumerate(after) if t != level] == \
         [b for t, b in enumerate(before) if t != level]  # the other levels are untouched
-    drop = mf.predict(x0[None], return_std=True)[1][0] ** 2 \
-        - new.predict(x0[None], return_std=True)[1][0] ** 2
+    drop = std0**2 - new.predict(x0[None], return_std=True)[1][0] ** 2
     assert drop == pytest.approx(gain**2 * (before[level] ** 2 - after[level] ** 2), rel=1e-6)
-    assert len(new.targets[level]) == len(mf.targets[level]) + 1  # the original is unchanged
+    assert len(new.targets[level]) == len(mf.targets[level]) + 1
+    assert mf.predict(x0[None], return_std=True)[1][0] == std0  # the original is unchanged
+
+
+def test_believing_a_fidelity_maps_it_to_its_model_level(forrester_models):
+    """With fidelity 1 left out of the fit (too few samples), fidelity 2 is model level 1."""
+    mf = forrester_models[0]
+    x0 = np.array([0.55])
+    new = MultiFidelityModel([mf], levels=[0, 2]).condition(x0, 2)
+    assert new.levels == [0, 2]
+    assert len(new.models[0].targets[1]) == len(mf.targets[1]) + 1
+    assert len(new.models[0].targets[0]) == len(mf.targets[0])
+    with pytest.raises(ValueError):
+        MultiFidelityModel([mf], levels=[0, 2]).condition(x0, 1)
