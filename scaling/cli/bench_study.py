@@ -35,11 +35,12 @@ import numpy as np
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.run import resolve_workers
 from hypate.scaling.engine.pareto import hypervolume
+from hypate.scaling.workflow.derived import study_data
 from hypate.scaling.workflow.fidelity import is_top
 from hypate.scaling.workflow.run import run_study
 from hypate.scaling.workflow.seeds import seed_directory, seed_list
 from hypate.scaling.workflow.shipped import resolve
-from hypate.scaling.workflow.study import Study, load_study, parse_study, study_data
+from hypate.scaling.workflow.study import Study, load_study, parse_study
 from hypate.solvers.errors import InputError
 
 #: Hypervolume reference point of the final front (J_u, J_T as fractions).

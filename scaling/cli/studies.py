@@ -5,9 +5,10 @@ from __future__ import annotations
 import argparse
 
 from hypate.scaling.cli.jsonout import dumps
+from hypate.scaling.workflow.derived import sweep_points
 from hypate.scaling.workflow.robust import robust_budget
 from hypate.scaling.workflow.shipped import shipped
-from hypate.scaling.workflow.study import load_study, sweep_points
+from hypate.scaling.workflow.study import load_study
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -26,8 +26,9 @@ from typing import IO, Any
 
 from hypate.scaling.engine.executors import check_scheduler_address
 from hypate.scaling.engine.store import EvaluationStore, StoreError
+from hypate.scaling.workflow.derived import study_data
 from hypate.scaling.workflow.rundir import LOCK_FILE, STORE
-from hypate.scaling.workflow.study import Study, study_data
+from hypate.scaling.workflow.study import Study
 from hypate.solvers.aero.factory import ROM_PREFIX, check_fluid_model
 from hypate.solvers.config import read_toml
 from hypate.solvers.errors import InputError

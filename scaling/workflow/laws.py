@@ -63,6 +63,7 @@ import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
 from hypate.scaling.engine.problem import project_cheap
+from hypate.scaling.workflow.derived import study_at, study_data
 from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem
 from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON, SWEEP_JSON
 from hypate.scaling.workflow.similarity import (
@@ -70,7 +71,7 @@ from hypate.scaling.workflow.similarity import (
     reference_quantities,
     time_scale,
 )
-from hypate.scaling.workflow.study import load_study, study_at, study_data
+from hypate.scaling.workflow.study import load_study
 from hypate.scaling.workflow.variables import CATEGORICAL, base_name
 from hypate.solvers.errors import InputError
 from scipy import stats

@@ -167,6 +167,27 @@ class SweepSection(InputModel):
                 raise ValueError(f"{name}: repeated value")
         return self
 
+    def grid(self) -> list[tuple[float | None, float | None, float | None]]:
+        """``(xi, mach, altitude)`` of every point in the order they are run (None: the
+        study's own). Scales in the listed order, each over the flight conditions; a
+        ``mach`` x ``altitude`` grid in serpentine order (Mach outer, the altitude direction
+        alternating), so that consecutive points are neighbours and recycled samples
+        (Sec. 9.2.4) come from the closest condition already solved."""
+        conditions: list[tuple[float | None, float | None]]
+        if self.conditions is not None:
+            conditions = [(float(m), float(h)) for m, h in self.conditions]
+        elif self.mach is not None or self.altitude is not None:
+            machs = self.mach or [None]
+            alts = self.altitude or [None]
+            conditions = []
+            for i, m in enumerate(machs):
+                row = alts if i % 2 == 0 else list(reversed(alts))
+                conditions.extend((m, h) for h in row)
+        else:
+            conditions = [(None, None)]
+        scales: list[float | None] = list(self.xi) if self.xi is not None else [None]
+        return [(xi, m, h) for xi in scales for m, h in conditions]
+
 
 class LawsSection(InputModel):
     analytical: dict[str, float] = {}
@@ -360,7 +381,7 @@ class Study:
                   f"{round(sp.simulation.duration / sp.simulation.time_step)} steps"
                   for name, sp in zip(self.level_names, [s for _, s, _ in self.lower_levels]
                                       + [spec])]
-        sweep = f", {len(sweep_points(self))} sweep points" if self.sweep is not None else ""
+        sweep = f", {len(self.sweep.grid())} sweep points" if self.sweep is not None else ""
         lines.append(f"optimizer: {self.acquisition}, {self.budget} evaluations{sweep}, "
                      f"seed {self.optimizer.seed}")
         if (unc := self.uncertainty) is not None:
@@ -532,126 +553,5 @@ def load_study(path: str | Path) -> Study:
     return parse_study(read_toml(path), path)
 
 
-# -- sweeps ---------------------------------------------------------------------------------
-@dataclasses.dataclass(frozen=True)
-class SweepPoint:
-    """One point of a ``[sweep]``: a geometric scale and/or a flight condition.
-
-    Attributes
-    ----------
-    label : str
-        Sub-directory name, e.g. ``"xi_2"``, ``"M6_H25km"`` or ``"xi_2_M6_H25km"``.
-    xi : float or None
-        Geometric scale (None: the study's).
-    mach, altitude : float or None
-        Prototype flight condition (altitude in m; None: the study's).
-    """
-
-    label: str
-    xi: float | None = None
-    mach: float | None = None
-    altitude: float | None = None
-
-    def as_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
-
-
-def _num(value: float) -> str:
-    return f"{value:g}"
-
-
-def sweep_points(study: Study) -> list[SweepPoint]:
-    """The points of a study's ``[sweep]`` in the order they are run.
-
-    Scales are visited in the listed order. A ``mach`` x ``altitude`` grid is visited in
-    serpentine order (Mach outer; the altitude direction alternates) so that consecutive
-    points are neighbours and recycled samples (Sec. 9.2.4) come from the closest
-    condition already solved. A study without ``[sweep]`` has no points.
-    """
-    sw = study.sweep
-    if sw is None:
-        return []
-    conditions: list[tuple[float | None, float | None]]
-    if sw.conditions is not None:
-        conditions = [(float(m), float(h)) for m, h in sw.conditions]
-    elif sw.mach is not None or sw.altitude is not None:
-        machs = sw.mach or [None]
-        alts = sw.altitude or [None]
-        conditions = []
-        for i, m in enumerate(machs):
-            row = alts if i % 2 == 0 else list(reversed(alts))
-            conditions.extend((m, h) for h in row)
-    else:
-        conditions = [(None, None)]
-    scales: list[float | None] = list(sw.xi) if sw.xi is not None else [None]
-    points = []
-    for xi in scales:
-        for m, h in conditions:
-            parts = []
-            if xi is not None:
-                parts.append(f"xi_{_num(xi)}")
-            cond = ""
-            if m is not None:
-                cond += f"M{_num(m)}"
-            if h is not None:
-                cond += ("_" if cond else "") + f"H{_num(h / 1000.0)}km"
-            if cond:
-                parts.append(cond)
-            points.append(SweepPoint(label="_".join(parts), xi=xi, mach=m, altitude=h))
-    return points
-
-
-def study_data(study: Study) -> dict[str, Any]:
-    """The study as a plain dict that :func:`parse_study` accepts anywhere (the prototype
-    case path made absolute); stored in sweep run directories to rebuild sub-studies."""
-    data = study.raw.model_dump(mode="json", exclude_none=True)
-    for name in CATEGORICAL:  # the template's default would clash with the variable
-        if name in data["variables"]:
-            data["model"].pop(name, None)
-    base = Path(study.path).parent if study.path != "<memory>" else Path.cwd()
-    data["prototype"]["case"] = str(resolve(data["prototype"]["case"], "case", base).resolve())
-    return data
-
-
-def study_at(study: Study | dict[str, Any], point: SweepPoint | None = None, *,
-             xi: float | None = None, first: bool = True) -> Study:
-    """The single study of one sweep point (no ``[sweep]`` table).
-
-    Parameters
-    ----------
-    study : Study or dict
-        The sweep study (or its :func:`study_data`).
-    point : SweepPoint, optional
-    xi : float, optional
-        Geometric scale (overrides the point's), e.g. for a law prediction.
-    first : bool
-        False: the budget of the later points (``sweep.initial_samples``/``iterations``).
-    """
-    data = study_data(study) if isinstance(study, Study) else dict(study)
-    data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
-    sw = data.pop("sweep", None) or {}
-    scale = xi if xi is not None else (point.xi if point is not None else None)
-    if scale is not None:
-        data.setdefault("study", {})["xi"] = float(scale)
-    if point is not None:
-        if point.mach is not None:
-            data["prototype"]["mach"] = float(point.mach)
-        if point.altitude is not None:
-            data["prototype"]["altitude"] = float(point.altitude)
-        data.setdefault("study", {})["name"] = (f"{data.get('study', {}).get('name', 'study')}"
-                                                f" [{point.label}]")
-    sub = parse_study(data, study.path if isinstance(study, Study) else "<memory>")
-    if not first:
-        update = {}
-        if sw.get("initial_samples") is not None:
-            update["initial_samples"] = int(sw["initial_samples"])
-        if sw.get("iterations") is not None:
-            update["iterations"] = int(sw["iterations"])
-        if update:
-            sub = dataclasses.replace(sub, optimizer=sub.optimizer.model_copy(update=update))
-    return sub
-
-
-__all__ = ["OBJECTIVES", "Study", "StudyFile", "SweepPoint", "constant_material", "load_study",
-           "model_materials",
-           "parse_study", "study_at", "study_data", "sweep_points"]
+__all__ = ["OBJECTIVES", "Study", "StudyFile", "constant_material", "load_study",
+           "model_materials", "parse_study"]

@@ -23,6 +23,7 @@ from hypate.scaling.workflow.campaign import (
     sweep_changes,
     sweep_identity,
 )
+from hypate.scaling.workflow.derived import study_at, sweep_points
 from hypate.scaling.workflow.laws import (
     ANALYTICAL_EXPONENTS,
     analytical_laws,
@@ -40,7 +41,7 @@ from hypate.scaling.workflow.rundir import (
     rank_designs,
     write_json,
 )
-from hypate.scaling.workflow.study import Study, study_at, sweep_points
+from hypate.scaling.workflow.study import Study
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
@@ -176,7 +177,7 @@ def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: i
     """Run (or resume) a sweep study: one optimization per sweep point (``on_written`` as in
     :func:`run_study`, called for each point and again for all once the sweep is done).
 
-    Each point (:func:`hypate.scaling.workflow.study.sweep_points`) runs :func:`run_study` into
+    Each point (:func:`hypate.scaling.workflow.derived.sweep_points`) runs :func:`run_study` into
     ``out/<label>`` (its own store), sequentially, with the executor of ``workers`` /
     ``scheduler`` inside each point; seeds from its finished neighbours
     (:func:`sweep_seeds`). After every point ``out/sweep.json`` and ``out/sweep.csv`` are

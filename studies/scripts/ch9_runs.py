@@ -20,18 +20,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from scipy.optimize import minimize
+from hypate.scaling.workflow.derived import study_data, sweep_points
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.run import run_study
 from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON, EVALUATIONS_CSV, STORE, SWEEP_JSON
 from hypate.scaling.workflow.shipped import shipped
 from hypate.scaling.workflow.similarity import analytical_scaling
-from hypate.scaling.workflow.study import (
-    Study,
-    load_study,
-    parse_study,
-    study_data,
-    sweep_points,
-)
+from hypate.scaling.workflow.study import Study, load_study, parse_study
 from hypate.scaling.workflow.sweep import run_sweep
 from hypate.scaling.workflow.whatif import evaluate_whatif
 from hypate.studies.scripts.ch9_tables import published_design, study_of

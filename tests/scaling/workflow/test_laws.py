@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import REPO
+from hypate.scaling.workflow.derived import study_at, study_data
 from hypate.scaling.workflow.laws import (
     DesignPoint,
     SweepRun,
@@ -18,7 +19,7 @@ from hypate.scaling.workflow.laws import (
     predict,
 )
 from hypate.scaling.workflow.similarity import analytical_scaling
-from hypate.scaling.workflow.study import load_study, study_at, study_data
+from hypate.scaling.workflow.study import load_study
 
 SIMILARITY_91 = ("h/L", "lambda_F", "DeltaT_NTx_L2/Dxx")
 

@@ -10,8 +10,9 @@ import pytest
 from conftest import PROTOTYPE_CASE, REPO, tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.store import EvaluationStore
+from hypate.scaling.workflow.derived import study_at, sweep_points
 from hypate.scaling.workflow.rundir import STORE as STORE_NAME
-from hypate.scaling.workflow.study import load_study, study_at, sweep_points
+from hypate.scaling.workflow.study import load_study
 from hypate.scaling.workflow.sweep import run_sweep
 from hypate.solvers.errors import InputError
 

@@ -10,9 +10,10 @@ import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.propagation import collocation_nodes
+from hypate.scaling.workflow.derived import study_data
 from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem
 from hypate.scaling.workflow.shipped import shipped
-from hypate.scaling.workflow.study import load_study, parse_study, study_data
+from hypate.scaling.workflow.study import load_study, parse_study
 from hypate.scaling.workflow.uncertainty import (
     HistoryChaos,
     monte_carlo_design,
