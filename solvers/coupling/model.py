@@ -10,7 +10,7 @@ flux as an implicit function of the wall temperature, the static aeroelastic equ
 (tightly coupled, quasi-steady) and :func:`hypate.solvers.coupling.lc.run_lc` (loosely coupled
 S1/S2); :func:`hypate.solvers.coupling.run.simulate` runs a case from its configuration.
 
-Size: about 610 lines, one class: the couplings share its discretization, transfer matrices,
+Size: about 625 lines, one class: the couplings share its discretization, transfer matrices,
 factor cache and timers, and the free functions below it are its solver kernels.
 """
 from __future__ import annotations
@@ -54,9 +54,11 @@ Array = NDArray[np.float64]
 @dataclass
 class StepTimer:
     """Wall time per discipline (s), accumulated over a run (Table 8.6 style), and the work
-    counts: sparse factorizations (structural and thermal) and Newton iterations of the
-    aeroelastic equilibrium (Eq. 5.31b; every iteration made, those of a discarded
-    prediction or load increment included)."""
+    counts: sparse factorizations (structural and thermal; ``thermal_factorizations`` the
+    latter alone), Newton iterations of the aeroelastic equilibrium (Eq. 5.31b; every
+    iteration made, those of a discarded prediction or load increment included), residual
+    evaluations of the thermal steps (Eq. 4.28) and shifted solves of the pointwise LSA's
+    Arnoldi iteration (Eq. 5.36)."""
 
     fluid: float = 0.0
     structural: float = 0.0
@@ -64,6 +66,9 @@ class StepTimer:
     stability: float = 0.0
     factorizations: int = 0
     newton_iterations: int = 0
+    thermal_factorizations: int = 0
+    thermal_residuals: int = 0
+    shifted_solves: int = 0
 
     def as_dict(self) -> dict[str, float]:
         return {"fluid": self.fluid, "structural": self.structural, "thermal": self.thermal,
@@ -328,7 +333,7 @@ class PanelModel:
         step's collocation time ``t + alpha dt`` (a scheduled heater's ``T_rad`` too), at
         which Eq. (4.28) evaluates them."""
         t0, fl0 = time.perf_counter(), self.timer.fluid
-        f0 = self.thermal.factorizations
+        f0, r0 = self.thermal.factorizations, self.thermal.residual_evaluations
         # consecutive steps of the quasi-steady scheme are close: chord iterations with the
         # last step's factorization while they contract the residual by >= 30x, else a
         # fresh Jacobian (the same solution; 15 % less thermal time than a Jacobian and a
@@ -337,6 +342,8 @@ class PanelModel:
         res = self.thermal.step(T, dt, self.thermal_loads(u, t + alpha * dt), alpha=alpha,
                                 T_guess=T_guess, jacobian="modified", contraction=0.03)
         self.timer.factorizations += self.thermal.factorizations - f0
+        self.timer.thermal_factorizations += self.thermal.factorizations - f0
+        self.timer.thermal_residuals += self.thermal.residual_evaluations - r0
         # the implicit wall flux calls the fluid model: count that time as fluid only
         self.timer.thermal += time.perf_counter() - t0 - (self.timer.fluid - fl0)
         if not res.converged:
@@ -519,11 +526,15 @@ class PanelModel:
         def keep(vectors):  # the next LSA starts from these modes (nearby state)
             self._lsa_start = start_vector(vectors)
 
+        def solve(b: Array) -> Array:  # counted: the Arnoldi's share of the step's work
+            self.timer.shifted_solves += 1
+            return lu.solve(b)
+
         # started from the last step's modes with ARPACK's default 20 Arnoldi vectors, the
         # eigenvalues converge in the first Arnoldi pass: 21 shifted solves per LSA instead
         # of 27 (random start, 2k + 2 vectors), the same eigenvalues to 1e-13 (measured on
         # the Sec. 9.2 benchmark)
-        return shift_invert_gep(lu.solve, Mff, sigma, count=k, rng=0,
+        return shift_invert_gep(solve, Mff, sigma, count=k, rng=0,
                                 v0=self._lsa_start, on_vectors=keep)
 
 

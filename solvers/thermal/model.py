@@ -209,6 +209,8 @@ class ThermalModel:
         ``int N_i dA`` (m^2); ``volume_weights`` (n_nodes,): ``int N_i dV`` (m^3).
     factorizations : int
         Running count of Jacobian factorizations (for cost accounting).
+    residual_evaluations : int
+        Running count of residual evaluations (Eq. 4.28, with or without the Jacobian).
     constant_properties : bool
         All layers have temperature-independent k and rho c_p (matrices built once).
 
@@ -254,6 +256,7 @@ class ThermalModel:
         self._factor_stale = False
         self._penalty_scale: dict[tuple, float] = {}
         self.factorizations = 0
+        self.residual_evaluations = 0
         self._scatter_cache: tuple | None = None
 
     def _setup_layers(self) -> None:
@@ -697,6 +700,7 @@ class ThermalModel:
     def _evaluate(self, T1: Array, T0: Array | None, dt: float | None, alpha: float,
                   loads: ThermalLoads, jacobian: bool) -> _Evaluation:
         """Residual of Eq. (4.28) (transient) or ``K T - Q`` (steady) and its Jacobian."""
+        self.residual_evaluations += 1
         steady = dt is None
         a = 1.0 if steady else alpha
         Ta = T1 if steady else (1.0 - a) * T0 + a * T1

@@ -331,6 +331,7 @@ ROWS = [
         {"r.toml": ROM_BUILD}),
     row("bench-rom-counts-zero", "bench rom --counts 0", "--counts"),
     row("bench-ate-duration-nan", "bench ate --duration nan", "--duration"),
+    row("bench-ate-repeat-zero", "bench ate --repeat 0", "--repeat"),
     # -- output options that cannot be written: refused before the work starts -----------------
     row("simulate-out-is-file", "simulate c.toml --out afile", "--out",
         {"c.toml": CASE, "afile": ""}),

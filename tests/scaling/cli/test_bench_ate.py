@@ -1,0 +1,43 @@
+"""``hypate bench ate``: the reference coupled run's timing, repeats and work counts."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+from hypate.scaling.cli.bench_ate import reference_model
+from hypate.scaling.cli.main import main
+from hypate.solvers.coupling.tc import run_tc
+
+
+def test_json_medians_repeats_and_work(capsys):
+    assert main(["bench", "ate", "--duration", "3", "--repeat", "2", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    steps = out["steps"]
+    assert steps == 3 and out["repeat"] == 2 and out["status"] == "completed"
+    ratios = out["step_factorization_ratios"]
+    assert len(ratios) == 2 and out["step_factorization_ratio"] == np.median(ratios)
+    # the ratio is the median wall per step over one factorization
+    per_step = out["wall_seconds"] / steps / out["factorization_seconds"]
+    assert np.isclose(out["step_factorization_ratio"], per_step, rtol=1e-12)
+    assert out["runs_identical"] is True  # the simulator is deterministic
+    work = out["work_per_step"]
+    lsa_modes = reference_model(3.0).settings.lsa_modes
+    # an LSA at t = 0 and after every step, each its own factorization and at least
+    # lsa_modes + 1 Arnoldi (shifted) solves; at least one thermal residual a step
+    assert work["structural_factorizations"] * steps >= steps + 1
+    assert work["lsa_shifted_solves"] * steps >= (steps + 1) * (lsa_modes + 1)
+    assert work["thermal_residuals"] >= 1.0 and work["thermal_factorizations"] > 0
+    assert work["newton_iterations"] > 0
+
+
+def test_step_timer_counts_add_up():
+    """The timer's split counts are the thermal model's own counters, and the total
+    factorizations are the structural ones plus the thermal ones."""
+    model = reference_model(4.0)
+    run_tc(model)
+    timer, th = model.timer, model.thermal
+    assert timer.thermal_factorizations == th.factorizations > 0
+    assert timer.thermal_residuals == th.residual_evaluations > 0
+    # every LSA factorizes once; the Newton's own factorizations come on top
+    assert timer.factorizations - timer.thermal_factorizations >= 5
+    assert timer.shifted_solves >= 5 * (model.settings.lsa_modes + 1)
