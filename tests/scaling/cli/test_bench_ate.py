@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+from hypate.scaling.cli import bench_ate
 from hypate.scaling.cli.bench_ate import reference_model
 from hypate.scaling.cli.main import main
 from hypate.solvers.coupling.tc import run_tc
@@ -41,3 +42,34 @@ def test_step_timer_counts_add_up():
     # every LSA factorizes once; the Newton's own factorizations come on top
     assert timer.factorizations - timer.thermal_factorizations >= 5
     assert timer.shifted_solves >= 5 * (model.settings.lsa_modes + 1)
+
+
+def test_runs_that_differ_are_reported(capsys, monkeypatch):
+    """The determinism check compares the histories: a repeat whose last deflection is one
+    ulp off is flagged, and a single run compares nothing (null)."""
+    calls = []
+
+    def perturbed(model):
+        resp = run_tc(model)
+        calls.append(resp)
+        if len(calls) == 2:
+            w = resp.center_deflection[-1]
+            resp.center_deflection[-1] = float(np.nextafter(w, np.inf))
+        return resp
+
+    monkeypatch.setattr(bench_ate, "run_tc", perturbed)
+    assert main(["bench", "ate", "--duration", "2", "--repeat", "2", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["runs_identical"] is False
+    calls.clear()
+    assert main(["bench", "ate", "--duration", "2", "--repeat", "2"]) == 0
+    assert "WARNING: the runs' histories differ" in capsys.readouterr().out
+    assert main(["bench", "ate", "--duration", "2", "--repeat", "1", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["runs_identical"] is None
+
+
+def test_shifted_solves_not_counted_off_the_pointwise_path(capsys):
+    """Another fluid model's LSA (the general GEP) is not counted: null, not zero."""
+    assert main(["bench", "ate", "--duration", "2", "--repeat", "1", "--aero", "se",
+                 "--json"]) == 0
+    work = json.loads(capsys.readouterr().out)["work_per_step"]
+    assert work["lsa_shifted_solves"] is None and work["structural_factorizations"] >= 1.5
