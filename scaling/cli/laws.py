@@ -13,10 +13,10 @@ import math
 from pathlib import Path
 
 from hypate.scaling.cli.jsonout import dumps
+from hypate.scaling.report.laws import laws_table
 from hypate.scaling.workflow.laws import (
     laws_json,
     laws_of_run,
-    laws_table,
     load_runs,
     materials_by_scale,
     predict,

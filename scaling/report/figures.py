@@ -10,7 +10,9 @@ prototype's and the model's wall temperatures. :func:`plot_sweep` draws the what
 of ``hypate whatif --sweep``.
 
 Every figure's labels are wrapped to fit its axes (:func:`fit_labels`) before it is saved.
-This is the one module of the report that imports pyplot (Agg backend: no display needed).
+This is the one module of the report that imports pyplot (Agg backend: no display needed)
+besides :mod:`hypate.scaling.report.laws`, whose scaling-law figure moved there from the
+workflow with its table.
 
 Size: about 610 lines -- every figure of the report, the robustness distributions and the
 prediction page share the label fitting, zoom and embedding helpers and the one pyplot

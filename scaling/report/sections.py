@@ -47,12 +47,11 @@ from hypate.scaling.report.numbers import (
     format_number,
     format_percent,
 )
+from hypate.scaling.report.laws import laws_figure, laws_table
 from hypate.scaling.report.rundata import RunData
 from hypate.scaling.workflow.laws import (
     SWEEP_JSON,
-    laws_figure,
     laws_of_run,
-    laws_table,
     load_sweep,
     materials_by_scale,
 )

@@ -31,7 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 from hypate.solvers.aero.analytic import AnalyticFluid
 from hypate.solvers.coupling.lc import run_lc
-from hypate.solvers.coupling.model import EquilibriumError, PanelModel
+from hypate.solvers.coupling.model import PanelModel
+from hypate.solvers.coupling.newton import EquilibriumError
 from hypate.solvers.coupling.stability import StabilityResult, gep, pep
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition

@@ -14,7 +14,8 @@ import time
 
 import numpy as np
 from hypate.solvers.aero.base import FluidLoads
-from hypate.solvers.coupling.model import EquilibriumError, PanelModel
+from hypate.solvers.coupling.model import PanelModel
+from hypate.solvers.coupling.newton import EquilibriumError
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 from hypate.solvers.structure.dynamics import AlphaStepper

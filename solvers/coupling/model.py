@@ -10,8 +10,9 @@ flux as an implicit function of the wall temperature, the static aeroelastic equ
 (tightly coupled, quasi-steady) and :func:`hypate.solvers.coupling.lc.run_lc` (loosely coupled
 S1/S2); :func:`hypate.solvers.coupling.run.simulate` runs a case from its configuration.
 
-Size: about 625 lines, one class: the couplings share its discretization, transfer matrices,
-factor cache and timers, and the free functions below it are its solver kernels.
+The Newton step's linear solves (:func:`~hypate.solvers.coupling.newton.solve_free_block`)
+and :class:`~hypate.solvers.coupling.newton.EquilibriumError` live in
+:mod:`hypate.solvers.coupling.newton`.
 """
 from __future__ import annotations
 
@@ -25,6 +26,12 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from hypate.solvers.aero.base import FluidLoads, FluidModel, SurfaceState
+from hypate.solvers.coupling.newton import (
+    EquilibriumError,
+    gmres_on_factor,
+    scaled_operator,
+    solve_free_block,
+)
 from hypate.solvers.coupling.response import sinusoidal_modes
 from hypate.solvers.coupling.stability import (
     StabilityResult,
@@ -35,12 +42,7 @@ from hypate.solvers.coupling.stability import (
 )
 from hypate.solvers.coupling.transfer import PointwiseTransfer, Transfer, fluid_points
 from hypate.solvers.flow import FlowCondition
-from hypate.solvers.numerics.sparse import (
-    DeferredMatrix,
-    FreePattern,
-    csr_rows,
-    gmres,
-)
+from hypate.solvers.numerics.sparse import DeferredMatrix, FreePattern, csr_rows
 from hypate.solvers.panel import PanelSpec
 from hypate.solvers.settings import SimulationSettings
 from hypate.solvers.structure.model import StructuralModel
@@ -73,10 +75,6 @@ class StepTimer:
     def as_dict(self) -> dict[str, float]:
         return {"fluid": self.fluid, "structural": self.structural, "thermal": self.thermal,
                 "stability": self.stability}
-
-
-class EquilibriumError(RuntimeError):
-    """The static aeroelastic equilibrium did not converge (e.g. past a snap-through)."""
 
 
 class PanelModel:
@@ -434,7 +432,7 @@ class PanelModel:
                 du[free] = self._solve_free(K.data - load * KA_data, -R[free])
             else:
                 KA = self.aero_stiffness(loads)
-                KA = load * KA if sp.issparse(KA) else _scaled(KA, load)
+                KA = load * KA if sp.issparse(KA) else scaled_operator(KA, load)
                 du[free] = self._solve(K, KA, -R[free])
             self.timer.structural += time.perf_counter() - t0
             self.timer.newton_iterations += 1
@@ -454,7 +452,7 @@ class PanelModel:
         fp = self.free_pattern
         block = data[fp.sel]
         A = sp.csr_matrix((block, fp.indices, fp.indptr), shape=(fp.n, fp.n))
-        x = _gmres_on_factor(A.__matmul__, self._precond, b)
+        x = gmres_on_factor(A.__matmul__, self._precond, b)
         if x is not None:
             return x
         self.timer.factorizations += 1
@@ -536,91 +534,4 @@ class PanelModel:
         # the Sec. 9.2 benchmark)
         return shift_invert_gep(solve, Mff, sigma, count=k, rng=0,
                                 v0=self._lsa_start, on_vectors=keep)
-
-
-def solve_free_block(K: sp.csr_matrix, K_A: sp.spmatrix | spla.LinearOperator, b: Array,
-                     free: Array, precond=None,
-                     on_factor: Callable[[spla.SuperLU], None] | None = None) -> Array:
-    """Solve ``(K - K_A)_ff x = b`` on the free DOFs: the Newton step of the aeroelastic
-    equilibrium (Eq. 5.42).
-
-    GMRES preconditioned by ``precond``, the factor of a nearby Jacobian (the LSA's factor
-    of the previous step, Eqs. 5.44-5.45 with a better preconditioner than K alone), when
-    it reaches 1e-6 relative in at most 20 iterations; otherwise the current matrix is
-    factorized (sparse LU) and handed to ``on_factor`` (the caller keeps it as the next
-    preconditioner). A low-rank/operator ``K_A`` (a ROM, Eq. 5.43) is applied matrix-free:
-    the factor is then of ``K_ff`` alone and preconditions GMRES on ``K - K_A``.
-
-    Parameters
-    ----------
-    K : csr_matrix of shape (n_dof, n_dof)
-        Structural tangent (N/m).
-    K_A : sparse matrix or LinearOperator of shape (n_dof, n_dof)
-        Aerodynamic stiffness (N/m), already scaled by the load factor.
-    b : ndarray of shape (n_free,)
-        Right-hand side on the free DOFs (N).
-    free : ndarray of int, shape (n_free,)
-        The free DOFs (``StructuralModel.free_dofs``).
-    precond : object with ``solve(b)`` and ``shape``, optional
-        The factor of a nearby matrix on the same free DOFs; ``None``: factorize.
-    on_factor : callable, optional
-        Receives each new factorization.
-
-    Returns
-    -------
-    ndarray of shape (n_free,)
-
-    Raises
-    ------
-    EquilibriumError
-        GMRES on a matrix-free ``K_A`` did not converge.
-    """
-    Kff = K[free][:, free]
-    if sp.issparse(K_A):
-        A = (Kff - K_A[free][:, free]).tocsc()
-        matvec = A.__matmul__
-    else:
-        A = Kff.tocsc()
-        n_all = K.shape[0]
-
-        def matvec(x: Array) -> Array:
-            full = np.zeros(n_all)
-            full[free] = x
-            return Kff @ x - (K_A @ full)[free]
-    x = _gmres_on_factor(matvec, precond, b)
-    if x is not None:
-        return x
-    lu = spla.splu(A)
-    if on_factor is not None:
-        on_factor(lu)
-    if sp.issparse(K_A):
-        return lu.solve(b)
-    n = b.size
-    x, info = spla.gmres(spla.LinearOperator((n, n), matvec=matvec, dtype=float), b,
-                         M=spla.LinearOperator((n, n), matvec=lu.solve, dtype=float),
-                         rtol=1e-11, atol=0.0, restart=80, maxiter=3)
-    if info != 0:
-        raise EquilibriumError("GMRES for the aeroelastic Newton step did not converge")
-    return x
-
-
-def _gmres_on_factor(matvec, precond, b: Array) -> Array | None:
-    """GMRES preconditioned by the kept factor (at most 20 iterations of
-    :func:`hypate.solvers.numerics.sparse.gmres`); None when the factor is missing or too
-    weak."""
-    if precond is None or precond.shape[0] != b.size:
-        return None
-    # (a hand-rolled GMRES: scipy's costs 0.1 ms per iteration more in Python overhead,
-    # a third of each iteration here)
-    x, _, _ = gmres(matvec, precond.solve, b, rtol=1e-11, max_iter=20)
-    # an inexact Newton step is enough: accept 1e-6 relative (GMRES may stagnate near
-    # 1e-8 on these badly scaled shell systems)
-    if np.linalg.norm(matvec(x) - b) <= 1e-6 * np.linalg.norm(b):
-        return x
-    return None
-
-
-def _scaled(op: spla.LinearOperator, factor: float) -> spla.LinearOperator:
-    return spla.LinearOperator(op.shape, matvec=lambda x: factor * (op @ x), dtype=float)
-
 

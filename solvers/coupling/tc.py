@@ -11,7 +11,8 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from hypate.solvers.coupling.model import EquilibriumError, PanelModel
+from hypate.solvers.coupling.model import PanelModel
+from hypate.solvers.coupling.newton import EquilibriumError
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.numerics.threads import single_threaded_blas
 from numpy.typing import NDArray

@@ -216,7 +216,8 @@ def test_sec91_equal_poisson_ratio_sweep_recovers_eq_9_2(tmp_path: Path) -> None
 
 @pytest.mark.slow
 def test_sec922_sweep_h_follows_the_analytical_line_and_l_le_departs(tmp_path: Path) -> None:
-    from hypate.scaling.workflow.laws import laws_of_run, laws_section, load_sweep
+    from hypate.scaling.report.laws import laws_section
+    from hypate.scaling.workflow.laws import laws_of_run, load_sweep
     from hypate.scaling.workflow.sweep import run_sweep
 
     study = load_study(_sweep_study(tmp_path, "sec9_2_2_xi2.toml", "[2, 3, 4, 5]"))

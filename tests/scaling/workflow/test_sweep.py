@@ -116,7 +116,7 @@ def test_sweep_interrupted_then_resumed_completes_without_repeating(tmp_path: Pa
     assert set(pred["design"]) == {"M", "p0", "T0", "h"} and pred["similarity"]
     # text output and the report section
     assert main(["laws", str(out)]) == 0
-    from hypate.scaling.workflow.laws import laws_section
+    from hypate.scaling.report.laws import laws_section
     title, html = laws_section(out)
     assert title == "Scaling laws" and "data:image/png;base64," in html and "<table>" in html
 

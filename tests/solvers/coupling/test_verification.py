@@ -22,7 +22,8 @@ from conftest import REPO
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.config import parse_case, read_toml, settings_from_config
 from hypate.solvers.coupling.lc import run_lc
-from hypate.solvers.coupling.model import PanelModel, solve_free_block
+from hypate.solvers.coupling.model import PanelModel
+from hypate.solvers.coupling.newton import solve_free_block
 from hypate.solvers.coupling.tc import run_tc
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.materials import library_material
