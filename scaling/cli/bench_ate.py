@@ -23,7 +23,7 @@ from hypate.scaling.cli.timing import median_seconds
 from hypate.scaling.workflow.shipped import shipped
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.config import parse_case, read_toml, settings_from_config
-from hypate.solvers.coupling.model import PanelModel, StepTimer
+from hypate.solvers.coupling.model import PanelModel
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.coupling.tc import run_tc
 from hypate.solvers.errors import InputError
@@ -62,28 +62,36 @@ def reference_model(duration: float = 160.0, time_step: float = 1.0,
                       make_fluid_model(sim.aero, sim.heating, sim.boundary_layer), settings)
 
 
-def _work_per_step(timer: StepTimer, steps: int) -> dict[str, float | None]:
-    """The step's work counts (:class:`StepTimer`) per step: what its cost is made of. The
-    LSA's shifted solves are counted on the pointwise path (piston theory and the other
-    pointwise fluid models): None for another fluid model."""
+def work_counts(model: PanelModel) -> dict[str, int]:
+    """A run's work counts (its :class:`~hypate.solvers.coupling.model.StepTimer` and its
+    thermal model's counters): what the step's cost is made of. The LSA's shifted solves
+    are counted on the pointwise path (piston theory and the other pointwise fluid models)
+    only."""
+    timer, thermal = model.timer, model.thermal
+    return {"newton_iterations": timer.newton_iterations,
+            "thermal_residuals": thermal.residual_evaluations,
+            "lsa_shifted_solves": timer.shifted_solves,
+            "structural_factorizations": timer.factorizations - thermal.factorizations,
+            "thermal_factorizations": thermal.factorizations}
+
+
+def _work_per_step(counts: dict[str, int], steps: int) -> dict[str, float | None]:
+    """:func:`work_counts` per step; the shifted solves None off the pointwise path."""
     n = max(steps, 1)
-    return {"newton_iterations": timer.newton_iterations / n,
-            "thermal_residuals": timer.thermal_residuals / n,
-            "lsa_shifted_solves": timer.shifted_solves / n if timer.shifted_solves else None,
-            "structural_factorizations":
-                (timer.factorizations - timer.thermal_factorizations) / n,
-            "thermal_factorizations": timer.thermal_factorizations / n}
+    out: dict[str, float | None] = {k: v / n for k, v in counts.items()}
+    if not counts["lsa_shifted_solves"]:
+        out["lsa_shifted_solves"] = None
+    return out
 
 
-def _fingerprint(resp: Response, timer: StepTimer) -> bytes:
+def _fingerprint(resp: Response, counts: dict[str, int]) -> bytes:
     """A run's recorded histories and work counts as bytes (the simulator is
     deterministic: repeats must agree bit for bit): times, centre deflection, mean, top
     and maximum wall temperatures, modal amplitudes, LSA eigenvalues and statuses, and the
-    timer's counts."""
+    work counts."""
     arrays = (resp.times, resp.center_deflection, resp.mean_temperature,
               resp.top_temperature, resp.max_wall_temperature, resp.modal, resp.lsa,
-              [timer.factorizations, timer.newton_iterations, timer.thermal_factorizations,
-               timer.thermal_residuals, timer.shifted_solves])
+              list(counts.values()))
     return (b"".join(np.ascontiguousarray(np.asarray(a)).tobytes() for a in arrays)
             + "|".join(resp.lsa_status).encode())
 
@@ -94,15 +102,13 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--duration/--time-step", "must be positive, duration >= time step")
     if not 1 <= args.repeat <= 50:
         raise InputError("--repeat", f"must be an integer in [1, 50]; got {args.repeat}")
-    model = reference_model(args.duration, args.time_step, args.aero)
-    runs: list[tuple[float, Response, StepTimer]] = []
-    for k in range(args.repeat):
-        if k:
-            model = reference_model(args.duration, args.time_step, args.aero)
+    runs: list[tuple[float, Response, dict[str, int]]] = []
+    for _ in range(args.repeat):
+        model = reference_model(args.duration, args.time_step, args.aero)
         t0 = time.perf_counter()
         resp = run_tc(model)
-        runs.append((time.perf_counter() - t0, resp, model.timer))
-    _, resp, timer = runs[0]
+        runs.append((time.perf_counter() - t0, resp, work_counts(model)))
+    _, resp, counts = runs[0]
     steps = len(resp.times) - 1
     fact = _factorization_seconds(model, np.zeros(model.structure.n_dof),
                                   model.thermal.initial_state())
@@ -110,14 +116,14 @@ def run(args: argparse.Namespace) -> int:
     ratios = [(w / max(steps, 1)) / fact for w in walls]
     # None: a single run, nothing to compare
     identical = (None if len(runs) == 1 else
-                 all(_fingerprint(r, t) == _fingerprint(resp, timer) for _, r, t in runs[1:]))
+                 all(_fingerprint(r, c) == _fingerprint(resp, counts) for _, r, c in runs[1:]))
     per_step = {k: float(np.median([r.timing[k] for _, r, _ in runs])) / max(steps, 1)
                 for k in resp.timing}
     out = {"wall_seconds": float(np.median(walls)), "simulated_seconds": resp.times[-1],
            "steps": steps, "repeat": args.repeat, "seconds_per_step": per_step,
            "factorization_seconds": fact, "step_factorization_ratio": float(np.median(ratios)),
            "step_factorization_ratios": ratios,
-           "work_per_step": _work_per_step(timer, steps), "runs_identical": identical,
+           "work_per_step": _work_per_step(counts, steps), "runs_identical": identical,
            "status": resp.status, "final_center_deflection": resp.center_deflection[-1],
            "final_mean_temperature": resp.mean_temperature[-1]}
     if args.json:

@@ -56,11 +56,12 @@ Array = NDArray[np.float64]
 @dataclass
 class StepTimer:
     """Wall time per discipline (s), accumulated over a run (Table 8.6 style), and the work
-    counts: sparse factorizations (structural and thermal; ``thermal_factorizations`` the
-    latter alone), Newton iterations of the aeroelastic equilibrium (Eq. 5.31b; every
-    iteration made, those of a discarded prediction or load increment included), residual
-    evaluations of the thermal steps (Eq. 4.28) and shifted solves of the pointwise LSA's
-    Arnoldi iteration (Eq. 5.36)."""
+    counts: sparse factorizations (structural and thermal; the thermal ones alone and the
+    thermal residual evaluations are the thermal model's own counters,
+    :attr:`ThermalModel.factorizations` and :attr:`ThermalModel.residual_evaluations`),
+    Newton iterations of the aeroelastic equilibrium (Eq. 5.31b; every iteration made, those
+    of a discarded prediction or load increment included) and shifted solves of the
+    pointwise LSA's Arnoldi iteration (Eq. 5.36)."""
 
     fluid: float = 0.0
     structural: float = 0.0
@@ -68,8 +69,6 @@ class StepTimer:
     stability: float = 0.0
     factorizations: int = 0
     newton_iterations: int = 0
-    thermal_factorizations: int = 0
-    thermal_residuals: int = 0
     shifted_solves: int = 0
 
     def as_dict(self) -> dict[str, float]:
@@ -331,7 +330,7 @@ class PanelModel:
         step's collocation time ``t + alpha dt`` (a scheduled heater's ``T_rad`` too), at
         which Eq. (4.28) evaluates them."""
         t0, fl0 = time.perf_counter(), self.timer.fluid
-        f0, r0 = self.thermal.factorizations, self.thermal.residual_evaluations
+        f0 = self.thermal.factorizations
         # consecutive steps of the quasi-steady scheme are close: chord iterations with the
         # last step's factorization while they contract the residual by >= 30x, else a
         # fresh Jacobian (the same solution; 15 % less thermal time than a Jacobian and a
@@ -340,8 +339,6 @@ class PanelModel:
         res = self.thermal.step(T, dt, self.thermal_loads(u, t + alpha * dt), alpha=alpha,
                                 T_guess=T_guess, jacobian="modified", contraction=0.03)
         self.timer.factorizations += self.thermal.factorizations - f0
-        self.timer.thermal_factorizations += self.thermal.factorizations - f0
-        self.timer.thermal_residuals += self.thermal.residual_evaluations - r0
         # the implicit wall flux calls the fluid model: count that time as fluid only
         self.timer.thermal += time.perf_counter() - t0 - (self.timer.fluid - fl0)
         if not res.converged:
