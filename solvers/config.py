@@ -22,6 +22,8 @@ Every error becomes :class:`~solvers.errors.InputError` naming the key path
 """
 from __future__ import annotations
 
+import dataclasses
+
 import difflib
 import math
 import tomllib
@@ -126,6 +128,11 @@ class MaterialConfig(InputModel):
     l1: float | None = None
     t2: float | None = None
     l2: float | None = None
+    # limits (solvers.materials.MaterialLimits; a core or stiffener takes its base's)
+    service_temperature: Annotated[float, Field(gt=0.0, le=5000.0)] | None = None
+    yield_strength: PropertySpec | None = None
+    trusted_range: Pair | None = None
+    sources: str = ""
 
 
 class FlowConfig(InputModel):
@@ -350,18 +357,26 @@ def _build_material(name: str, cfg: MaterialConfig, resolved: dict[str, mat.Mate
     kind = cfg.kind
     if kind is None:
         kind = "orthotropic" if "E1" in given else "isotropic"
+    limits = mat.limits_from_table(name, {k: given[k] for k in mat.LIMIT_KEYS + ("sources",)
+                                          if given.get(k) is not None})
     if kind == "isotropic":
         missing = [k for k in mat.ISOTROPIC_KEYS if given.get(k) is None]
         if missing:
             raise InputError(field, f"isotropic material needs {', '.join(missing)}")
-        return mat.isotropic(name, reference_temperature=cfg.reference_temperature,
-                             **{k: given[k] for k in mat.ISOTROPIC_KEYS})
+        return dataclasses.replace(mat.isotropic(
+            name, reference_temperature=cfg.reference_temperature,
+            **{k: given[k] for k in mat.ISOTROPIC_KEYS}), limits=limits)
     if kind == "orthotropic":
         missing = [k for k in mat.ORTHOTROPIC_KEYS if given.get(k) is None]
         if missing:
             raise InputError(field, f"orthotropic material needs {', '.join(missing)}")
-        return mat.orthotropic(name, reference_temperature=cfg.reference_temperature,
-                               **{k: given[k] for k in mat.ORTHOTROPIC_KEYS})
+        return dataclasses.replace(mat.orthotropic(
+            name, reference_temperature=cfg.reference_temperature,
+            **{k: given[k] for k in mat.ORTHOTROPIC_KEYS}), limits=limits)
+    for key in mat.LIMIT_KEYS:
+        if given.get(key) is not None:
+            raise InputError(f"{field}.{key}", f"a {kind} layer takes the limits of its base "
+                             f"material ({cfg.base!r}); set them there")
     if cfg.base is None:
         raise InputError(f"{field}.base", f"a {kind} material needs a base material name")
     if cfg.base in stack:

@@ -6,7 +6,16 @@ of public temperature-dependent data, ``p(T) = p_300 * public(T) / public(300 K)
 
 Every property is a :class:`Property`: a piecewise-linear table with a consistent derivative
 (the slope of the segment, zero outside the table) for the Newton Jacobians. Outside its
-table a property clamps to the end value and warns once.
+table a property clamps to the end value, silently: the solvers keep running, and what the
+structure went through (each layer's temperature range, recorded by the coupled response)
+is held against :attr:`Material.valid_range` afterwards. A design that needs a property
+outside its data is inadmissible unless the material declares a trusted extrapolation
+(:class:`MaterialLimits`); :meth:`Property.checked` is the strict query that raises
+:class:`OutsideDataError`.
+
+Each material carries its :class:`MaterialLimits`: the service temperature and the yield
+strength versus temperature (with their sources, in the library data files), and optionally
+the temperature range over which its tables may be trusted beyond their data.
 
 Materials expose what the solvers need, vectorized over temperature arrays of any shape:
 plane-stress reduced stiffness ``Q(T)`` (Eq. 3.8) in material axes, transverse shear moduli,
@@ -15,9 +24,9 @@ volumetric heat capacity ``rho c_p``, each with its temperature derivative.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import tomllib
-import warnings
 from dataclasses import dataclass, field
 from functools import lru_cache
 from importlib import resources
@@ -39,9 +48,34 @@ LIBRARY = ("inconel718", "ti6242", "al7075")
 ISOTROPIC_KEYS = ("density", "youngs_modulus", "poisson_ratio", "thermal_expansion",
                   "conductivity", "specific_heat")
 
+#: Property keys of the limits of a library file's ``[limits]`` table.
+LIMIT_KEYS = ("service_temperature", "yield_strength", "trusted_range")
+
 #: Property keys of an orthotropic lamina (config files); 1 = fibre/x, 2 = y, 3 = thickness.
 ORTHOTROPIC_KEYS = ("density", "E1", "E2", "G12", "G13", "G23", "nu12", "alpha1", "alpha2",
                     "k1", "k2", "k3", "specific_heat")
+
+class OutsideDataError(InputError):
+    """A property queried outside its table: the design that needs it is inadmissible.
+
+    Attributes
+    ----------
+    temperatures : (float, float)
+        Lowest and highest temperature queried (K).
+    table : (float, float)
+        The table's range (K).
+    """
+
+    def __init__(self, name: str, temperatures: tuple[float, float],
+                 table: tuple[float, float]) -> None:
+        self.temperatures, self.table = temperatures, table
+        super().__init__(name, f"temperatures {temperatures[0]:.1f}-{temperatures[1]:.1f} K "
+                         f"leave the property's data [{table[0]:g}, {table[1]:g}] K: a design "
+                         "that needs it is inadmissible")
+
+    def __reduce__(self):  # pickles by its fields (a pool worker raises it across processes)
+        return (type(self), (self.field, self.temperatures, self.table))
+
 
 @dataclass(frozen=True, eq=False)
 class Property:
@@ -101,26 +135,30 @@ class Property:
             return (-math.inf, math.inf)
         return (float(self.T[0]), float(self.T[-1]))
 
-    def _check_range(self, T: Array) -> None:
-        if self.is_constant or T.size == 0:
-            return
-        lo, hi = self.range
-        # Every clamping warns (the same text each time: the default filter prints it once
-        # per calling line), so that an evaluation recording its warnings counts its own.
-        for side, outside in (("below", T.min() < lo), ("above", T.max() > hi)):
-            if outside:
-                warnings.warn(
-                    f"{self.name}: temperature {side} the table range [{lo:g}, {hi:g}] K; "
-                    "the property is clamped to the end value (not extrapolated)",
-                    RuntimeWarning, stacklevel=3)
-
     def __call__(self, T: ArrayLike) -> Array:
-        """Value at temperatures ``T`` (any shape), clamped outside the table."""
+        """Value at temperatures ``T`` (any shape), clamped outside the table (silently:
+        the temperatures a structure reached are checked against the data afterwards,
+        module docstring)."""
         T = np.asarray(T, dtype=float)
         if self.is_constant:
             return np.full(T.shape, self.values[0])
-        self._check_range(T)
         return np.interp(T, self.T, self.values)
+
+    def checked(self, T: ArrayLike) -> Array:
+        """Value at ``T`` where every temperature lies inside the table.
+
+        Raises
+        ------
+        OutsideDataError
+            A temperature outside :attr:`range` (the property would be clamped there).
+        """
+        T = np.asarray(T, dtype=float)
+        if T.size and not self.is_constant:
+            lo, hi = self.range
+            t_min, t_max = float(np.min(T)), float(np.max(T))
+            if t_min < lo or t_max > hi:
+                raise OutsideDataError(self.name, (t_min, t_max), (lo, hi))
+        return self(T)
 
     def derivative(self, T: ArrayLike) -> Array:
         """d(value)/dT of the interpolant: the segment slope, zero outside the table.
@@ -137,6 +175,42 @@ class Property:
     def scaled(self, factor: float, name: str | None = None) -> Property:
         """The same table multiplied by ``factor``."""
         return Property(name or self.name, self.T, self.values * factor)
+
+
+@dataclass(frozen=True)
+class MaterialLimits:
+    """What a material may go through: the limits a buildable model respects.
+
+    Attributes
+    ----------
+    service_temperature : float or None
+        Highest temperature of use (K), from the producer's data sheet (None: not stated).
+    yield_strength : Property or None
+        0.2 % yield strength (Pa) versus temperature (K) (None: not stated).
+    trusted_range : (float, float) or None
+        Temperatures (K) over which the material's owner trusts its property tables beyond
+        their data (the clamped end values, or a table that was itself extrapolated); None:
+        only the tables' own range is data.
+    sources : str
+        Where the limits come from.
+    """
+
+    service_temperature: float | None = None
+    yield_strength: Property | None = None
+    trusted_range: tuple[float, float] | None = None
+    sources: str = ""
+
+    def __post_init__(self) -> None:
+        t = self.service_temperature
+        if t is not None and not (math.isfinite(t) and t > 0.0):
+            raise InputError("limits.service_temperature", f"must be a temperature > 0 K; "
+                             f"got {t!r}")
+        if self.yield_strength is not None:
+            _require(self.yield_strength, lambda v: v > 0.0, "must be > 0 (Pa)")
+        r = self.trusted_range
+        if r is not None and not (len(r) == 2 and 0.0 < r[0] < r[1] and math.isfinite(r[1])):
+            raise InputError("limits.trusted_range", f"must be [lower, upper] K with "
+                             f"0 < lower < upper; got {r!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -173,6 +247,43 @@ class Material:
     #: The solid (cell-wall) material of a homogenized core or stiffener layer; ``None``
     #: for a solid material. Used for the Fourier-number reference of Eq. (9.5).
     base: Material | None = None
+    #: Service temperature, yield strength and trusted range (a derived core or stiffener
+    #: layer carries its base's).
+    limits: MaterialLimits = field(default_factory=MaterialLimits)
+
+    # -- limits ---------------------------------------------------------------------
+    @property
+    def properties(self) -> tuple[Property, ...]:
+        """Every property table of the material (the yield strength included)."""
+        props = (self.density, self.E1, self.E2, self.nu12, self.G12, self.G13, self.G23,
+                 self.alpha1, self.alpha2, self.k1, self.k2, self.k3, self.specific_heat,
+                 self.limits.yield_strength)
+        return tuple(p for p in props if p is not None)
+
+    @property
+    def data_range(self) -> tuple[float, float]:
+        """Temperatures (K) inside every property table: the intersection of their ranges
+        (``(-inf, inf)`` when every property is a constant)."""
+        ranges = [p.range for p in self.properties]
+        return (max(r[0] for r in ranges), min(r[1] for r in ranges))
+
+    @property
+    def valid_range(self) -> tuple[float, float]:
+        """Temperatures (K) a design may reach without leaving the material's data: the
+        declared trusted range if any, else :attr:`data_range`."""
+        return self.limits.trusted_range or self.data_range
+
+    @property
+    def load_bearing(self) -> bool:
+        """Whether the layer carries in-plane stress (a solid material; a honeycomb core or
+        smeared stiffener, ``base`` set, is not stress-checked as a solid)."""
+        return self.base is None
+
+    def yield_at(self, T: ArrayLike) -> Array:
+        """0.2 % yield strength (Pa) at ``T`` (NaN when the material states none)."""
+        T = np.asarray(T, dtype=float)
+        ys = self.limits.yield_strength
+        return np.full(T.shape, np.nan) if ys is None else ys(T)
 
     # -- structural -----------------------------------------------------------------
     def _moduli(self, T: Array) -> tuple[Array, ...]:
@@ -383,8 +494,34 @@ def library_material(name: str) -> Material:
         public = Property(f"{name}.{key}", np.array(shape["T"]), np.array(shape["value"]))
         factor = data["at_300K"][key] / float(public(300.0))
         props[key] = public.scaled(factor)
-    return isotropic(name, reference_temperature=Tref,
-                     description=f"library material {name} (solvers/data/{name}.toml)", **props)
+    material = isotropic(name, reference_temperature=Tref,
+                         description=f"library material {name} (solvers/data/{name}.toml)",
+                         **props)
+    return dataclasses.replace(material, limits=limits_from_table(name, data.get("limits", {})))
+
+
+def limits_from_table(name: str, table: dict[str, Any]) -> MaterialLimits:
+    """:class:`MaterialLimits` of a ``[limits]`` table (a library file's, or a case or study
+    file's ``[materials.NAME]`` keys): ``service_temperature`` (K), ``yield_strength`` (Pa:
+    a number, ``[[T, value], ...]`` pairs, or a library file's ``{T = [...], value = [...]}``),
+    ``trusted_range`` ([lower, upper] K), ``sources`` (text)."""
+    ys = table.get("yield_strength")
+    if isinstance(ys, dict):
+        ys = Property(f"{name}.yield_strength", np.array(ys["T"], float),
+                      np.array(ys["value"], float))
+    elif ys is not None:
+        ys = as_property(f"{name}.yield_strength", ys)
+    tr = table.get("trusted_range")
+    try:
+        return MaterialLimits(
+            service_temperature=(None if table.get("service_temperature") is None
+                                 else float(table["service_temperature"])),
+            yield_strength=ys,
+            trusted_range=None if tr is None else (float(tr[0]), float(tr[1])),
+            sources=str(table.get("sources", "")))
+    except InputError as exc:
+        raise InputError(f"materials.{name}.{exc.field.split('.', 1)[-1]}", exc.message) \
+            from None
 
 
 def homogenized_stiffener(base: Material, t1: float, l1: float, t2: float, l2: float,
@@ -411,7 +548,7 @@ def homogenized_stiffener(base: Material, t1: float, l1: float, t2: float, l2: f
         k3=base.k1.scaled(c3), specific_heat=base.specific_heat,
         reference_temperature=base.reference_temperature,
         description=f"stiffeners of {base.name} homogenized (Eq. 8.10): c1={c1:.4g}, c2={c2:.4g}",
-        extras={"c1": c1, "c2": c2, "c3": c3}, base=base)
+        extras={"c1": c1, "c2": c2, "c3": c3}, base=base, limits=base.limits)
 
 
 def _shear_modulus_property(base: Material) -> Property:
@@ -494,4 +631,5 @@ def honeycomb_core(base: Material, relative_density: float, cell_size: float,
         reference_temperature=base.reference_temperature,
         description=(f"{base.name} honeycomb core, rho_rel={relative_density:g}, D={cell_size:g} m,"
                      f" L={core_thickness:g} m (Gibson-Ashby shear, Swann-Pittman conductivity)"),
-        extras={"relative_density": relative_density, "radiation_factor": F}, base=base)
+        extras={"relative_density": relative_density, "radiation_factor": F}, base=base,
+        limits=base.limits)

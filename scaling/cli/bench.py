@@ -9,6 +9,7 @@ from types import ModuleType
 
 from hypate.scaling.cli import (
     bench_ate,
+    bench_best,
     bench_bo,
     bench_rom,
     bench_structure,
@@ -18,7 +19,7 @@ from hypate.scaling.cli import (
 
 #: Modules providing benchmark targets (each has ``register_bench(subparsers)``).
 BENCH_MODULES: tuple[ModuleType, ...] = (bench_bo, bench_structure, bench_thermal, bench_ate,
-                                         bench_rom, bench_study)
+                                         bench_rom, bench_study, bench_best)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -12,6 +12,13 @@ runs the one-worker configuration of the same study side by side in the same inv
 (without the study's ``[[fidelity]]`` levels) and prints the ratio; a multi-fidelity
 run's target and final values count its top-level evaluations only.
 
+Each seed's design point is reported too (issue 41): ``design_points`` (max(J_u, J_T) of each
+seed's design point), ``median_design_point``, ``worst_design_point``; with a record in
+``scaling/data/best_known.toml`` (:mod:`hypate.scaling.workflow.best_known`), ``best_known``
+and each seed's ``gap`` to it (``median_gap``, ``worst_gap``, in the same fractions); and
+the failed evaluations after the initial design, ``failed_after_initial`` (per seed
+``[failed, evaluated]``) and ``failed_share`` (their sum over seeds, as a fraction).
+
 JSON (public): ``{"study", "target", "seeds", "seconds_to_target": [...],
 "median_seconds_to_target", "final": {"J_u", "J_T", "hypervolume", "evaluations",
 "simulator_seconds"}, "compare": {the same fields} or null, "speedup": median ratio or
@@ -35,6 +42,7 @@ import numpy as np
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.run import resolve_workers
 from hypate.scaling.engine.pareto import hypervolume
+from hypate.scaling.workflow.best_known import best_known
 from hypate.scaling.workflow.derived import study_data
 from hypate.scaling.workflow.fidelity import is_top
 from hypate.scaling.workflow.run import run_study
@@ -77,7 +85,8 @@ def _trace(study: Study, out: Path, workers: int, seed: int) -> dict[str, Any]:
 
     def progress(done: int, budget: int, evaluation: Any) -> None:
         spent[0] += float(evaluation.seconds)
-        worst = float(np.max(evaluation.F)) if evaluation.ok and top(evaluation) else math.inf
+        admissible = evaluation.ok and top(evaluation) and bool(np.all(evaluation.G <= 0.0))
+        worst = float(np.max(evaluation.F)) if admissible else math.inf
         rows.append((time.perf_counter() - t0, spent[0], worst))
 
     outcome = run_study(study, out, workers=workers, seed=seed, progress=progress)
@@ -89,8 +98,13 @@ def _trace(study: Study, out: Path, workers: int, seed: int) -> dict[str, Any]:
     hv = (float(hypervolume(F[np.all(F < REFERENCE, axis=1)], REFERENCE))
           if F.shape[1:] == (2,) else None)
     objectives = point.get("objectives") or {}
+    it = result.data["iteration"].to_numpy()
+    after = (it >= 1) & (is_top(result.X, n_levels) if n_levels else True)
     return {"rows": rows, "J_u": objectives.get("J_u"), "J_T": objectives.get("J_T"),
+            "design_point": max(objectives.values()) if objectives else None,
+            "admissible": point.get("admissible"),
             "hypervolume": hv, "evaluations": len(outcome.result.F),
+            "failed_after_initial": [int((after & ~result.ok).sum()), int(after.sum())],
             "simulator_seconds": float(np.sum(outcome.result.data["seconds"]))}
 
 
@@ -135,13 +149,32 @@ def measure(study: Study, seeds: list[int], target: float, workers: int, root: P
     final = {key: _median([r[key] for r in runs]) for key in
              ("J_u", "J_T", "hypervolume", "simulator_seconds")}
     final["evaluations"] = int(np.median([r["evaluations"] for r in runs]))
+    points = [r["design_point"] for r in runs]
+    known = best_known(study.name)
+    gaps = [None if p is None or known is None else p - known.value for p in points]
+    failed = [r["failed_after_initial"] for r in runs]
+    evaluated = sum(f[1] for f in failed)
     return {"study": study.name, "target": target, "seeds": seeds, "workers": workers,
+            "design_points": points, "median_design_point": _median(points),
+            "worst_design_point": _worst(points),
+            "best_known": None if known is None else known.value,
+            "gap": gaps, "median_gap": None if known is None else _median(gaps),
+            "worst_gap": None if known is None else _worst(gaps),
+            "inadmissible_design_points": sum(r["admissible"] is False for r in runs),
+            "failed_after_initial": failed,
+            "failed_share": sum(f[0] for f in failed) / evaluated if evaluated else None,
             "seconds_to_target": [h[0] for h in hits],
             "median_seconds_to_target": _median([h[0] for h in hits]),
             "simulator_seconds_to_target": [h[1] for h in hits],
             "evaluations_to_target": [h[2] for h in hits],
             "evaluations_per_second": rates, "median_evaluations_per_second": _median(rates),
             "final": final}
+
+
+def _worst(values: list[float | None]) -> float | None:
+    """The largest value, a missing one (no design point) counting as infinitely bad."""
+    m = max((math.inf if v is None else v for v in values), default=math.inf)
+    return m if math.isfinite(m) else None
 
 
 def _rate(rows: list[tuple[float, float, float]]) -> float | None:
@@ -191,6 +224,21 @@ def run(args: argparse.Namespace) -> int:
               f"{f['J_u']:.4g}, J_T {f['J_T']:.4g}, HV {f['hypervolume']}, "
               f"{f['evaluations']:.0f} evaluations, {f['simulator_seconds']:.1f} simulator s, "
               f"{_text(block['median_evaluations_per_second'])} evaluations/s (median)")
+    for block, name in ((main, f"{workers} worker(s)"), (compare, "single (1 worker)")):
+        if block is None:
+            continue
+        pct = (lambda v: "-" if v is None else f"{100 * v:.2f} %")  # noqa: E731
+        print(f"{study.name} [{name}]: design point max(J_u, J_T) per seed "
+              + ", ".join(pct(v) for v in block["design_points"])
+              + f"; median {pct(block['median_design_point'])}, worst "
+              f"{pct(block['worst_design_point'])}"
+              + ("" if block["best_known"] is None else
+                 f"; best known {pct(block['best_known'])}, gap median "
+                 f"{pct(block['median_gap'])}, worst {pct(block['worst_gap'])}")
+              + f"; failed after the initial design {pct(block['failed_share'])} ("
+              + ", ".join(f"{a}/{b}" for a, b in block["failed_after_initial"]) + ")"
+              + (f"; {block['inadmissible_design_points']} inadmissible design point(s)"
+                 if block["inadmissible_design_points"] else ""))
     if speedup is not None:
         print(f"speed-up (single / {workers} worker(s), median time to target): {speedup:.2f}x")
     if throughput is not None:

@@ -38,6 +38,7 @@ from hypate.scaling.workflow.seeds import seed_directory, seed_list, write_seeds
 from hypate.scaling.workflow.shipped import default_study, resolve
 from hypate.scaling.workflow.study import Study, load_study
 from hypate.scaling.workflow.sweep import run_sweep
+from hypate.scaling.workflow.verdict import prototype_note
 from hypate.solvers.errors import InputError
 from tqdm import tqdm
 
@@ -261,12 +262,17 @@ def resume_command(args: argparse.Namespace, out: Path) -> str:
 def _summary(out: Path, point: dict[str, Any], before: int, seconds: float) -> dict[str, Any]:
     n = int(point["statistics"]["evaluations"])
     report = out / REPORT_HTML
+    stats = point["statistics"]
     return {"directory": str(out), "report": str(report) if report.is_file() else None,
             "evaluations": n, "new_evaluations": n - before, "seconds": seconds,
+            "failed": int(stats.get("failed", 0)), "admissible_evaluations":
+                stats.get("admissible"),
             "design_point": {k: point.get(k) for k in ("design", "objectives",
                                                        "active_constraints", "scatter",
                                                        "robust", "robust_search",
-                                                       "nominal", "chosen")
+                                                       "nominal", "chosen", "admissible",
+                                                       "binding", "message",
+                                                       "prototype_admissibility")
                              if k in ("design", "objectives", "active_constraints")
                              or k in point}}
 
@@ -286,6 +292,13 @@ def _print_summary(summary: dict[str, Any], before: int) -> None:
             print(f"  {name:>10s} = {shown}")
         if point["active_constraints"]:
             print(f"  active: {', '.join(point['active_constraints'])}")
+        if "admissible" in point:
+            state = "admissible" if point["admissible"] else "NOT admissible"
+            binding = point.get("binding") or []
+            enforced = [b for b in binding if " only" not in b]
+            print(f"  {state}; binding limits: " + ("; ".join(enforced) or "none"))
+            for line in (b for b in binding if " only" in b):
+                print(f"  beyond its limit (not enforced): {line}")
         nominal = point.get("nominal")
         if nominal:
             _print_scatter("robust search's design",
@@ -296,6 +309,15 @@ def _print_summary(summary: dict[str, Any], before: int) -> None:
             _print_scatter("design point", point.get("scatter"))
     else:
         print("no successful evaluation: see evaluations.csv for the reasons")
+    note = prototype_note(point.get("prototype_admissibility") or [])
+    if note:
+        print(note)
+    if point.get("design") and point.get("admissible") is False:
+        print(f"hypate: error: {point.get('message') or 'the design point is not admissible'}"
+              "; see the report's admissibility table", file=sys.stderr)
+    print(f"failed evaluations: {summary['failed']} of {n}"
+          + (f"; admissible: {summary['admissible_evaluations']}"
+             if summary.get("admissible_evaluations") is not None else ""))
     if summary["report"]:
         print(f"report: {summary['report']}")
 

@@ -15,6 +15,7 @@ from hypate.scaling.report.figures import plot_sweep
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.study import load_study
 from hypate.scaling.workflow.variables import CATEGORICAL, variable_unit
+from hypate.scaling.workflow.verdict import admissibility_lines, prototype_note
 from hypate.scaling.workflow.whatif import (
     MISMATCH,
     evaluate_whatif,
@@ -151,6 +152,11 @@ def _print_result(res: dict[str, Any]) -> None:
               f"({'satisfied' if eq['satisfied'] else 'NOT satisfied'})")
     for ineq in con.get("inequalities", []):
         print(f"  {ineq['name']}: {'satisfied' if ineq['satisfied'] else 'NOT satisfied'}")
+    for line in admissibility_lines(res):
+        print(line)
+    note = prototype_note(res.get("prototype_admissibility") or [])
+    if note:
+        print(note)
 
 
 def _print_sweep(sw: dict[str, Any]) -> None:
@@ -158,7 +164,8 @@ def _print_sweep(sw: dict[str, Any]) -> None:
     print(f"sweep of {name}: {len(sw['rows'])} designs")
     print(f"  {name:>12s} {'J_u':>10s} {'J_T':>10s} {'J_s':>10s}  note")
     for r in sw["rows"]:
-        note = r["message"] if r["status"] != "ok" else "; ".join(r["outside"])
+        note = r["message"] if r["status"] != "ok" else "; ".join(
+            r["outside"] + [f"violates {c}" for c in r["violated"]])
         print(f"  {r['value']:>12.6g} {_pct(r['J_u']):>10s} {_pct(r['J_T']):>10s} "
               f"{_pct(r['J_s']):>10s}  {note}")
     print(f"wrote {sw['png']}")
@@ -204,7 +211,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--out", "only used with --sweep")
     out = output_directory(args.out or ".", "--out")
     with warnings.catch_warnings():
-        # material tables clamped outside their range etc.: noise for a what-if answer
+        # numerical noise of a diverging what-if design; property tables left behind are
+        # not warnings but the design's "data" admissibility row
         warnings.simplefilter("ignore", RuntimeWarning)
         if args.scatter:
             bar = StepProgress("whatif")  # stderr: --json stdout stays clean

@@ -7,14 +7,18 @@ Single-objective problems use PoI, EI or LCB (Eqs. (6.14)-(6.22)).
 
 Each iteration (Sec. 6.3.1 step 4):
 
-1. fit kriging surrogates of the objectives on the successful evaluations, of the expensive
-   constraints (``G <= 0``) and, if any evaluation failed, of the failure indicator;
+1. fit kriging surrogates of the objectives (or of the histories they are composed from,
+   ``surrogate = "histories"``, :mod:`hypate.scaling.engine.histories`) on the successful
+   evaluations, of the expensive constraints (``G <= 0``) and, if any evaluation failed,
+   a classifier of success;
 2. maximize the acquisition by :func:`hypate.scaling.engine.inner.optimize_acquisition`: raw
    optimal-Latin-hypercube points, the best ``n_starts`` polished by SLSQP with gradients, the
    cheap constraints enforced exactly and the surrogate constraints
    (:class:`hypate.scaling.engine.surrogate.ProbabilisticConstraint`: predicted probability of
-   feasibility of each expensive constraint ``>= p_feasible``, predicted failure
-   indicator ``<= FAILURE_THRESHOLD``) as SLSQP inequalities;
+   feasibility of each expensive constraint ``>= p_feasible``) and, if any evaluation
+   failed, the predicted probability of success of a Gaussian-process classifier
+   ``>= p_success`` (:class:`~hypate.scaling.engine.failures.SuccessModel`) as SLSQP
+   inequalities;
 3. for batches ``q > 1`` repeat 2 on a fantasized model (kriging believer: the predicted
    mean is appended as if observed; constant liar: the best value so far);
 4. evaluate the batch through a ``concurrent.futures``-style executor (anything with
@@ -64,6 +68,14 @@ from hypate.scaling.engine.acquisition import (
 from hypate.scaling.engine.check import SurrogateCheck, leave_one_out_check
 from hypate.scaling.engine.coordinates import WarpedModel
 from hypate.scaling.engine.executors import run_batch
+from hypate.scaling.engine.failures import SuccessModel
+from hypate.scaling.engine.histories import (
+    HISTORIES,
+    SAMPLES,
+    HistoriesModel,
+    HistoryBasis,
+    normal_samples,
+)
 from hypate.scaling.engine.inner import Resolution, optimize_acquisition
 from hypate.scaling.engine.mixed import MixedCoordinates, propose_by_level
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
@@ -92,10 +104,11 @@ __all__ = ["BayesianOptimizer", "SurrogateCheck"]
 #: Smallest objective value of the log transform (ln 1e-12 = -27.6).
 LOG_FLOOR = 1e-12
 
-#: Smoothing of the failure-indicator kriging (standardized nugget, unit-box length scales).
+#: Smoothing of the failure-indicator kriging of the robust search (standardized nugget,
+#: unit-box length scales); the optimizer's proposals use a classifier (SuccessModel).
 FAILURE_NUGGET = 0.05
 FAILURE_LENGTH_SCALES = (0.15, 1e2)
-#: Largest predicted failure indicator accepted for a proposal.
+#: Largest predicted failure indicator the robust search accepts for a proposal.
 FAILURE_THRESHOLD = 0.15
 #: Largest length scale (unit box) of the surrogates' metric for the inward probe.
 MAX_METRIC_LENGTH = 1.0
@@ -146,6 +159,11 @@ class BayesianOptimizer:
         else:
             self.acquisition = s.acquisition
         self.ref_point = None if s.ref_point is None else np.asarray(s.ref_point, dtype=float)
+        #: How the objectives compose from the histories (None: model the objectives).
+        self.composition = None
+        if s.surrogate == "histories":
+            compose = getattr(problem, "composition", None)
+            self.composition = compose() if callable(compose) else None
         self.weights = (np.full(self.n_obj, 1.0 / self.n_obj) if s.weights is None
                         else np.asarray(s.weights, dtype=float))
 
@@ -264,6 +282,8 @@ class BayesianOptimizer:
         radius = self.settings.resolution
         if radius <= 0.0 or self.settings.categorical is not None:
             return None  # a level indicator has no inward direction
+        if isinstance(model, HistoriesModel):  # the metric of its coefficients' kriging
+            model = model.coefficients
         coords = model.coords if isinstance(model, WarpedModel) else None
         gp = model.model if isinstance(model, WarpedModel) else model
         # a length scale beyond the box (an input the fit calls irrelevant, up to the
@@ -364,20 +384,23 @@ class BayesianOptimizer:
             # nothing to model: explore with an OLH point far from the samples
             U = latin_hypercube(st.batch_size, self.bounds, rng)
             return U if st.categorical is None else st.categorical.snap(U)
-        # objectives, expensive constraints, failure indicator: fitted together
-        data = [(X[ok], F[ok], {})]
+        # objectives (or their histories), expensive constraints, failure indicator:
+        # fitted together
+        histories = self._histories(records, ok)
+        data = [(X[ok], F[ok] if histories is None else histories[1], {})]
         if self.n_constr:
             data.append((X[ok], G[ok], {}))
-        if not np.all(ok):
-            data.append((X, (~ok).astype(float)[:, None],
-                         {"nugget": FAILURE_NUGGET, "length_scale_bounds": FAILURE_LENGTH_SCALES}))
         model, *others = self.surrogates(data, rng)
-        model_constraints: list[ProbabilisticConstraint] = []
+        if histories is not None:
+            basis, A = histories
+            model = HistoriesModel(model, basis, self.composition, st.output_transform,
+                                   normal_samples(SAMPLES, A.shape[1],
+                                                  int(rng.integers(2**31))), X[ok], A)
+        model_constraints: list[Any] = []
         if self.n_constr:
             model_constraints.append(ProbabilisticConstraint(others.pop(0), p_min=st.p_feasible))
-        if others:
-            model_constraints.append(
-                ProbabilisticConstraint(others[0], p_min=0.5, threshold=FAILURE_THRESHOLD))
+        if not np.all(ok):  # the failed evaluations' region: a calibrated classifier
+            model_constraints.append(self.success_model(X, ok, rng))
         # exploitation starts: the best feasible designs (nudged off the data points)
         F_good = np.where(feas[:, None], F, np.inf)
         if self.n_obj == 1:
@@ -430,6 +453,35 @@ class BayesianOptimizer:
                 feas_obs = np.r_[feas_obs, True]
                 cur_model = model.condition(X_obs, F_obs)
         return np.array(pending)
+
+    def success_model(self, X: np.ndarray, ok: np.ndarray, rng: np.random.Generator
+                      ) -> SuccessModel:
+        """The probability of success of a proposal (:class:`SuccessModel`, a Gaussian-
+        process classifier on the surrogates' input coordinates), required to reach
+        ``settings.p_success``."""
+        s, coords = self.settings, self.settings.coordinates
+        if s.categorical is not None:
+            coords = MixedCoordinates(s.categorical, self.n_var, coords)
+        return SuccessModel(X, ok, self.bounds, transform=coords,
+                            box=None if coords is None else coords.box(self.bounds),
+                            p_min=s.p_success, rng=int(rng.integers(2**31)))
+
+    def _histories(self, records: list[Evaluation], ok: np.ndarray
+                   ) -> tuple[HistoryBasis, np.ndarray] | None:
+        """The POD basis of the successful evaluations' histories and their coefficients
+        (``surrogate = "histories"``); None to model the objectives (no composition, or
+        an evaluation without its histories)."""
+        if self.composition is None:
+            return None
+        rows = [r.aux.get(HISTORIES) for r, good in zip(records, ok) if good]
+        if any(h is None for h in rows):
+            return None
+        H = np.asarray(rows, dtype=float)
+        if H.ndim != 2 or H.shape[1] != self.composition.targets.size or \
+                not np.all(np.isfinite(H)):
+            return None
+        basis = HistoryBasis.fit(H, self.composition)
+        return basis, basis.coefficients(H, self.composition)
 
     def _fallback_point(self, X_avoid: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """The OLH point farthest from the samples, projected onto the cheap constraints."""

@@ -164,6 +164,9 @@ class Outcome:
         The Python warnings raised during the evaluation, aggregated
         (:func:`summarize_warnings`): ``"Category: message (N times)"`` in order of first
         occurrence.
+    aux : dict
+        The problem's auxiliary outputs (its output dictionary's ``"aux"`` entry for the
+        design: JSON data, stored with the evaluation; empty when it gives none).
     """
 
     F: np.ndarray
@@ -172,6 +175,7 @@ class Outcome:
     message: str = ""
     seconds: float = 0.0
     warnings: tuple[str, ...] = ()
+    aux: dict = dataclasses.field(default_factory=dict)
 
     @classmethod
     def failure(cls, m: int, k: int, status: str, message: str, seconds: float,
@@ -379,8 +383,23 @@ def _outcome(problem: Any, out: dict[str, Any], m: int, k: int, eq_tol: float,
     if F.shape != (m,) or G.shape != (k,):
         return Outcome.failure(m, k, "error", f"expected {m} objectives and {k} constraints, "
                                f"got {F.size} and {G.size}", seconds)
+    aux = _aux_of(out.get("aux"))
     if not (np.all(np.isfinite(F)) and np.all(np.isfinite(G))):
         why = _numpy_invalid(caught)
         return Outcome(F, G, "invalid", "non-finite objective or constraint"
-                       + (f" (numpy: {why})" if why else ""), seconds)
-    return Outcome(F, G, STATUS_OK, "", seconds)
+                       + (f" (numpy: {why})" if why else ""), seconds, aux=aux)
+    return Outcome(F, G, STATUS_OK, "", seconds, aux=aux)
+
+
+def _aux_of(value: Any) -> dict:
+    """The one design's auxiliary outputs from a problem's ``out["aux"]``: a dict, or a
+    sequence holding one dict (pymoo passes the problem's list of per-row dicts on as an
+    object array)."""
+    if value is None:
+        return {}
+    if isinstance(value, dict):
+        return value
+    items = list(np.ravel(np.asarray(value, dtype=object)))
+    if len(items) != 1 or not isinstance(items[0], dict):
+        raise TypeError("a problem's 'aux' output must be one dict per design")
+    return items[0]

@@ -23,12 +23,15 @@ from hypate.scaling.engine.problem import CheapConstraint
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
 from hypate.solvers.numerics.kriging import KERNELS
 
-__all__ = ["OptimizerSettings", "SettingError", "BATCH_STRATEGIES", "OUTPUT_TRANSFORMS"]
+__all__ = ["OptimizerSettings", "SettingError", "BATCH_STRATEGIES", "OUTPUT_TRANSFORMS",
+           "SURROGATES"]
 
 #: Fantasies within a batch: kriging believer or constant liar.
 BATCH_STRATEGIES: tuple[str, ...] = ("believer", "liar")
 #: Objective transforms the surrogates may model.
 OUTPUT_TRANSFORMS: tuple[str, ...] = ("none", "log")
+#: What the surrogates model: the objectives, or the histories they are composed from.
+SURROGATES: tuple[str, ...] = ("objectives", "histories")
 
 #: Integer fields: smallest allowed value (``None`` allowed where the field is optional).
 _INT_MIN = {"n_init": 0, "n_iter": 0, "batch_size": 1, "n_restarts": 0, "n_raw": 1,
@@ -38,6 +41,7 @@ _INT_MIN = {"n_init": 0, "n_iter": 0, "batch_size": 1, "n_restarts": 0, "n_raw":
 _REAL_RANGE = {"v": (0.0, math.inf, True, False), "v_final": (0.0, math.inf, True, False),
                "g": (1.0, math.inf, True, True),
                "p_feasible": (0.0, 1.0, False, False),
+               "p_success": (0.0, 1.0, False, False),
                "min_distance": (0.0, math.inf, True, False),
                "resolution": (0.0, 1.0, True, False),
                "timeout": (0.0, math.inf, False, False),
@@ -49,7 +53,7 @@ _OPTIONAL = {"acquisition", "v", "v_final", "ref_point", "weights", "executor", 
              "categorical"}
 #: Fields of a fixed set of names.
 _CHOICES = {"batch_strategy": BATCH_STRATEGIES, "kernel": KERNELS,
-            "output_transform": OUTPUT_TRANSFORMS}
+            "output_transform": OUTPUT_TRANSFORMS, "surrogate": SURROGATES}
 
 
 class SettingError(ValueError):
@@ -139,6 +143,9 @@ class OptimizerSettings:
         Enforced exactly at every proposal.
     p_feasible : float in (0, 1)
         Required predicted probability of feasibility of each expensive constraint.
+    p_success : float in (0, 1)
+        Required predicted probability that a proposal's evaluation succeeds, by the
+        classifier of the failed evaluations (:mod:`hypate.scaling.engine.failures`).
     kernel : {"matern52", "rbf"}
     n_restarts : int >= 0
         Restarts of each surrogate's likelihood optimization.
@@ -196,6 +203,12 @@ class OptimizerSettings:
         ``n_iter + 1`` and replayed on resume.
     polish_step : float in (0, 0.5]
         Initial simplex edge, as a fraction of each coordinate's range.
+    surrogate : {"objectives", "histories"}
+        What the objective surrogates model: the objectives themselves, or the histories
+        they are composed from (:mod:`hypate.scaling.engine.histories`: POD + kriging of
+        the problem's ``aux["histories"]``, J composed with its uncertainty sampled), for a
+        problem whose ``composition()`` says how; a problem without one keeps
+        ``"objectives"``.
     categorical : Categorical or None
         One categorical design variable (its level number ``0 .. k-1`` in the design
         vector, bounds ``[0, k - 1]``; :mod:`hypate.scaling.engine.mixed`): the surrogates
@@ -221,6 +234,7 @@ class OptimizerSettings:
     g: float = 2.0
     cheap_constraints: Sequence[CheapConstraint] = ()
     p_feasible: float = 0.5
+    p_success: float = 0.5
     kernel: str = "matern52"
     n_restarts: int = 2
     n_raw: int = 256
@@ -241,6 +255,7 @@ class OptimizerSettings:
     polish: int = 0
     polish_step: float = 0.01
     categorical: Categorical | None = None
+    surrogate: Literal["objectives", "histories"] = "objectives"
 
     def __post_init__(self) -> None:
         def put(name: str, value: Any) -> None:

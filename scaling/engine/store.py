@@ -7,8 +7,13 @@ committed before the optimizer proposes anything else, in WAL mode with
 :class:`hypate.scaling.engine.optimizer.BayesianOptimizer` resumes from the rows without
 re-evaluating.
 Arrays are stored as JSON (Python's float ``repr`` round-trips exactly; NaN/inf allowed).
-Rows are never updated or deleted. A store written before the ``warnings`` column existed
-gets it (empty) when opened for writing, and reads as evaluations without warnings.
+Rows are never updated or deleted. A store written before the ``warnings`` (or ``aux``)
+column existed gets it (empty) when opened for writing, and reads as evaluations without
+warnings (auxiliary outputs).
+
+``aux`` holds a problem's auxiliary outputs of an evaluation as one JSON object (names of
+the problem's choosing, e.g. what a simulated structure went through): data the engine
+stores and hands back, never models.
 """
 from __future__ import annotations
 
@@ -41,6 +46,7 @@ CREATE TABLE IF NOT EXISTS evaluations (
     seed INTEGER,
     created REAL NOT NULL,
     warnings TEXT NOT NULL DEFAULT '[]',
+    aux TEXT NOT NULL DEFAULT '{}',
     UNIQUE (iteration, batch_index)
 );
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -75,6 +81,8 @@ class Evaluation:
     batch_index : int
         Position within the iteration's batch.
     seed : int or None
+    aux : dict
+        The problem's auxiliary outputs (JSON data; empty when it gives none).
     """
 
     x: np.ndarray
@@ -88,6 +96,7 @@ class Evaluation:
     seed: int | None = None
     created: float = field(default_factory=time.time)
     warnings: tuple[str, ...] = ()
+    aux: dict = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -101,7 +110,7 @@ class Evaluation:
                    G=np.asarray(outcome.G, float), status=outcome.status,
                    message=outcome.message, seconds=float(outcome.seconds),
                    iteration=iteration, batch_index=batch_index, seed=seed,
-                   warnings=tuple(outcome.warnings))
+                   warnings=tuple(outcome.warnings), aux=dict(outcome.aux))
 
 
 def _dump(a: np.ndarray) -> str:
@@ -179,9 +188,11 @@ class EvaluationStore:
                 self._con.execute("PRAGMA journal_mode=WAL")
             self._con.execute("PRAGMA synchronous=FULL")
             self._con.executescript(_SCHEMA)
-            if "warnings" not in _columns(self._con):  # a store of an earlier version
-                self._con.execute("ALTER TABLE evaluations ADD COLUMN warnings TEXT NOT NULL"
-                                  " DEFAULT '[]'")
+            columns = _columns(self._con)
+            for name, empty in (("warnings", "[]"), ("aux", "{}")):
+                if name not in columns:  # a store of an earlier version
+                    self._con.execute(f"ALTER TABLE evaluations ADD COLUMN {name} TEXT NOT "
+                                      f"NULL DEFAULT '{empty}'")
             self._con.commit()
         except sqlite3.Error as exc:
             raise StoreError(f"{self.path} is not a readable hypate evaluation store: {exc}"
@@ -205,24 +216,26 @@ class EvaluationStore:
         """Insert one evaluation and commit it."""
         self._con.execute(
             "INSERT INTO evaluations (iteration, batch_index, x, F, G, status, message, seconds,"
-            " seed, created, warnings) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            " seed, created, warnings, aux) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
             (int(ev.iteration), int(ev.batch_index), _dump(ev.x), _dump(ev.F), _dump(ev.G),
              str(ev.status), str(ev.message), float(ev.seconds),
              None if ev.seed is None else int(ev.seed), float(ev.created),
-             json.dumps([str(w) for w in ev.warnings])))
+             json.dumps([str(w) for w in ev.warnings]), json.dumps(ev.aux, sort_keys=True)))
         self._con.commit()
 
     def load(self) -> list[Evaluation]:
         """All evaluations in insertion order."""
-        # a read-only snapshot of an earlier version's store has no warnings column
-        warn = "warnings" if "warnings" in _columns(self._con) else "'[]'"
+        # a read-only snapshot of an earlier version's store lacks the later columns
+        columns = _columns(self._con)
+        warn = "warnings" if "warnings" in columns else "'[]'"
+        aux = "aux" if "aux" in columns else "'{}'"
         rows = self._con.execute(
             "SELECT iteration, batch_index, x, F, G, status, message, seconds, seed, created,"
-            f" {warn} FROM evaluations ORDER BY id").fetchall()
+            f" {warn}, {aux} FROM evaluations ORDER BY id").fetchall()
         return [Evaluation(x=_load(x), F=_load(F), G=_load(G), status=st, message=msg,
                            seconds=sec, iteration=it, batch_index=bi, seed=seed, created=cr,
-                           warnings=warnings_from_text(w))
-                for it, bi, x, F, G, st, msg, sec, seed, cr, w in rows]
+                           warnings=warnings_from_text(w), aux=json.loads(a))
+                for it, bi, x, F, G, st, msg, sec, seed, cr, w, a in rows]
 
     def __len__(self) -> int:
         return int(self._con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0])
@@ -264,10 +277,11 @@ class EvaluationStore:
 
 def evaluations_to_dataframe(evals: list[Evaluation]) -> pd.DataFrame:
     """One row per evaluation: ``iteration, batch_index, x0.., f0.., g0.., status, message,
-    warnings, seconds, seed`` (``warnings``: :func:`warnings_text`)."""
+    warnings, seconds, seed, aux`` (``warnings``: :func:`warnings_text`; ``aux``: the
+    auxiliary outputs, a dict per row)."""
     if not evals:
         return pd.DataFrame(columns=["iteration", "batch_index", "status", "message",
-                                     "warnings", "seconds", "seed"])
+                                     "warnings", "seconds", "seed", "aux"])
     d, m, k = len(evals[0].x), len(evals[0].F), len(evals[0].G)
     cols: dict[str, object] = {
         "iteration": [e.iteration for e in evals],
@@ -281,5 +295,6 @@ def evaluations_to_dataframe(evals: list[Evaluation]) -> pd.DataFrame:
     cols.update({f"g{i}": G[:, i] for i in range(k)})
     cols.update(status=[e.status for e in evals], message=[e.message for e in evals],
                 warnings=[warnings_text(e.warnings) for e in evals],
-                seconds=[e.seconds for e in evals], seed=[e.seed for e in evals])
+                seconds=[e.seconds for e in evals], seed=[e.seed for e in evals],
+                aux=[e.aux for e in evals])
     return pd.DataFrame(cols)

@@ -3,7 +3,8 @@
 Run figures take a :class:`~hypate.scaling.report.rundata.RunData` and return an HTML
 ``<figure>`` (empty string when the run has nothing to plot), saving the PNG as
 ``figures/<name>.png`` too: the Pareto front with the classical baseline (Fig. 9.9 / 9.13
-style; zoomed on the front, J in %, the full view behind a ``<details>`` toggle), the hypervolume history (two objectives) or best-J history (one objective), and the
+style; every evaluation on log-log axes in %, admissible and inadmissible ones marked
+differently), the hypervolume history (two objectives) or best-J history (one objective), and the
 nondimensional response of the prototype vs the design-point model (Figs. 9.10, 9.11, 9.14,
 9.15 style) and, for a study with a heater schedule, the optimized ``T_rad(t)`` next to the
 prototype's and the model's wall temperatures. :func:`plot_sweep` draws the what-if sweep
@@ -15,7 +16,7 @@ besides :mod:`hypate.scaling.report.laws`, whose scaling-law figure moved there 
 workflow with its table.
 
 Size: about 610 lines -- every figure of the report, the robustness distributions and the
-prediction page share the label fitting, zoom and embedding helpers and the one pyplot
+prediction page share the label fitting, axis and embedding helpers and the one pyplot
 import, which is the reason they live together.
 """
 from __future__ import annotations
@@ -40,9 +41,10 @@ from hypate.scaling.workflow.predict import Prediction  # noqa: E402
 from hypate.scaling.workflow.variables import schedule_point, variable_unit  # noqa: E402
 from hypate.solvers.coupling.response import Response  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
+from matplotlib.ticker import FuncFormatter, LogLocator  # noqa: E402
 
-__all__ = ["MISMATCH_THRESHOLD", "HV_REFERENCE", "ZOOM_MARGIN", "ZOOM_MIN_MARGIN", "embed_png",
-           "figure_html", "fit_labels", "label_overflows", "zoom_limits", "clip_to_box",
+__all__ = ["MISMATCH_THRESHOLD", "HV_REFERENCE", "LOG_PAD", "embed_png",
+           "figure_html", "fit_labels", "label_overflows", "log_limits",
            "pareto_figure", "history_figure", "response_figure", "schedule_figure",
            "plot_sweep", "close_figures", "png_bytes", "prediction_figure"]
 
@@ -144,58 +146,27 @@ def figure_html(fig: Figure, run: RunData, name: str, caption: str) -> str:
             f"</figcaption></figure>")
 
 
-#: Margin around the zoomed Pareto view, as a fraction of its span (log span on log axes).
-ZOOM_MARGIN = 0.08
-#: Smallest margin of the zoomed view: a fraction of the largest value shown (linear axes)
-#: or of a decade (log axes). A front of one or two close points would otherwise give a
-#: box so small that every other evaluation piles up in its corner.
-ZOOM_MIN_MARGIN = 0.25
-#: Largest/smallest positive value above which an axis of the Pareto figure is logarithmic.
-LOG_RATIO = 100.0
+#: Padding of the Pareto figure's log axes around every point, in decades.
+LOG_PAD = 0.08
 
 
-def zoom_limits(V: np.ndarray, log: bool) -> tuple[float, float]:
-    """Axis limits around the values ``V`` (the Pareto set and the design point): a
-    :data:`ZOOM_MARGIN` of their span, at least :data:`ZOOM_MIN_MARGIN` (in log space on a
-    log axis); never below 0 on a linear axis of nonnegative errors."""
-    lo, hi = float(np.min(V)), float(np.max(V))
-    if log:
-        a, b = np.log10(lo), np.log10(hi)
-        pad = max(ZOOM_MARGIN * (b - a), ZOOM_MIN_MARGIN)
-        return 10.0 ** (a - pad), 10.0 ** (b + pad)
-    pad = max(ZOOM_MARGIN * (hi - lo), ZOOM_MIN_MARGIN * abs(hi), 1e-9)
-    low = lo - pad
-    return (max(low, 0.0) if lo >= 0.0 else low), hi + pad
+def log_limits(V: np.ndarray) -> tuple[float, float]:
+    """Log-axis limits that hold every positive value of ``V`` with :data:`LOG_PAD` decades
+    on each side (at least a decade in all)."""
+    V = np.asarray(V, float)
+    V = V[np.isfinite(V) & (V > 0)]
+    if V.size == 0:
+        return 0.1, 100.0
+    a, b = np.log10(V.min()), np.log10(V.max())
+    pad = max(LOG_PAD, 0.5 * (1.0 - (b - a))) if b - a < 1.0 else LOG_PAD
+    return 10.0 ** (a - pad), 10.0 ** (b + pad)
 
 
-def clip_to_box(P: np.ndarray, xlim: tuple[float, float], ylim: tuple[float, float],
-                 log: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """Points ``P`` (n, 2) outside the box moved onto its edge, and which were outside.
-
-    A point is moved along the ray from the box centre towards it (in log10 coordinates on
-    log axes), so clipped points keep their direction: clipping each coordinate on its own
-    would stack every point that is worse in both objectives in the same corner.
-    """
-    def fwd(v: np.ndarray) -> np.ndarray:
-        # a zero error on a log axis sits at the bottom edge, not at -inf
-        return np.log10(np.maximum(v, 1e-300)) if log else v
-
-    lo = fwd(np.array([xlim[0], ylim[0]], dtype=float))
-    hi = fwd(np.array([xlim[1], ylim[1]], dtype=float))
-    centre, half = (lo + hi) / 2.0, (hi - lo) / 2.0
-    d = fwd(np.asarray(P, dtype=float)) - centre
-    with np.errstate(divide="ignore"):
-        t = np.min(np.where(np.abs(d) > 0, half / np.abs(d), np.inf), axis=1)
-    out = t < 1.0
-    Q = centre + np.minimum(t, 1.0)[:, None] * d
-    C = np.where(out[:, None], 10.0 ** Q if log else Q, P)
-    return C, out
-
-
-def _pareto_plot(run: RunData, F: np.ndarray, zoom: bool) -> tuple[Figure, int]:
-    """The Pareto figure of ``F`` (n, 2; in %): zoomed on the front (and the design point)
-    or on every evaluation. Returns the figure and how many evaluations lie beyond its axes
-    (drawn on the edge with a distinct marker)."""
+def _pareto_plot(run: RunData, F: np.ndarray) -> Figure:
+    """The Pareto figure of ``F`` (n, 2; in %): every successful evaluation at its true
+    coordinates on log-log axes -- admissible ones as filled circles coloured by iteration,
+    inadmissible ones as grey crosses -- the Pareto set of the admissible evaluations, the
+    design point and the classical baseline."""
     ok, objs = run.ok, run.objectives
     pobj = (run.point or {}).get("objectives") or {}
     point = np.array([[percent(pobj[o]) for o in objs]]) \
@@ -203,90 +174,83 @@ def _pareto_plot(run: RunData, F: np.ndarray, zoom: bool) -> tuple[Figure, int]:
     cobj = (run.classical or {}).get("objectives") or {}
     classical = np.array([[percent(cobj[o]) for o in objs]]) \
         if all(isinstance(cobj.get(o), (int, float)) for o in objs) else np.zeros((0, 2))
-    mask = non_dominated_mask(F)
-    P = F[mask][np.argsort(F[mask][:, 0], kind="stable")]
-    frame = np.vstack([P, point]) if zoom else np.vstack([F, point, classical])
-    positive = frame[frame > 0]
-    log = positive.size == frame.size and positive.max() / positive.min() > LOG_RATIO
-    xlim, ylim = zoom_limits(frame[:, 0], log), zoom_limits(frame[:, 1], log)
+    adm = (ok["admissible"].fillna(False).astype(bool).to_numpy() if "admissible" in ok
+           else np.ones(len(ok), bool))
+    FA = F[adm]
+    P = (FA[non_dominated_mask(FA)] if len(FA) else FA)
+    P = P[np.argsort(P[:, 0], kind="stable")] if len(P) else P
+    frame = np.vstack([F, point, classical])
     fig, ax = plt.subplots(figsize=(6.4, 4.8), layout="constrained")
-    if log:
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-    C, beyond = clip_to_box(F, xlim, ylim, log)
-    inside = ~beyond
+    ax.set_xscale("log")
+    ax.set_yscale("log")
     it = ok["iteration"].to_numpy() if "iteration" in ok else np.zeros(len(ok))
     init = it <= 0
-    ax.scatter(C[init & inside, 0], C[init & inside, 1], s=18, c="0.65", zorder=3,
-               label="initial samples")
-    if (~init).any():
-        sc = ax.scatter(C[~init & inside, 0], C[~init & inside, 1], s=18,
-                        c=it[~init & inside], cmap="viridis", zorder=3,
-                        vmin=it[~init].min(), vmax=it[~init].max(), label="BO iterations")
+    ax.scatter(F[adm & init, 0], F[adm & init, 1], s=18, c="0.6", zorder=3,
+               label="initial samples (admissible)")
+    if (adm & ~init).any():
+        sc = ax.scatter(F[adm & ~init, 0], F[adm & ~init, 1], s=18, c=it[adm & ~init],
+                        cmap="viridis", zorder=3, vmin=it[~init].min(), vmax=it[~init].max(),
+                        label="BO iterations (admissible)")
         fig.colorbar(sc, ax=ax, label="iteration")
-    if beyond.any():
-        ax.scatter(C[beyond, 0], C[beyond, 1], marker="D", s=16, facecolors="none",
-                   edgecolors="0.35", clip_on=False, zorder=3,
-                   label=f"beyond the axes ({int(beyond.sum())}, on the edge)")
+    if (~adm).any():
+        ax.scatter(F[~adm, 0], F[~adm, 1], marker="x", s=22, c="0.45", lw=1.0, zorder=3,
+                   label=f"inadmissible ({int((~adm).sum())})")
     # the star goes *behind* the hollow Pareto circles so that it never hides one
     if len(point):
         ax.scatter(point[:, 0], point[:, 1], marker="*", s=380, c="gold", edgecolors="0.2",
                    linewidths=0.8, zorder=2, label="design point")
-    ax.step(P[:, 0], P[:, 1], where="post", color="tab:red", lw=1.2, zorder=4)
-    ax.scatter(P[:, 0], P[:, 1], s=60, facecolors="none", edgecolors="tab:red", lw=1.5,
-               zorder=5, label="Pareto set")
+    if len(P):
+        ax.step(P[:, 0], P[:, 1], where="post", color="tab:red", lw=1.2, zorder=4)
+        ax.scatter(P[:, 0], P[:, 1], s=60, facecolors="none", edgecolors="tab:red", lw=1.5,
+                   zorder=5, label="Pareto set (admissible)")
     if len(classical):
-        Cc, cout = clip_to_box(classical, xlim, ylim, log)
-        ax.scatter(Cc[:, 0], Cc[:, 1], marker="s", s=60, c="tab:blue", edgecolors="k",
-                   zorder=5, clip_on=False, label="classical baseline"
-                   + (" (beyond the axes)" if cout.any() else ""))
+        ax.scatter(classical[:, 0], classical[:, 1], marker="s", s=60, c="tab:blue",
+                   edgecolors="k", zorder=5, label="classical baseline")
     threshold = percent(MISMATCH_THRESHOLD)
     ax.axvline(threshold, color="0.5", ls=":", lw=0.8)
     ax.axhline(threshold, color="0.5", ls=":", lw=0.8)
-    ax.set_xlim(*xlim)
-    ax.set_ylim(*ylim)
+    ax.set_xlim(*log_limits(frame[:, 0]))
+    ax.set_ylim(*log_limits(frame[:, 1]))
+    plain = FuncFormatter(lambda v, _: f"{v:g}")  # "60", not "6 x 10^1"
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_formatter(plain)
+        axis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
+        axis.set_minor_formatter(plain)
     ax.set_xlabel(f"{objs[0]} (%)")
     ax.set_ylabel(f"{objs[1]} (%)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    ax.set_title("Pareto front" + (" (zoomed)" if zoom else " (all evaluations)")
-                 + "; dotted: 10 % error", fontsize=10)
-    return fig, int(beyond.sum())
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    ax.set_title("Pareto front, every evaluation at its coordinates (log axes); "
+                 "dotted: 10 % error", fontsize=9)
+    return fig
 
 
 def pareto_figure(run: RunData) -> str:
-    """Pareto front of a two-objective run, zoomed on the front: the Pareto set (hollow
-    circles), the design point (a star behind them), the classical baseline and the other
-    successful evaluations (coloured by iteration; those beyond the zoomed axes drawn on the
-    edge as hollow diamonds and counted in the caption). A ``<details>`` element holds the
-    same plot over every evaluation (no JavaScript).
+    """Pareto front of a two-objective run on log-log axes (:func:`_pareto_plot`): every
+    successful evaluation where it is -- nothing clipped to an edge -- admissible and
+    inadmissible evaluations drawn differently, the admissible Pareto set (hollow circles),
+    the design point (a star behind them) and the classical baseline.
 
     Returns
     -------
     str
-        The embedded ``figures/pareto_front.png`` (zoomed) and
-        ``figures/pareto_front_all.png``; ``""`` unless there are two objectives and a
-        successful evaluation.
+        The embedded ``figures/pareto_front.png``; ``""`` unless there are two objectives
+        and a successful evaluation.
     """
     ok = run.ok
     objs = run.objectives
     if len(objs) != 2 or ok.empty:
         return ""
     F = percent(ok[objs].to_numpy(float))
-    fig, n_beyond = _pareto_plot(run, F, zoom=True)
-    beyond = (f" {n_beyond} evaluation{'s' if n_beyond != 1 else ''} beyond the axes (drawn "
-              "on the edge as hollow diamonds)." if n_beyond else "")
-    zoomed = figure_html(fig, run, "pareto_front",
-                         f"Pareto front: {objs[0]} vs {objs[1]} in %, zoomed on the Pareto set "
-                         "and the design point (star, drawn behind the Pareto circles), with "
-                         "the classical baseline." + beyond)
-    if not n_beyond:  # the zoomed view already shows everything
-        return zoomed
-    fig_all, _ = _pareto_plot(run, F, zoom=False)
-    full = figure_html(fig_all, run, "pareto_front_all",
-                       f"All {len(F)} successful evaluations, {objs[0]} vs {objs[1]} in %.")
-    return (zoomed + "<details class='figure-toggle'><summary>Show all evaluations "
-            f"(full axes)</summary>{full}</details>")
+    fig = _pareto_plot(run, F)
+    n_bad = int((~ok["admissible"].fillna(False).astype(bool)).sum()) \
+        if "admissible" in ok else 0
+    return figure_html(fig, run, "pareto_front",
+                       f"Pareto front: {objs[0]} vs {objs[1]} in %, log axes, all {len(F)} "
+                       "successful evaluations at their coordinates"
+                       + (f" ({n_bad} inadmissible: grey crosses)" if n_bad else "")
+                       + "; the design point (star), the admissible Pareto set and the "
+                       "classical baseline.")
 
 
 def history_figure(run: RunData) -> str:

@@ -132,7 +132,7 @@ def render_html(run: RunData, sections: Sequence[Section]) -> str:
            '<link rel="icon" href="data:,">',
            f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>",
            f"<h1>{html.escape(title)}</h1>",
-           f"<p>Run directory <code>{html.escape(str(run.directory))}</code> &mdash; "
+           f"<p>Run directory <code>{html.escape(run.directory.name)}</code> &mdash; "
            f"{state} &mdash; generated {stamp}.</p>"]
     if run.notes:
         out.append("<div class='notes'><strong>Notes</strong><ul>"

@@ -45,7 +45,8 @@ __all__ = ["RunData", "load_run", "FIGURES_DIR"]
 
 #: Figure folder in the run directory.
 _RESERVED = {ID_COLUMN, "iteration", "batch_index", "status", "message", "warnings", "seconds",
-             "seed"}
+             "seed", "aux", "admissible", "max_wall_temperature", "max_deflection_ratio",
+             "max_von_mises"}
 
 @dataclass
 class RunData:
@@ -190,6 +191,10 @@ def _read_response(path: Path, notes: list[str]) -> Response | None:
         return None
 
 
+#: RunData.evaluations column: the evaluation is admissible (the report marks it so).
+ADMISSIBLE = "admissible"
+
+
 def _store_frame(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
 
     with EvaluationStore(path) as store:
@@ -234,7 +239,7 @@ def _names_from_csv(csv: Path, n_var: int, n_obj: int) -> tuple[list[str], list[
         cols = list(pd.read_csv(csv, nrows=0).columns)
     except (OSError, ValueError, pd.errors.EmptyDataError):
         return None
-    middle = [c for c in cols if c not in _RESERVED and not re.fullmatch(r"g\d+", c)]
+    middle = [c for c in cols if c not in _RESERVED and not re.fullmatch(r"g\d+|G_\w+", c)]
     if len(middle) != n_var + n_obj:
         return None
     return middle[:n_var], middle[n_var:]
@@ -319,7 +324,13 @@ def _read_evaluations(store: Path, csv: Path, notes: list[str]
             notes.append(f"{STORE} unreadable ({exc}); using evaluations.csv")
             df = pd.read_csv(csv)
         else:
-            df = df.drop(columns=[c for c in df.columns if re.fullmatch(r"g\d+", c)])
+            # admissible: a success that holds every enforced simulated check (G <= 0); the
+            # analytic checks are enforced on every proposal (cheap constraints)
+            gcols = [c for c in df.columns if re.fullmatch(r"g\d+", c)]
+            ok = (df["status"] == "ok").to_numpy()
+            G = df[gcols].to_numpy(float) if gcols else np.zeros((len(df), 0))
+            df[ADMISSIBLE] = ok & np.all(G <= 0.0, axis=1)
+            df = df.drop(columns=gcols)
     else:
         df = pd.read_csv(csv)
         notes.append(f"no {STORE}: evaluations from evaluations.csv")
@@ -389,7 +400,7 @@ def _name_columns(run: RunData, df: pd.DataFrame, point: dict[str, Any] | None, 
             run.objectives = [c for c in df.columns if c in ("J_u", "J_T", "J_s")]
         if not run.variables:
             run.variables = [c for c in df.columns if c not in _RESERVED
-                             and c not in run.objectives]
+                             and c not in run.objectives and not c.startswith("G_")]
 
 
 def _attach_point(run: RunData, point: dict[str, Any] | None, simulate: bool) -> None:

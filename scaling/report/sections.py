@@ -3,7 +3,10 @@
 Each builder takes a :class:`~hypate.scaling.report.rundata.RunData` and returns a
 :class:`Section` (or ``None`` to leave it out). :data:`BUILTIN_SECTIONS` lists them in page
 order: *Study*, *Design point* (Table 9.8 style, with the rule that chose it, the active
-constraints and the surrogates' leave-one-out prediction), *Across seeds* (one seed of a
+constraints, the surrogates' leave-one-out prediction and the definitions of J),
+*Admissibility* (the design point's checks against its material's limits, its tunnel's
+test section and run time, with the margins; the model's and the prototype's temperatures in
+K, deflection and stress; the prototype's own validity), *Across seeds* (one seed of a
 ``--seeds`` run: the spread of the design point; left out otherwise), *Similarity
 parameters* (prototype / model / relative difference; > 10 % highlighted), *Glossary*
 (symbol, formula, equation and meaning of each parameter),
@@ -172,7 +175,7 @@ def _study_section(run: RunData) -> Section:
               + (f", {opt.transform} transform" if opt.transform != "none" else "") + ")")
     items = [("study", html.escape(study.name)),
              ("description", html.escape(study.description or "")),
-             ("study file", f"<code>{html.escape(str(run.study_path))}</code>"),
+             ("study file", f"<code>{html.escape(Path(str(run.study_path)).name)}</code>"),
              ("prototype", prototype), ("model", model), ("tunnel", tunnel),
              ("simulation", html.escape(
                  f"{spec.kind}, {sim.n_steps} steps of {sim.time_step:g} s (prototype), "
@@ -262,6 +265,7 @@ def _design_section(run: RunData) -> Section:
     body += "<h3>Objectives</h3>" + html_table(
         ["objective", "design point", "surrogate prediction (leave-one-out)",
          "classical baseline"], obj_rows)
+    body += _objectives_definition(run)
     if checks:
         body += _SURROGATE_NOTE
     body += "<h3>Active constraints</h3>" + (
@@ -278,6 +282,121 @@ def _design_section(run: RunData) -> Section:
                       f"{run.model_time_step * sim.n_steps:.4g} s (prototype "
                       f"{sim.time_step * sim.n_steps:.4g} s)"))
     return Section("Design point", body + (_dl(extra) if extra else ""))
+
+
+#: What J_u compares, per projection (the study's ``projection``).
+_J_U = {"center": "the centre deflection over the thickness, w_c / h",
+        "modal": "the sinusoidal modal coordinates of the deflection over the thickness",
+        "fields": "the nodal displacement fields nondimensionalized by Eq. (3.17b) (in-plane, "
+                  "transverse and rotation groups weighted equally)"}
+
+
+def _objectives_definition(run: RunData) -> str:
+    """The definitions of J_u and J_T (Eqs. 6.4, 9.6; Sec. 9.2.1.1)."""
+    projection = run.study.spec.projection if run.study is not None else "center"
+    return ("<p class='note'><strong>Definitions.</strong> Each J is a relative RMS error "
+            "over the time samples matched in nondimensional time (Eq. 6.4; model steps "
+            "mapped by the Fourier number, Eqs. 9.5-9.6): J = ||model - prototype|| / "
+            "||prototype||, so 0.1 reads 10 %. <i>J_u</i> compares "
+            f"{html.escape(_J_U.get(projection, _J_U['center']))}; <i>J_T</i> compares the "
+            "volume-mean temperature over the stagnation temperature, T_mean / T0 "
+            "(Sec. 9.2.1.1). The temperatures in kelvin are in the admissibility "
+            "section.</p>")
+
+
+#: Row labels of the responses table (key of ``responses.*``, label, unit, scale).
+_RESPONSE_ROWS = (("max_wall_temperature", "max wall temperature", "K", 1.0),
+                  ("max_wall_temperature_over_T0", "max wall temperature / T0", "-", 1.0),
+                  ("mean_wall_temperature", "max mean wall temperature", "K", 1.0),
+                  ("mean_temperature", "max volume-mean temperature", "K", 1.0),
+                  ("mean_temperature_over_T0", "max volume-mean temperature / T0", "-", 1.0),
+                  ("stagnation_temperature", "stagnation temperature T0", "K", 1.0),
+                  ("max_deflection_ratio", "max |w| / h", "-", 1.0),
+                  ("max_von_mises", "max von Mises stress", "MPa", 1e-6),
+                  ("max_stress_ratio", "max von Mises / yield(T)", "-", 1.0))
+
+
+def _check_state(row: dict[str, Any]) -> str:
+    if row.get("ok") is None:
+        return "limit not stated"
+    if row.get("ok") is False:
+        return "VIOLATED"
+    return "binding" if row.get("binding") else "ok"
+
+
+def _admissibility_section(run: RunData) -> Section | None:
+    """What the design point's model goes through against its limits: the admissibility
+    table (check, value, limit, margin, binding), the model's and the prototype's
+    temperatures (K and over T0), deflection and stress, the prototype's own validity and
+    the materials' limits with their sources."""
+    point = run.point or {}
+    rows_in = point.get("admissibility")
+    if not rows_in:
+        return None
+    verdict = ("<p class='rule'><strong>Admissible.</strong> The model holds every enforced "
+               "limit (<i>constraint</i> mode) with the margins below.</p>"
+               if point.get("admissible") else
+               f"<p class='warn'><strong>Not admissible.</strong> "
+               f"{html.escape(point.get('message') or 'An enforced limit is violated.')} "
+               "The violated checks are highlighted.</p>")
+    rows, classes = [], []
+    for r in rows_in:
+        unit = r.get("unit")
+        scale = 1e-6 if unit == "Pa" else 1.0
+        shown = "MPa" if unit == "Pa" else unit
+        rows.append((r.get("check"), r.get("mode"),
+                     None if r.get("value") is None else r["value"] * scale,
+                     None if r.get("limit") is None else r["limit"] * scale,
+                     None if r.get("margin") is None else r["margin"] * scale, shown,
+                     _check_state(r), r.get("where") or ""))
+        classes.append("mismatch" if r.get("ok") is False else
+                       "active" if r.get("binding") else "")
+    body = verdict + html_table(["check", "mode", "value", "limit", "margin = limit - value",
+                                 "unit", "state", "where"], rows, classes)
+    body += ("<p class='note'>Limits already hold the study's margins. <i>constraint</i>: "
+             "enforced by the optimizer and the design-point choice; <i>report</i>: shown, "
+             "not enforced. Temperature: each layer's highest temperature against its "
+             "material's service temperature; data: the temperatures its property tables "
+             "cover; stress: plane-stress von Mises at the load-bearing surfaces (face "
+             "sheets of a sandwich) against yield(T) / safety factor at the point of highest "
+             "utilization; size: L_le + panel length inside the free jet's uniform core; "
+             "duration: the scaled test plus the injection time against the tunnel's run "
+             "time at the setting.</p>")
+    responses = point.get("responses") or {}
+    if any(responses.values()):
+        resp_rows = []
+        for key, label, unit, scale in _RESPONSE_ROWS:
+            vals = [(responses.get(w) or {}).get(key) for w in ("model", "prototype")]
+            resp_rows.append((label, unit) + tuple(None if v is None else v * scale
+                                                  for v in vals))
+        body += "<h3>What the model and the prototype go through</h3>" + html_table(
+            ["quantity", "unit", "model", "prototype"], resp_rows)
+    proto_rows = point.get("prototype_admissibility") or []
+    stress = next((r for r in proto_rows if r.get("check") == "stress"), None)
+    if point.get("prototype_yields") and stress is not None:
+        body += (f"<p class='warn'><strong>The prototype itself would yield.</strong> Its "
+                 f"elastic von Mises stress reaches {stress['value'] / 1e6:.0f} MPa against "
+                 f"a yield strength of {stress['limit'] / 1e6:.0f} MPa there "
+                 f"({html.escape(stress.get('where') or '')}): the similarity computed here "
+                 "is that of the elastic idealization, and the study's stress check only "
+                 "reports (a model need not be held to a stricter standard than its "
+                 "prototype).</p>")
+    limits = point.get("limits") or {}
+    lim_rows = []
+    for who in ("model", "prototype"):
+        for m in limits.get(who) or []:
+            lo, hi = m.get("data_range") or (None, None)
+            lim_rows.append((who, m.get("material"), m.get("service_temperature"),
+                             f"{lo:g}-{hi:g}" if lo is not None and hi is not None else "-",
+                             "-" if not m.get("trusted_range") else
+                             "-".join(f"{v:g}" for v in m["trusted_range"]),
+                             None if m.get("yield_strength_300K") is None
+                             else m["yield_strength_300K"] / 1e6, m.get("sources") or ""))
+    if lim_rows:
+        body += "<h3>Material limits</h3>" + html_table(
+            ["article", "material", "service temperature (K)", "property data (K)",
+             "trusted range (K)", "yield at 300 K (MPa)", "sources"], lim_rows)
+    return Section("Admissibility", body)
 
 
 def _similarity_section(run: RunData) -> Section:
@@ -475,7 +594,7 @@ def _robustness_section(run: RunData) -> Section | None:
         other = nominal.get("robust") or {}
         body += (f" The robust search minimizes the {html.escape(stat)} of J_u and J_T under "
                  "that scatter on its surrogate; its best design and the nominal optimum of "
-                 f"the same study (its own campaign, {html.escape(nominal['directory'])}/) "
+                 f"the same study (its own campaign, {html.escape(Path(nominal['directory']).name)}/) "
                  "are both verified on the simulator, and the design point is the better "
                  f"of the two: the {html.escape(point.get('chosen', 'robust search'))}.</p>")
         blocks = {name: block for name, block in (("robust search's design", candidate),
@@ -590,6 +709,7 @@ def _prediction_section(run: RunData) -> Section | None:
 
 #: The built-in section builders, in page order (registered plug-ins follow them).
 BUILTIN_SECTIONS: tuple[Callable[[RunData], Section | None], ...] = (
-    _study_section, _design_section, _seeds_section, _similarity_section, _glossary_section,
+    _study_section, _design_section, _admissibility_section, _seeds_section,
+    _similarity_section, _glossary_section,
     _robustness_section, _figures_section, _pareto_section, _statistics_section,
     _warnings_section, _laws_section, _prediction_section)

@@ -20,6 +20,7 @@ Pareto front and the report are the top level's evaluations only.
 """
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from typing import Annotated, Any
 
@@ -27,7 +28,7 @@ import numpy as np
 from hypate.scaling.engine.fidelity import MultiFidelityOptimizer
 from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.engine.settings import OptimizerSettings
-from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.problem import ScalingProblem, evaluate_rows
 from hypate.solvers.config import InputModel
 from hypate.solvers.settings import DEFAULTS
 from pydantic import Field
@@ -147,6 +148,10 @@ class FidelityProblem(Problem):
             raise ValueError("fidelity levels must share the variables and objectives")
         self.levels = list(levels)
         self.names = list(names)
+        # the multi-fidelity search models no expensive constraint (its co-kriging is of the
+        # objectives): the admissibility columns are dropped here, every evaluation keeps
+        # what its model went through (aux), and the design point is chosen among the
+        # admissible top-level evaluations (scaling.workflow.verdict)
         super().__init__(n_var=top.n_var + 1, n_obj=top.n_obj, n_ieq_constr=0,
                          xl=np.r_[np.asarray(top.xl, float), 0.0],
                          xu=np.r_[np.asarray(top.xu, float), float(len(levels) - 1)])
@@ -161,19 +166,25 @@ class FidelityProblem(Problem):
         return int(min(max(round(float(np.asarray(x, float)[-1])), 0), len(self.levels) - 1))
 
     def _evaluate(self, X: np.ndarray, out: dict[str, Any], *args: Any, **kwargs: Any) -> None:
-        F = np.empty((X.shape[0], self.n_obj))
-        for i, x in enumerate(np.atleast_2d(X)):  # each row is one expensive simulation
-            err = self.levels[self.level(x)].errors(x[:-1])
-            F[i] = [err[o] for o in self.top.spec.objectives]
-        out["F"] = F
+        X = np.atleast_2d(X)
+        if len(X) != 1:  # the engine evaluates one design at a time
+            raise ValueError("a fidelity problem evaluates one design per call")
+        level = self.levels[self.level(X[0])]
+        full: dict[str, Any] = {}
+        evaluate_rows(level, [level.model_configuration(X[0, :-1])], full)
+        out["F"], out["aux"] = full["F"], full["aux"]
 
 
 def fidelity_problem(study: Any, problem: Any) -> FidelityProblem | None:
     """The study's levels around its own ``problem`` (None: a single-fidelity study)."""
     if not study.lower_levels:
         return None
-    return FidelityProblem([ScalingProblem(spec) for _, spec, _ in study.lower_levels]
-                           + [problem], study.level_names)
+    # every level enforces the top level's checks (the stress check's "auto" decided once,
+    # by the study's own prototype), so that the constraint columns mean one thing
+    rules = problem.admissibility
+    return FidelityProblem([ScalingProblem(dataclasses.replace(spec, admissibility=rules))
+                            for _, spec, _ in study.lower_levels] + [problem],
+                           study.level_names)
 
 
 def fidelity_optimizer(study: Any, problem: FidelityProblem, settings: OptimizerSettings

@@ -33,6 +33,13 @@ gradients (log space). A heater schedule of shape ``"increasing"`` (``"decreasin
 A failed model simulation (no equilibrium, instability before the prototype's end, solver
 divergence) raises :class:`ModelFailure`; the optimizer records it as a failed evaluation
 with the reason and steers away from it (never a crash).
+
+Admissibility (:mod:`hypate.scaling.workflow.admissibility`): the simulated checks in
+``"constraint"`` mode (service temperature, property data, stress) are the problem's
+expensive constraint columns ``G <= 0`` (relative violations), the analytic ones (size in
+the free jet's core, test duration against the run time) further cheap inequalities; every
+evaluation also returns, as its auxiliary outputs (``aux``), what the model went through
+(:meth:`Response.extremes`), from which its admissibility rows are rebuilt.
 """
 from __future__ import annotations
 
@@ -43,8 +50,17 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from hypate.scaling.engine.histories import HISTORIES, Composition
 from hypate.scaling.engine.mixed import Categorical
 from hypate.scaling.engine.problem import CheapConstraint
+from hypate.scaling.workflow.admissibility import (
+    Admissibility,
+    analytic_rows,
+    simulated_columns,
+    size_value,
+    stress_row,
+    temperature_rows,
+)
 from hypate.scaling.workflow.configuration import (
     Configuration,
     apply_design,
@@ -57,6 +73,7 @@ from hypate.scaling.workflow.similarity import (
     reference_quantities,
     time_scale,
 )
+from hypate.scaling.workflow.tunnels import TunnelEnvelope
 from hypate.scaling.workflow.variables import CATEGORICAL, base_name, schedule_point
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.coupling.lc import run_lc
@@ -133,6 +150,11 @@ class ScalingSpec:
         The levels of a categorical ``material`` variable, by name: level ``k`` of the
         design vector makes every model layer of ``materials[k][1]`` (empty: the
         template's material, no such variable).
+    tunnel : TunnelEnvelope or None
+        The tunnel the model is tested in (its test section and run time bound the size
+        and duration checks).
+    admissibility : Admissibility
+        The study's admissibility checks (``[admissibility]``).
     """
 
     prototype: Configuration
@@ -147,6 +169,8 @@ class ScalingSpec:
     increasing: tuple[str, ...] = ()
     decreasing: tuple[str, ...] = ()
     materials: tuple[tuple[str, Material], ...] = ()
+    tunnel: TunnelEnvelope | None = None
+    admissibility: Admissibility = Admissibility()
 
     def __post_init__(self) -> None:
         if not self.variables:
@@ -243,6 +267,123 @@ def simulate_configuration(config: Configuration, keep_fields: bool = False) -> 
     return run_lc(model, settings.scheme, record_every=1, stop_on_snap=False)
 
 
+class AnalyticCheck:
+    """An analytic admissibility check of a scaling problem as a cheap inequality
+    ``fun(x) <= 0`` (relative violation), with a forward-difference Jacobian (step
+    :attr:`REL_STEP` of each bound's span; the value at ``x`` is cached, as SLSQP asks for
+    it and its Jacobian at the same point). Picklable: the inner SLSQP starts run on the
+    run's workers.
+
+    ``"size"``: ``(plate - (core - margin)) / core``, the model plate in the free jet's core;
+    ``"duration"``: ``(test + injection - (run time - margin)) / run time``. The run time is
+    a closed form of the setting; the test duration needs the model's matched time step
+    (its reference quantities, the costly part), which depends on few variables (the
+    panel's length and material for Eq. 9.6, not the tunnel setting): it is cached by the
+    values of the variables it depends on, found once by moving each variable alone
+    between two interior points of the box (a categorical material always counts).
+    """
+
+    REL_STEP = 1e-6
+
+    def __init__(self, problem: ScalingProblem, check: str) -> None:
+        self.problem, self.check = problem, check
+        self._cache: dict[bytes, float] = {}
+        self._steps: dict[bytes, float] = {}
+        self._step_inputs: list[int] | None = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {"problem": self.problem, "check": self.check, "_cache": {}, "_steps": {},
+                "_step_inputs": self._step_inputs}
+
+    def _duration_inputs(self) -> list[int]:
+        """The variables the test duration depends on (class docstring)."""
+        if self._step_inputs is None:
+            p = self.problem
+            lo, hi = np.asarray(p.xl, float), np.asarray(p.xu, float)
+            a, b = lo + 0.3 * (hi - lo), lo + 0.7 * (hi - lo)
+            base = p.model_configuration(a).simulation.duration
+            found = []
+            for i in range(p.n_var):
+                if i == p.spec.material_index:
+                    found.append(i)
+                    continue
+                moved = a.copy()
+                moved[i] = b[i]
+                if p.model_configuration(moved).simulation.duration != base:
+                    found.append(i)
+            self._step_inputs = found
+        return self._step_inputs
+
+    def test_duration(self, x: np.ndarray) -> float:
+        """The scaled test's duration (s) of design ``x``, cached (class docstring)."""
+        key = np.asarray(x, float)[self._duration_inputs()].tobytes()
+        if key not in self._steps:
+            if len(self._steps) > 256:
+                self._steps.clear()
+            self._steps[key] = self.problem.model_configuration(x).simulation.duration
+        return self._steps[key]
+
+    def margin(self, x: np.ndarray) -> float:
+        """The relative violation at design ``x`` (<= 0: the check holds)."""
+        p = self.problem
+        rule = p.spec.admissibility.rule(self.check)
+        tunnel = p.spec.tunnel
+        assert tunnel is not None
+        config = p.configure(p.design(x))
+        if self.check == "size":
+            plate, core = size_value(config.panel, tunnel, float(config.flow.mach))
+            return (plate - (float(core) - rule.margin)) / max(float(core), 1e-12)
+        run = tunnel.run_time_at(*p.setting(config))
+        return (self.test_duration(x) + rule.injection_time - (run - rule.margin)) / run
+
+    def _value(self, x: np.ndarray) -> float:
+        key = np.asarray(x, float).tobytes()
+        if key not in self._cache:
+            if len(self._cache) > 64:
+                self._cache.clear()
+            self._cache[key] = float(self.margin(np.asarray(x, float)))
+        return self._cache[key]
+
+    def fun(self, x: np.ndarray) -> np.ndarray:
+        return np.array([self._value(x)])
+
+    def jac(self, x: np.ndarray) -> np.ndarray:
+        p = self.problem
+        x = np.asarray(x, float)
+        f0 = self._value(x)
+        span = np.asarray(p.xu, float) - np.asarray(p.xl, float)
+        J = np.zeros((1, p.n_var))
+        for i in range(p.n_var):
+            if i == p.spec.material_index:  # a level: no derivative
+                continue
+            xp = x.copy()
+            xp[i] += self.REL_STEP * span[i]
+            J[0, i] = (self._value(xp) - f0) / (self.REL_STEP * span[i])
+        return J
+
+    def constraint(self) -> CheapConstraint:
+        return CheapConstraint(fun=self.fun, jac=self.jac, kind="ineq")
+
+
+def evaluate_rows(problem: ScalingProblem, configs: Sequence[Configuration],
+                  out: dict[str, Any]) -> None:
+    """Fill a pymoo output dictionary from one model simulation per configuration
+    (:meth:`ScalingProblem.outputs`): ``F``, ``G`` (when the problem has constraint
+    columns) and ``aux`` (one dict per row)."""
+    F = np.empty((len(configs), problem.n_obj))
+    G = np.empty((len(configs), problem.n_ieq_constr))
+    aux = []
+    for i, config in enumerate(configs):  # each one expensive simulation
+        err, g, extra = problem.outputs(config)
+        F[i] = [err[o] for o in problem.spec.objectives]
+        G[i] = g
+        aux.append(extra)
+    out["F"] = F
+    if problem.n_ieq_constr:
+        out["G"] = G
+    out["aux"] = aux
+
+
 def _series(resp: Response, projection: str) -> np.ndarray:
     """Nondimensional deflection history (n_t, k): modal coordinates or centre w / h."""
     if projection == "modal":
@@ -281,6 +422,14 @@ def response_series(resp: Response, projection: str = "center") -> dict[str, np.
     return out
 
 
+def history_vector(series: dict[str, np.ndarray], n: int) -> np.ndarray:
+    """The ``"u"`` and ``"T"`` series of :func:`response_series` over steps 1 .. n - 1,
+    flattened and concatenated: exactly what J compares with the prototype's (a comparable
+    model runs at least the prototype's ``n`` steps)."""
+    return np.concatenate([np.asarray(series[key], float)[1:n].reshape(-1)
+                           for key in ("u", "T")])
+
+
 def series_errors(model: dict[str, np.ndarray], prototype: dict[str, np.ndarray], n: int
                   ) -> dict[str, float]:
     """J_u, J_T, J_s (Eqs. 6.4, 9.8) of :func:`response_series` over steps 1 .. n - 1."""
@@ -306,7 +455,8 @@ def response_errors(model: Response, prototype: Response, projection: str = "cen
 
 # -- the pymoo problem ----------------------------------------------------------------------
 class ScalingProblem(Problem):
-    """Prototype vs model as a pymoo problem (objectives minimized, no expensive constraints).
+    """Prototype vs model as a pymoo problem (objectives minimized; the admissibility checks
+    in ``"constraint"`` mode as expensive constraints ``G <= 0``, module docstring).
 
     Parameters
     ----------
@@ -319,13 +469,41 @@ class ScalingProblem(Problem):
         self.spec = spec
         xl = np.array([v.lower for v in spec.variables])
         xu = np.array([v.upper for v in spec.variables])
+        self._rules: Admissibility | None = None
         super().__init__(n_var=len(spec.variables), n_obj=len(spec.objectives),
                          n_ieq_constr=0, xl=xl, xu=xu)
         self._prototype_response = prototype_response
+        if spec.admissibility.mode("stress") != "auto":
+            self._settle(spec.admissibility)
+        elif prototype_response is not None:
+            self._settle(spec.admissibility.resolved(
+                prototype_response.extremes()["max_stress_ratio"]))
+        else:  # provisional until the prototype says whether the stress check applies
+            self.n_ieq_constr = len([n for n in spec.admissibility.simulated_constraints
+                                     if n != "stress"])
         self._ref_p = reference_quantities(spec.prototype)
         i = spec.material_index
         #: The categorical material for the optimizer (None: the template's material).
         self.categorical = None if i is None else Categorical(i, len(spec.materials))
+
+    def _settle(self, rules: Admissibility) -> None:
+        """Fix the admissibility rules and the constraint columns they make."""
+        self._rules = rules
+        self.n_ieq_constr = len(rules.simulated_constraints)
+
+    @property
+    def admissibility(self) -> Admissibility:
+        """The study's checks with the stress check's ``"auto"`` decided by the prototype's
+        own stress (the prototype is simulated if it was not yet)."""
+        if self._rules is None:
+            self.prototype_response  # noqa: B018 - settles the rules
+        assert self._rules is not None
+        return self._rules
+
+    @property
+    def constraint_names(self) -> tuple[str, ...]:
+        """The checks behind the expensive constraint columns, in order."""
+        return self.admissibility.simulated_constraints
 
     # -- prototype --------------------------------------------------------------------------
     @property
@@ -337,6 +515,9 @@ class ScalingProblem(Problem):
             if resp.status == "failed":
                 raise InputError("prototype", f"the prototype simulation failed: {resp.message}")
             self._prototype_response = resp
+        if self._rules is None:
+            self._settle(self.spec.admissibility.resolved(
+                self._prototype_response.extremes()["max_stress_ratio"]))
         return self._prototype_response
 
     # -- model --------------------------------------------------------------------------------
@@ -388,9 +569,46 @@ class ScalingProblem(Problem):
 
     def errors(self, x: Sequence[float]) -> dict[str, float]:
         """J_u, J_T, J_s of one design; raises :class:`ModelFailure` when not comparable."""
+        return self.outputs(self.model_configuration(x))[0]
+
+    def outputs(self, config: Configuration) -> tuple[dict[str, float], np.ndarray,
+                                                        dict[str, Any]]:
+        """One model simulation's J (as :meth:`errors`), its expensive constraint columns
+        (:func:`~hypate.scaling.workflow.admissibility.simulated_columns`) and its auxiliary
+        outputs: ``{"extremes": Response.extremes()}``.
+
+        Raises
+        ------
+        ModelFailure
+            The response is not comparable with the prototype's.
+        """
         proto = self.prototype_response
-        resp = self.checked_response(self.model_configuration(x))
-        return response_errors(resp, proto, self.spec.projection)
+        resp = self.checked_response(config)
+        err = response_errors(resp, proto, self.spec.projection)
+        ext = resp.extremes()
+        aux: dict[str, Any] = {"extremes": ext}
+        if self.spec.projection != "fields":  # a fields projection's histories are fields
+            aux[HISTORIES] = history_vector(response_series(resp, self.spec.projection),
+                                            len(proto.times)).tolist()
+        return err, simulated_columns(self.admissibility, config.panel, ext), aux
+
+    def composition(self) -> Composition | None:
+        """J as a composition of the model's nondimensional histories (the engine's
+        histories surrogate, :mod:`hypate.scaling.engine.histories`): the histories vector
+        of :func:`history_vector` (the ``"u"`` series, then ``"T"``, steps 1 .. n - 1, as
+        J compares them), the prototype's as the targets, and each objective's weights
+        over the two groups (Eqs. 6.4, 9.8: ``J_u^2 = ||u - u_p||^2 / ||u_p||^2``, ``J_T``
+        alike, ``J_s^2`` their sum). None for the ``"fields"`` projection."""
+        if self.spec.projection == "fields":
+            return None
+        proto = response_series(self.prototype_response, self.spec.projection)
+        n = len(self.prototype_response.times)
+        u, T = proto["u"][1:n].ravel(), proto["T"][1:n].ravel()
+        groups = (np.arange(u.size), u.size + np.arange(T.size))
+        inv = np.array([1.0 / max(float(u @ u), 1e-300), 1.0 / max(float(T @ T), 1e-300)])
+        rows = {"J_u": [inv[0], 0.0], "J_T": [0.0, inv[1]], "J_s": [inv[0], inv[1]]}
+        return Composition(targets=np.r_[u, T], groups=groups,
+                           weights=np.array([rows[o] for o in self.spec.objectives]))
 
     def checked_response(self, config: Configuration) -> Response:
         """Simulate a model configuration; :class:`ModelFailure` unless its response is
@@ -415,23 +633,62 @@ class ScalingProblem(Problem):
         return resp
 
     def _evaluate(self, X: np.ndarray, out: dict[str, Any], *args: Any, **kwargs: Any) -> None:
-        F = np.empty((X.shape[0], self.n_obj))
-        for i, x in enumerate(np.atleast_2d(X)):  # each row is one expensive simulation
-            err = self.errors(x)
-            F[i] = [err[o] for o in self.spec.objectives]
-        out["F"] = F
+        evaluate_rows(self, [self.model_configuration(x) for x in np.atleast_2d(X)], out)
+
+    # -- admissibility ------------------------------------------------------------------------
+    def setting(self, config: Configuration) -> tuple[float, float, float]:
+        """The tunnel setting ``(M, p0, T0)`` (Pa, K) of a model configuration."""
+        f = config.flow
+        return float(f.mach), float(f.stagnation_pressure), float(f.stagnation_temperature)
+
+    def admissibility_rows(self, config: Configuration, extremes: Mapping[str, Any] | None
+                           ) -> list[dict[str, Any]]:
+        """Every admissibility row of a model (:mod:`~hypate.scaling.workflow.admissibility`;
+        the simulated ones only with the run's ``extremes``), in report order."""
+        rules, panel = self.admissibility, config.panel
+        rows: list[dict[str, Any]] = []
+        if extremes is not None:
+            rows += temperature_rows(rules, panel, extremes)
+            srow = stress_row(rules, panel, extremes)
+            rows += [] if srow is None else [srow]
+        envelope = any(v.name in ("M", "p0", "T0") for v in self.spec.variables) or \
+            any(n in ("M", "p0", "T0") for n in self.spec.fixed)
+        rows += analytic_rows(rules, panel, self.spec.tunnel, self.setting(config),
+                              config.simulation.duration, envelope=envelope)
+        return rows
+
+    def prototype_rows(self) -> list[dict[str, Any]]:
+        """The prototype's own temperature, data and stress rows (its validity: a prototype
+        beyond its yield strength makes the similarity one of the elastic idealization)."""
+        proto = self.prototype_response
+        panel = self.spec.prototype.panel
+        ext = proto.extremes()
+        rules = dataclasses.replace(self.admissibility, rules=tuple(
+            dataclasses.replace(r, mode="report", margin=0.0) for r in self.admissibility.rules))
+        srow = stress_row(rules, panel, ext)
+        return temperature_rows(rules, panel, ext) + ([] if srow is None else [srow])
 
     # -- cheap constraints ------------------------------------------------------------------
     def cheap_constraints(self) -> list[CheapConstraint]:
         """Eq. (9.7) equalities as exact analytic constraints on the design vector, in the
         order of ``spec.equalities``, then one monotonicity constraint per increasing,
-        then per decreasing schedule (:meth:`_monotone_constraint`)."""
+        then per decreasing schedule (:meth:`_monotone_constraint`), then the analytic
+        admissibility checks in ``"constraint"`` mode (:meth:`_size_constraint`,
+        :meth:`_duration_constraint`) where the tunnel states their limit."""
         out = []
         for name in self.spec.equalities:
             if name == "T_inf":
                 out.append(self._t_inf_constraint())
         out += [self._monotone_constraint(name, sign) for name, sign in self.spec.monotone]
+        rules, tunnel = self.spec.admissibility, self.spec.tunnel
+        if tunnel is not None and tunnel.test_section is not None \
+                and rules.mode("size") == "constraint":
+            out.append(AnalyticCheck(self, "size").constraint())
+        if tunnel is not None and tunnel.run_time is not None \
+                and rules.mode("duration") == "constraint":
+            out.append(AnalyticCheck(self, "duration").constraint())
         return out
+
 
     def _monotone_constraint(self, name: str, sign: int) -> CheapConstraint:
         """``sign (x[k] - x[k+1]) / span <= 0`` for the control points of schedule ``name``:

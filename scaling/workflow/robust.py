@@ -39,7 +39,7 @@ from hypate.scaling.engine.robust import RobustBayesianOptimizer
 from hypate.scaling.engine.settings import OptimizerSettings
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
 from hypate.scaling.workflow.campaign import preflight, record_campaign, run_lock
-from hypate.scaling.workflow.problem import ScalingProblem, response_errors
+from hypate.scaling.workflow.problem import ScalingProblem, evaluate_rows, response_errors
 from hypate.scaling.workflow.run import (
     RunOutcome,
     design_fields,
@@ -92,13 +92,13 @@ class JointProblem(Problem):
 
     def _evaluate(self, X: np.ndarray, out: dict[str, Any], *args: Any, **kwargs: Any) -> None:
         p, n = self.scaling, self.scaling.n_var
-        F = np.empty((len(X), self.n_obj))
-        for i, z in enumerate(np.atleast_2d(X)):  # each row is one expensive simulation
-            config = scattered_configuration(p, z[:n], self.unc.names, z[n:])
-            err = response_errors(p.checked_response(config), p.prototype_response,
-                                  p.spec.projection)
-            F[i] = [err[o] for o in p.spec.objectives]
-        out["F"] = F
+        # the robust statistic of a constraint is not modelled (the engine's robust search
+        # takes none): the admissibility columns are dropped here, the nominal campaign
+        # enforces them, and the chosen design's rows are reported (design_point.json)
+        full: dict[str, Any] = {}
+        evaluate_rows(p, [scattered_configuration(p, z[:n], self.unc.names, z[n:])
+                          for z in np.atleast_2d(X)], full)
+        out["F"], out["aux"] = full["F"], full["aux"]
 
 
 def nominal_study(study: Study) -> Study:

@@ -85,6 +85,11 @@ from hypate.scaling.workflow.rundir import (
 from hypate.scaling.workflow.study import Study
 from hypate.scaling.workflow.uncertainty import propagate_or_failure
 from hypate.scaling.workflow.variables import schedule_point
+from hypate.scaling.workflow.verdict import (
+    choose_admissible_point,
+    evaluation_admissibility,
+    verdict_fields,
+)
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
@@ -426,7 +431,7 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
                 cheap_constraints=problem.cheap_constraints(), executor=executor,
                 timeout=opt.timeout, store=store, seed=run_seed, callback=callback,
                 output_transform=opt.transform, coordinates=coordinates, polish=opt.polish,
-                categorical=problem.categorical)
+                categorical=problem.categorical, surrogate=opt.surrogate)
             t0 = time.perf_counter()
             optimizer = (BayesianOptimizer(problem, settings) if levels is None
                          else fidelity_optimizer(study, levels, settings))
@@ -442,14 +447,40 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
                       prototype_warnings=prototype_warnings)
 
 
-def evaluations_table(study: Study, result: OptimizationResult) -> pd.DataFrame:
+#: evaluations.csv columns read from each evaluation's extremes (K, -, Pa).
+EXTREME_COLUMNS = ("max_wall_temperature", "max_deflection_ratio", "max_von_mises")
+#: evaluations.csv column: whether the evaluation is admissible (empty: failed, or a lower
+#: fidelity level).
+ADMISSIBLE_COLUMN = "admissible"
+#: evaluations.csv prefix of an admissibility constraint column (its relative violation).
+CONSTRAINT_PREFIX = "G_"
+
+
+def evaluations_table(study: Study, result: OptimizationResult,
+                      admissible: tuple[np.ndarray, np.ndarray] | None = None,
+                      constraint_names: Sequence[str] = ()) -> pd.DataFrame:
     """Evaluations with variables and objectives by name, after an ``id`` column (the
-    0-based row number in the store order: the evaluation number the report prints)."""
+    0-based row number in the store order: the evaluation number the report prints);
+    the admissibility constraint columns ``G_<check>`` (``constraint_names``, the problem's
+    :attr:`~ScalingProblem.constraint_names`; relative violation, <= 0 holds),
+    what each model went through (:data:`EXTREME_COLUMNS`) and, given ``admissible`` as
+    ``(rows, flags)``, an ``admissible`` column (True / False on those rows)."""
     df = result.data.copy()
     names = study.spec.names
     rename = {f"x{i}": n for i, n in enumerate(names)}
     rename.update({f"f{i}": o for i, o in enumerate(study.spec.objectives)})
+    gcols = [c for c in df.columns if c.startswith("g") and c[1:].isdigit()]
+    if len(gcols) == len(constraint_names):
+        rename.update({g: CONSTRAINT_PREFIX + n for g, n in zip(gcols, constraint_names)})
     df = df.rename(columns=rename)
+    aux = df.pop("aux") if "aux" in df.columns else pd.Series([{}] * len(df))
+    for key in EXTREME_COLUMNS:
+        df[key] = [((a or {}).get("extremes") or {}).get(key, np.nan) if isinstance(a, dict)
+                   else np.nan for a in aux]
+    if admissible is not None:
+        flags = pd.Series([None] * len(df), dtype=object)
+        flags.iloc[admissible[0]] = [bool(v) for v in admissible[1]]
+        df[ADMISSIBLE_COLUMN] = flags.to_numpy()
     df.insert(0, ID_COLUMN, np.arange(len(df)))
     if study.lower_levels:  # the level after the design, then its name
         df = df.rename(columns={f"x{len(names)}": FIDELITY})
@@ -572,16 +603,19 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     """evaluations.csv, pareto.csv, design_point.json (+ design_point.npz); with the run's
     ``optimizer``, the surrogates' leave-one-out prediction of the design point
     (:func:`surrogate_record`); for a study with ``[uncertainty]``, the design point's
-    ``scatter`` (:func:`design_point_scatter`)."""
-    table = evaluations_table(study, result)
-    tmp = out / "evaluations.csv.tmp"
-    table.to_csv(tmp, index=False)
-    tmp.replace(out / EVALUATIONS_CSV)
+    ``scatter`` (:func:`design_point_scatter`). The design point is chosen among the
+    admissible evaluations (:mod:`hypate.scaling.workflow.verdict`)."""
     full = result
     if study.lower_levels:  # the front and the design point are the top level's
         result, rows = top_level(full, len(study.level_names))
     else:
-        rows = np.arange(len(table))
+        rows = np.arange(len(full.data))
+    adm, vio = evaluation_admissibility(problem, result)
+    table = evaluations_table(study, full, admissible=(rows, adm),
+                              constraint_names=problem.constraint_names)
+    tmp = out / "evaluations.csv.tmp"
+    table.to_csv(tmp, index=False)
+    tmp.replace(out / EVALUATIONS_CSV)
     mask = result.pareto_mask() if len(rows) else np.zeros(0, bool)
     top_table = table.iloc[rows]
     pareto = top_table[mask] if study.spec.objectives and len(study.spec.objectives) > 1 else \
@@ -589,10 +623,13 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     tmp = out / "pareto.csv.tmp"
     pareto.to_csv(tmp, index=False)
     tmp.replace(out / PARETO_CSV)
-    row = choose_design_point(study, result)
+    opt = study.optimizer
+    row, is_admissible = choose_admissible_point(result, adm, vio, opt.design_point,
+                                                 opt.weights)
     point = point_header(study)
     if row is None:
         point.update(design=None, objectives=None, similarity=[], active_constraints=[],
+                     admissible=False, admissibility=[],
                      message="no successful evaluation")
     else:
         x = result.X[row]
@@ -606,10 +643,18 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
             point[MATERIAL]["best"] = best_by_material(study, result)
         if study.uncertainty is not None:
             point["scatter"] = design_point_scatter(study, problem, x, store, on_scatter)
-        point.update(save_design_response(problem, x, out)[1])
+        resp, saved = save_design_response(problem, x, out)
+        point.update(saved)
+        extremes = (resp.extremes() if resp is not None
+                    else result.data["aux"].iloc[row].get("extremes"))
+        point.update(verdict_fields(problem, x, extremes))
+        if not is_admissible:
+            point["message"] = (f"no admissible evaluation: the design point is the "
+                                f"least-violating of the {int(result.ok.sum())} successful ones")
     n = len(table)
     ok = int(full.ok.sum()) if n else 0
     point["statistics"] = {"evaluations": n, "successful": ok, "failed": n - ok,
+                           "admissible": int(adm.sum()),
                            "wall_seconds": finite_or_none(wall_seconds),
                            "median_seconds_per_evaluation":
                                finite_or_none(float(np.median(table["seconds"]))) if n else None,

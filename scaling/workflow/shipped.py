@@ -20,13 +20,17 @@ _PLACES: dict[str, tuple[tuple[str, str], ...]] = {
 }
 
 
+#: Shipped data files beside the quick-start study that are not studies.
+DATA_FILES = ("tunnels.toml", "best_known.toml")
+
+
 def shipped(kind: str) -> dict[str, Path]:
     """Shipped files of one kind (``"study"``, ``"case"``, ``"rom"``) by stem."""
     found: dict[str, Path] = {}
     for package, folder in _PLACES[kind]:
         root = Path(str(resources.files(package))).joinpath(folder)
         for path in sorted(root.glob("*.toml")):
-            if kind != "study" or path.name != "tunnels.toml":
+            if kind != "study" or path.name not in DATA_FILES:
                 found.setdefault(path.stem, path)
     return found
 

@@ -23,6 +23,10 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
                    material = ["ti6242", "inconel718", ...] (scaling.workflow.design_space)
     [fixed]        NAME = value (design values that are not optimized)
     [constraints]  equality = ["T_inf"]
+    [admissibility]  temperature, data, stress, size, duration, envelope: each "constraint" |
+                   "report" | "off" (stress also "auto", its default) or a table
+                   { mode, margin, safety_factor (stress), injection_time (duration, s) }
+                   (scaling.workflow.admissibility)
     [optimizer]    approach, acquisition, v, weights, initial_samples, iterations,
                    batch_size, seed, classical_seed, transform ("none" | "log"),
                    coordinates ("design" | "log" | "similarity": the surrogates' inputs;
@@ -72,6 +76,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from hypate.scaling.workflow import uncertainty as scatter
+from hypate.scaling.workflow.admissibility import AdmissibilitySection
 from hypate.scaling.workflow.configuration import Configuration
 from hypate.scaling.workflow.design_space import (
     VariableEntry,
@@ -261,6 +266,9 @@ class OptimizerSection(InputModel):
     #: How the design point is chosen from the feasible evaluations (rundir.DESIGN_POINT_RULES;
     #: "weighted" uses ``weights``).
     design_point: Literal["minmax", "weighted", "knee"] = "minmax"
+    #: What the objective surrogates model: the objectives, or the nondimensional
+    #: histories J is composed from (scaling.engine.histories).
+    surrogate: Literal["objectives", "histories"] = "objectives"
 
 
 class StudyFile(InputModel):
@@ -272,6 +280,7 @@ class StudyFile(InputModel):
     variables: dict[str, VariableEntry]
     fixed: dict[str, float] = {}
     constraints: ConstraintsSection = ConstraintsSection()
+    admissibility: AdmissibilitySection = AdmissibilitySection()
     optimizer: OptimizerSection = OptimizerSection()
     sweep: SweepSection | None = None
     laws: LawsSection = LawsSection()
@@ -317,6 +326,7 @@ class StudyFile(InputModel):
             if self.optimizer.polish:
                 raise ValueError(f"optimizer.polish: a Nelder-Mead polish cannot step "
                                  f"between the values of variables.{name}; set it to 0")
+        self.admissibility.rules()  # "auto" only for stress
         opt = self.optimizer
         check_fidelity(self.fidelity, steps=self.simulation.steps,
                        categorical=any(n in self.variables for n in CATEGORICAL),
@@ -377,6 +387,9 @@ class Study:
                   if v.name == "material" else f"variable {v.name} in [{v.lower:g}, {v.upper:g}]"
                   for v in spec.variables]
         lines += [f"fixed {k} = {v:g}" for k, v in spec.fixed.items()]
+        lines.append("admissibility: " + ", ".join(
+            f"{r.name} {r.mode}" + (f" (margin {r.margin:g})" if r.margin else "")
+            for r in spec.admissibility.rules))
         lines += [f"fidelity {name}: mesh {'x'.join(map(str, sp.model.panel.mesh))}, "
                   f"{round(sp.simulation.duration / sp.simulation.time_step)} steps"
                   for name, sp in zip(self.level_names, [s for _, s, _ in self.lower_levels]
@@ -536,7 +549,8 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
                        time_scaling=cfg.study.time_scaling, projection=cfg.study.projection,
                        equalities=tuple(cfg.constraints.equality), xi=xi,
                        increasing=increasing, decreasing=decreasing,
-                       materials=materials if "material" in cfg.variables else ())
+                       materials=materials if "material" in cfg.variables else (),
+                       tunnel=tunnel, admissibility=cfg.admissibility.rules())
     uncertainty = scatter.parse_uncertainty(  # without [robust]: a nominal design
         cfg.uncertainty, cfg.robust or scatter.RobustSection(optimize=False),
         ScalingProblem(spec)) if cfg.uncertainty else None

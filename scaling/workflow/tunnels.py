@@ -188,6 +188,51 @@ class TunnelEnvelope:
                              f"T0 = {T0:g} K is outside the envelope {self.describe()}")
         return FlowCondition.from_stagnation(mach, p0, T0)
 
+    def core_length(self, mach: float, width: float) -> float | None:
+        """Longest flat-plate model (leading edge at the nozzle exit plane, aligned with the
+        flow, ``width`` m across) inside the uniform core of the free jet, m; None without a
+        ``test_section``.
+
+        The core is the test rhombus bounded by the Mach lines from the nozzle lip
+        (half-angle ``mu = asin(1 / M)``): at ``x`` downstream of the exit it is
+        ``D - 2 x tan(mu)`` wide, so the plate's trailing corners stay inside up to
+        ``x = (D - width) / (2 tan mu)``; never beyond the test section's length.
+        """
+        if self.test_section is None:
+            return None
+        diameter, length = self.test_section
+        mu = math.asin(1.0 / float(mach))
+        return max(0.0, min(length, (diameter - float(width)) / (2.0 * math.tan(mu))))
+
+    def run_time_at(self, mach: float, p0: float, T0: float, gamma: float = 1.4
+                    ) -> float | None:
+        """Run time (s) of the tunnel at the setting ``(M, p0, T0)``; None without a
+        ``run_time`` range.
+
+        A blow-down tunnel empties a fixed store: the run lasts inversely as long as the mass
+        flow of its choked throat, ``mdot ~ p0 / sqrt(T0) * A*/A_exit(M)`` (the exit
+        diameter fixed, isentropic area ratio). The stated range ``[t_lo, t_hi]`` is taken
+        as the run at the envelope's smallest mass flow (``t_hi``) and the floor no setting
+        goes below (``t_lo``): ``t = clip(t_hi mdot_min / mdot, t_lo, t_hi)``.
+        """
+        if self.run_time is None:
+            return None
+        t_lo, t_hi = self.run_time
+
+        def throat_ratio(m: float) -> float:  # A*/A of an isentropic nozzle at exit Mach m
+            g = gamma
+            return m * ((1.0 + 0.5 * (g - 1.0) * m * m) / (0.5 * (g + 1.0))) ** (
+                -(g + 1.0) / (2.0 * (g - 1.0)))
+
+        def mass_flow(m: float, p: float, T: float) -> float:
+            return p / math.sqrt(T) * throat_ratio(m)
+
+        m_hi = self.mach_bounds[1]  # A*/A falls with M: the smallest flow at the top Mach
+        if self.mach is None:  # one nozzle per value: the flow of the nozzle in use
+            m_hi = min(self.mach_values, key=lambda v: abs(v - float(mach)))
+        low = mass_flow(m_hi, self.p0[0], self.T0[1])
+        return float(min(t_hi, max(t_lo, t_hi * low / mass_flow(float(mach), p0, T0))))
+
     def describe(self) -> str:
         """One-line human-readable summary."""
         m = (f"M in [{self.mach[0]:g}, {self.mach[1]:g}]" if self.mach is not None

@@ -23,7 +23,10 @@ Rules (documented in ``--help`` and the README):
   HIGH (other values as above) and writes ``whatif_<NAME>.png`` and ``whatif_<NAME>.csv`` to
   ``--out`` (default: the current directory).
 
-Printed: J_u, J_T, J_s (relative RMS errors, Eq. 6.4 / 9.8), the similarity-parameter table
+Printed: J_u, J_T, J_s (relative RMS errors, Eq. 6.4 / 9.8), the admissibility table (what
+the model goes through against its material's limits, its tunnel's test section and run
+time, :mod:`hypate.scaling.workflow.admissibility`) and the prototype's own stress, the
+similarity-parameter table
 (prototype / model / relative difference, ``*`` above 10 %), and the constraint activity:
 bounds hit or left, the residuals of the study's cheap equality constraints (Eq. 9.7) and,
 for a heater schedule of shape ``"increasing"`` (``"decreasing"``), whether its control
@@ -49,12 +52,14 @@ from typing import Any
 
 import numpy as np
 from hypate.scaling.engine.propagation import expansion_terms
+from hypate.scaling.workflow.admissibility import admissible
 from hypate.scaling.workflow.configuration import with_material
 from hypate.scaling.workflow.problem import MATERIAL, ScalingProblem
 from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON
 from hypate.scaling.workflow.study import constant_material
 from hypate.scaling.workflow.uncertainty import propagate_or_failure
 from hypate.scaling.workflow.variables import DESIGN_VARIABLES, HARD_LIMITS
+from hypate.scaling.workflow.verdict import verdict_fields
 from hypate.solvers.config import resolve_material
 from hypate.solvers.errors import InputError
 
@@ -238,12 +243,15 @@ class WhatIf:
                 "equalities": equalities, "inequalities": inequalities}
 
     def evaluate(self, x: np.ndarray) -> dict[str, Any]:
-        """J_u, J_T, J_s of one design; a failing model gives status ``"failed"``."""
+        """J_u, J_T, J_s of one design; a failing model gives status ``"failed"``. The
+        model's run extremes (:meth:`Response.extremes`) are kept in ``extremes`` (None
+        when it failed) for its admissibility."""
         t0 = time.perf_counter()
         out: dict[str, Any] = {"status": "ok", "message": "",
-                               "objectives": {"J_u": None, "J_T": None, "J_s": None}}
+                               "objectives": {"J_u": None, "J_T": None, "J_s": None},
+                               "extremes": None}
         try:
-            err = self.problem.errors(x)
+            err, _, aux = self.problem.outputs(self.problem.model_configuration(x))
         except InputError:
             raise
         except Exception as exc:  # noqa: BLE001 - any model failure is an answer, not a crash
@@ -251,6 +259,7 @@ class WhatIf:
         else:
             out["objectives"] = {k: (float(v) if math.isfinite(v) else None)
                                  for k, v in err.items()}
+            out["extremes"] = aux["extremes"]
         out["seconds"] = time.perf_counter() - t0
         return out
 
@@ -278,7 +287,10 @@ def evaluate_whatif(study: Any, values: Mapping[str, float],
         ``constraints`` (``bounds`` list, ``active`` names, ``outside`` flags,
         ``equalities`` residuals, ``inequalities``: a monotone schedule's ``name``,
         ``decrease`` (K; ``increase`` for a decreasing one) and ``satisfied``),
-        ``model_time_step`` (s), ``seconds``.
+        ``model_time_step`` (s), ``seconds``, and the admissibility fields of
+        :func:`~hypate.scaling.workflow.verdict.verdict_fields`: ``admissible``,
+        ``admissibility`` (rows), ``binding``, ``responses`` (``model``, ``prototype``),
+        ``prototype_admissibility``, ``prototype_yields``, ``limits``.
     """
     w = WhatIf(study, values, base=base)
     x = w.design_vector()
@@ -288,6 +300,7 @@ def evaluate_whatif(study: Any, values: Mapping[str, float],
     if material is not None:
         result["material"] = material
     result.update(w.evaluate(x))
+    result.update(verdict_fields(w.problem, x, result.pop("extremes")))
     result["similarity"] = w.problem.similarity(x)
     result["constraints"] = w.constraints(x)
     result["model_time_step"] = w.problem.model_time_step(w.problem.model_configuration(x))
@@ -352,8 +365,13 @@ def sweep_whatif(study: Any, values: Mapping[str, float], name: str, low: float,
             x = ww.design_vector()
         ww.check(x)
         ev = ww.evaluate(x)
+        rows_adm = ww.problem.admissibility_rows(ww.problem.model_configuration(x),
+                                                 ev["extremes"])
         row = {"value": float(value), **ev["objectives"], "status": ev["status"],
                "message": ev["message"], "outside": ww.constraints(x)["outside"],
+               "admissible": ev["extremes"] is not None and admissible(rows_adm),
+               "violated": [r["check"] for r in rows_adm if r["ok"] is False
+                            and r["mode"] == "constraint"],
                "seconds": ev["seconds"], "design": ww.problem.design(x)}
         rows.append(row)
     safe = re.sub(r"[^\w.-]+", "_", name)
@@ -362,11 +380,12 @@ def sweep_whatif(study: Any, values: Mapping[str, float], name: str, low: float,
     with csv_path.open("w", newline="") as fh:
         writer = csv.writer(fh)
         writer.writerow(design_names + ["J_u", "J_T", "J_s", "status", "message", "outside",
-                                        "seconds"])
+                                        "admissible", "violated", "seconds"])
         for r in rows:
             writer.writerow([repr(float(r["design"][k])) for k in design_names]
                             + ["" if r[o] is None else repr(r[o]) for o in ("J_u", "J_T", "J_s")]
                             + [r["status"], r["message"], "; ".join(r["outside"]),
+                               str(r["admissible"]).lower(), "; ".join(r["violated"]),
                                f"{r['seconds']:.3f}"])
     bounds = next(((v.lower, v.upper) for v in w.spec.variables if v.name == name), None)
     png = None if plot is None else plot(rows, name, out_dir / f"whatif_{safe}.png",

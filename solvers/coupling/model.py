@@ -46,6 +46,7 @@ from hypate.solvers.numerics.sparse import DeferredMatrix, FreePattern, csr_rows
 from hypate.solvers.panel import PanelSpec
 from hypate.solvers.settings import SimulationSettings
 from hypate.solvers.structure.model import StructuralModel
+from hypate.solvers.structure.stress import SurfaceStress
 from hypate.solvers.thermal.model import SurfaceCondition, ThermalLoads, ThermalModel
 from hypate.solvers.thermal.schedule import HeaterSchedule
 from numpy.typing import NDArray
@@ -124,6 +125,8 @@ class PanelModel:
         # the transferred Jacobians of a pointwise fluid model (their maps built on first use)
         self.pointwise = PointwiseTransfer(tr, self.structure.pattern, self._H_TF_top,
                                            self._H_FT_top)
+        #: Ply stresses at the load-bearing surfaces, recorded by the response each step.
+        self.surface_stress = SurfaceStress(self.structure)
         self._last_state: tuple | None = None  # (u, T, K, loads, ...) of the last residual
         self._lsa_start: Array | None = None  # Arnoldi start of the next LSA (last modes)
 

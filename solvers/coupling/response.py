@@ -1,10 +1,17 @@
 """Response of a coupled run: time histories, nondimensionalization, save/load (NPZ).
 
-Histories: center deflection, volume-mean and upper-surface mean temperatures, maximum wall
-temperature, modal coordinates of the deflection on the sinusoidal modes
+Histories: center deflection, volume-mean and upper-surface (mean wall) temperatures,
+maximum wall temperature, modal coordinates of the deflection on the sinusoidal modes
 ``sin(i pi x/a) sin(j pi y/b)`` (Eq. 8.9 form, amplitude / thickness), the LSA eigenvalues
 per step, and optionally the nodal displacement/temperature and the fluid pressure and heat
 flux fields. Files are NPZ written without pickle.
+
+What the structure goes through, per step, for the admissibility of a design: the largest
+``|w| / h`` over the shell nodes, each layer's lowest and highest temperature (K; against
+its material's data and service temperature), the largest von Mises stress at the
+load-bearing surfaces with where it occurs, and the largest ratio of von Mises stress to
+the local yield strength (:mod:`hypate.solvers.structure.stress`). :meth:`Response.extremes`
+sums them up over the run (SI units).
 """
 from __future__ import annotations
 
@@ -43,6 +50,10 @@ class RecordedModel(Protocol):
 
     def wall_temperature(self, T: Array) -> Array: ...
 
+    def structural_temperature(self, T: Array) -> Array: ...
+
+    surface_stress: Any
+
 FORMAT_VERSION = 1
 #: Members of a saved response that every file has (``u``, ``T``, ``pressure``, ``heat_flux``
 #: and ``artificial_energy`` only when recorded), and the keys of its ``meta`` header.
@@ -51,6 +62,11 @@ _ARRAYS = ("times", "center_deflection", "mean_temperature", "top_temperature",
 _META = ("scheme", "thickness", "length", "stagnation_temperature", "initial_temperature",
          "status", "message", "instability_time", "instability_type", "wall_seconds", "timing",
          "mode_indices", "lsa_status")
+#: The histories of what the structure went through (module docstring); a file written
+#: before they were recorded has none.
+_LIMIT_ARRAYS = ("max_deflection_ratio", "max_von_mises", "von_mises_location",
+                 "max_stress_ratio", "stress_ratio_location", "stress_at_ratio",
+                 "layer_temperature")
 #: Sinusoidal modes (i, j) on which the deflection is projected.
 MODE_INDICES = tuple((i, j) for j in (1, 2, 3) for i in (1, 2, 3))
 
@@ -103,6 +119,15 @@ class Response:
     mode_indices: list[tuple[int, int]] = field(default_factory=list)
     keep_fields: bool = True
     artificial_energy: list[float] = field(default_factory=list)
+    max_deflection_ratio: list[float] = field(default_factory=list)
+    max_von_mises: list[float] = field(default_factory=list)
+    von_mises_location: list[Array] = field(default_factory=list)
+    max_stress_ratio: list[float] = field(default_factory=list)
+    stress_ratio_location: list[Array] = field(default_factory=list)
+    stress_at_ratio: list[float] = field(default_factory=list)
+    layer_temperature: list[Array] = field(default_factory=list)
+    #: The layers' material names, bottom to top (the columns of ``layer_temperature``).
+    layer_materials: list[str] = field(default_factory=list)
 
     # -- building ------------------------------------------------------------------------
     @classmethod
@@ -111,7 +136,8 @@ class Response:
         return cls(scheme=scheme, thickness=p.thickness, length=p.length,
                    stagnation_temperature=model.flow.stagnation_temperature,
                    initial_temperature=p.initial_temperature,
-                   mode_indices=list(model.modes[1]), keep_fields=model.settings.keep_fields)
+                   mode_indices=list(model.modes[1]), keep_fields=model.settings.keep_fields,
+                   layer_materials=[layer.material.name for layer in p.layers])
 
     def record(self, t: float, u: Array, T: Array, model: RecordedModel,
                lsa: StabilityResult | None, u_dot: Array | None = None) -> None:
@@ -124,6 +150,7 @@ class Response:
         self.mean_temperature.append(float(th.mean_temperature(T)))
         self.top_temperature.append(float(th.surface_mean(T, "top")))
         self.max_wall_temperature.append(float(np.max(th.wall_temperature(T))))
+        self._record_limits(u, T, model)
         self.modal.append(modal_coordinates(tr.H_FS @ u, model.modes[0], model.points.weights)
                           / self.thickness)
         lam = (np.full(model.settings.lsa_modes, np.nan + 0j) if lsa is None else
@@ -137,6 +164,67 @@ class Response:
             loads = model.fluid_loads(u, model.wall_temperature(T), u_dot=u_dot)
             self.pressure.append(loads.pressure.copy())
             self.heat_flux.append(loads.heat_flux.copy())
+
+    def _record_limits(self, u: Array, T: Array, model: RecordedModel) -> None:
+        """Append what the structure goes through at this state (module docstring)."""
+        w = np.asarray(u)[2::5]
+        self.max_deflection_ratio.append(float(np.max(np.abs(w))) / self.thickness)
+        profile = model.structural_temperature(T)                  # (n_nodes, n_levels)
+        bounds = np.cumsum([0] + [max(int(layer.sublayers), 1) for layer in model.panel.layers])
+        self.layer_temperature.append(np.array(
+            [[profile[:, a:b + 1].min(), profile[:, a:b + 1].max()]
+             for a, b in zip(bounds[:-1], bounds[1:])]))
+        peak = model.surface_stress.peak(u, profile)
+        self.max_von_mises.append(peak.von_mises)
+        self.von_mises_location.append(np.array(peak.location))
+        self.max_stress_ratio.append(peak.ratio)
+        self.stress_ratio_location.append(np.array(peak.ratio_location))
+        self.stress_at_ratio.append(peak.ratio_stress)
+
+    def extremes(self) -> dict[str, Any]:
+        """What the structure went through over the run, SI units (NaN where not recorded).
+
+        Returns
+        -------
+        dict
+            ``max_wall_temperature`` (K), ``mean_wall_temperature`` (K, the largest
+            area-mean of the upper surface), ``mean_temperature`` (K, the largest
+            volume-mean), ``max_deflection_ratio`` (largest ``|w| / h``), ``max_von_mises``
+            (Pa) with ``von_mises_location`` ([x, y, z] m) and ``von_mises_time`` (s),
+            ``max_stress_ratio`` (largest von Mises / yield(T)) with its location and
+            ``stress_at_ratio`` (Pa, the von Mises stress there),
+            ``layer_temperature`` (per layer ``[min, max]`` K over the run) and
+            ``layer_materials``.
+        """
+        def peak(values: list[float]) -> tuple[float, int | None]:
+            a = np.asarray(values, float)
+            ok = np.isfinite(a)
+            if not ok.any():
+                return float("nan"), None
+            i = int(np.argmax(np.where(ok, a, -np.inf)))
+            return float(a[i]), i
+
+        def at(values: list[Array], i: int | None) -> list[float] | None:
+            return None if i is None else [float(v) for v in values[i]]
+
+        vm, i_vm = peak(self.max_von_mises)
+        ratio, i_r = peak(self.max_stress_ratio)
+        layers = (np.asarray(self.layer_temperature, float) if self.layer_temperature
+                  else np.zeros((0, 0, 2)))
+        return {
+            "max_wall_temperature": peak(self.max_wall_temperature)[0],
+            "mean_wall_temperature": peak(self.top_temperature)[0],
+            "mean_temperature": peak(self.mean_temperature)[0],
+            "max_deflection_ratio": peak(self.max_deflection_ratio)[0],
+            "max_von_mises": vm, "von_mises_location": at(self.von_mises_location, i_vm),
+            "von_mises_time": None if i_vm is None else float(self.times[i_vm]),
+            "max_stress_ratio": ratio,
+            "stress_ratio_location": at(self.stress_ratio_location, i_r),
+            "stress_at_ratio": (float("nan") if i_r is None
+                                else float(self.stress_at_ratio[i_r])),
+            "layer_temperature": [[float(layers[:, k, 0].min()), float(layers[:, k, 1].max())]
+                                  for k in range(layers.shape[1])],
+            "layer_materials": list(self.layer_materials)}
 
     def finish(self, status: str, message: str, instability: tuple[float, str] | None) -> None:
         self.status = status
@@ -170,7 +258,7 @@ class Response:
                 "message": self.message, "instability_time": self.instability_time,
                 "instability_type": self.instability_type, "wall_seconds": self.wall_seconds,
                 "timing": self.timing, "mode_indices": self.mode_indices,
-                "lsa_status": self.lsa_status}
+                "lsa_status": self.lsa_status, "layer_materials": self.layer_materials}
         arrays: dict[str, Array] = {
             "times": np.asarray(self.times), "center_deflection": np.asarray(self.center_deflection),
             "mean_temperature": np.asarray(self.mean_temperature),
@@ -178,9 +266,9 @@ class Response:
             "max_wall_temperature": np.asarray(self.max_wall_temperature),
             "modal": np.asarray(self.modal), "lsa": np.asarray(self.lsa),
             "meta": np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8)}
-        for name in ("u", "T", "pressure", "heat_flux", "artificial_energy"):
+        for name in ("u", "T", "pressure", "heat_flux", "artificial_energy") + _LIMIT_ARRAYS:
             if getattr(self, name):
-                arrays[name] = np.asarray(getattr(self, name))
+                arrays[name] = np.asarray(getattr(self, name), dtype=float)
         tmp = path.with_name(path.name + ".tmp.npz")
         np.savez_compressed(tmp, **arrays)
         tmp.replace(path)
@@ -232,6 +320,11 @@ class Response:
             setattr(r, name, list(arrays[name]) if name in arrays else [])
         if "artificial_energy" in arrays:
             r.artificial_energy = arrays["artificial_energy"].tolist()
+        for name in _LIMIT_ARRAYS:  # optional: a file of an older hypate has none
+            if name in arrays:
+                values = float_member(arrays, name, field)
+                setattr(r, name, values.tolist() if values.ndim == 1 else list(values))
+        r.layer_materials = [str(n) for n in meta.get("layer_materials", [])]
         r.status, r.message = meta["status"], meta["message"]
         r.instability_time, r.instability_type = meta["instability_time"], meta["instability_type"]
         r.wall_seconds, r.timing = meta["wall_seconds"], meta["timing"]

@@ -315,8 +315,8 @@ class StructuralModel:
                                I=tuple(np.asarray(x)[None, None] for x in (lam.I1, lam.I2,
                                                                            lam.I3)))
         else:
-            lam3 = laminate(self.panel, self._at_points(Tn, self.q3))
-            lam2 = laminate(self.panel, self._at_points(Tn, self.q2),
+            lam3 = laminate(self.panel, self.at_points(Tn, self.q3))
+            lam2 = laminate(self.panel, self.at_points(Tn, self.q2),
                             parts="shear")  # only S at the reduced shear quadrature
             st = _ThermalState(C=lam3.ABD, R=lam3.thermal_resultants, S=lam2.S,
                                I=(lam3.I1, lam3.I2, lam3.I3))
@@ -339,9 +339,9 @@ class StructuralModel:
         Tn = self.nodal_temperature(T)
         if isinstance(Tn, float) or Tn.ndim == 1:
             return laminate(self.panel, Tn)
-        return laminate(self.panel, self._at_points(Tn, self.q3))
+        return laminate(self.panel, self.at_points(Tn, self.q3))
 
-    def _at_points(self, Tn: Array, q: Quadrature) -> Array:
+    def at_points(self, Tn: Array, q: Quadrature) -> Array:
         """Nodal profiles (n_nodes, n_levels) at the points of ``q``, shape (E, n_qp, L)."""
         return np.einsum("qa,eal->eql", q.N, Tn[self.mesh.elements])
 
@@ -499,7 +499,7 @@ class StructuralModel:
             lam = laminate(self.panel, Tn, parts="inertia")
             I1, I2, I3 = (np.asarray(x)[None, None] for x in (lam.I1, lam.I2, lam.I3))
         else:
-            lam = laminate(self.panel, self._at_points(Tn, self.q3), parts="inertia")
+            lam = laminate(self.panel, self.at_points(Tn, self.q3), parts="inertia")
             I1, I2, I3 = lam.I1, lam.I2, lam.I3
         # assembled from the entries the kernel can make nonzero only (the rest are exact
         # zeros: the same sums)

@@ -105,10 +105,15 @@ def design_point(run_dir: Path) -> dict:
 
 
 def best_minmax(run_dir: Path) -> float:
-    """min over the successful evaluations of max(J_u, J_T) (fraction)."""
+    """min over the successful, admissible evaluations of max(J_u, J_T) (fraction; a run
+    written before admissibility was recorded: over the successful ones)."""
     ev = pd.read_csv(run_dir / EVALUATIONS_CSV)
-    ok = ev[ev["status"] == "ok"]
-    return float(np.max(ok[["J_u", "J_T"]].to_numpy(), axis=1).min())
+    keep = ev["status"] == "ok"
+    if "admissible" in ev.columns:
+        keep &= ev["admissible"].astype(str) == "True"
+    ok = ev[keep]
+    return float(np.max(ok[["J_u", "J_T"]].to_numpy(), axis=1).min()) if len(ok) else \
+        float("inf")
 
 
 def published_design_errors(table: str, col: str) -> dict[str, Any]:

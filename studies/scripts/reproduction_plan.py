@@ -61,12 +61,13 @@ from hypate.studies.scripts.comparison import (
 #: Seconds between two progress reports while a pooled job is awaited.
 POLL_SECONDS = 5.0
 
-#: Sec. 9.2.2 coarse bound on min max(J_u, J_T) over the evaluations (fraction): the full
-#: study's 10 % (Sec. 9.2.2) is out of reach of 36 evaluations on a 4 x 4 mesh; seed 0
-#: measured 11.9 % (J_u 9.3 %, J_T 11.9 %), so a seed-0 coarse run above 12 % is a
-#: regression (the fast test's bound). Other seeds land higher (seeds 0-2: 11.9, 14.5,
-#: 16.7 %): with ``--seeds 3`` the median row says NO, which is what the coarse budget gives.
-COARSE_9_2_2_BOUND = 0.12
+#: Sec. 9.2.2 coarse bound on min max(J_u, J_T) over the admissible evaluations (fraction).
+#: Before admissibility (issue 40) seed 0 measured 11.9 % on 36 evaluations of a 4 x 4 mesh;
+#: with the Ti 6242 model held to its service temperature and property data the coarse
+#: search measured 47.5 % at seed 0 (every design below 10 % of the dissertation runs the
+#: model hundreds of kelvin past them: FINDING_ADMISSIBILITY), so a seed-0 coarse run above
+#: 50 % is a regression (the fast test's bound).
+COARSE_9_2_2_BOUND = 0.50
 #: Coarse Sec. 9.1 tolerances on Table 9.3's model parameters (fractions): measured at
 #: seed 0 lambda_F +0.45 % and the thermal load +1.35 % off the prototype (the
 #: dissertation's own models lie up to 0.8 % off it), so 2 % and 3 %; h/L is not resolved
@@ -89,6 +90,13 @@ FINDING_WT5 = Finding(
     "heat-starved, so the radiant heater (Case 2) does not beat Case 1 there (full studies: "
     "Case 1 8.4-8.7 %, Case 2 seeded from Case 1's best designs 8.43 %); WT6 and WT7 show "
     "the dissertation's finding.")
+
+FINDING_ADMISSIBILITY = Finding(
+    "Accepted finding (Sec. 9.2, issue 40): the dissertation's Ti 6242 models run hundreds of "
+    "kelvin past the alloy's service temperature (811 K) and property data (950 K): at "
+    "Table 9.8's xi = 4 point hypate's model reaches 1408 K. hypate's Sec. 9.2 studies hold "
+    "the model to its limits ([admissibility] on), so their errors are those of admissible "
+    "models, not the published ones.")
 
 #: progress(step, done, total): the callback of :class:`hypate.scaling.cli.progress.StepProgress`.
 Progress = Callable[[str, int, int], None]
@@ -266,10 +274,9 @@ def _sec9_2_2(ctx: Context) -> pd.DataFrame:
             else:
                 found += ch9_tables.published_rows("9.8", f"xi{xi}", published[xi], dp)
             rows += found
-            bound = (Bound("<", 100.0 * COARSE_9_2_2_BOUND, "< 10 % (Sec. 9.2.2); coarse < 12 %")
-                     if ctx.quick else Bound("<", 10.0, "< 10 % (Sec. 9.2.2)"))
-            rows.append((f"Table 9.8 xi{xi} min over evaluations of max(J_u, J_T) (%)", bound,
-                         100.0 * best_minmax(path), "Fig. 9.9: a design below 10 % in both"))
+            bound = Bound("<", 10.0, "< 10 % (Sec. 9.2.2)")
+            rows.append((f"Table 9.8 xi{xi} min over admissible evaluations of max(J_u, J_T) "
+                         "(%)", bound, 100.0 * best_minmax(path), FINDING_ADMISSIBILITY))
         rows_by_seed.append(rows)
     return side_by_side_seeds(rows_by_seed, rtol=ch9_tables.RTOL)
 

@@ -172,11 +172,12 @@ def test_sec9_2_2_thickness_follows_the_analytical_line_and_L_le_departs(tmp_pat
 
 
 def test_sec9_2_2_coarse_finds_a_similar_model(tmp_path) -> None:
-    # xi = 4 on 4 x 4 meshes, 8 steps of 20 s, 12 + 24 evaluations (seed 0).
-    # Measured at the design point: J_u 9.8 %, J_T 8.8 % before the transfer fix; J_u 9.3 %,
-    # J_T 11.9 % after it (the bound of the `hypate reproduce --quick` row).
+    # xi = 4 on 4 x 4 meshes, 8 steps of 20 s, 12 + 24 evaluations (seed 0), the Ti 6242
+    # model held to its limits (issue 40): the best admissible design (reproduction_plan's
+    # COARSE_9_2_2_BOUND says what was measured)
     run = run_directory(Optimization("sec9_2_2_xi4", quick=True), tmp_path, seed=0)
-    assert _best_minmax(run) < COARSE_9_2_2_BOUND  # 0.12, as before the command
+    assert _best_minmax(run) < COARSE_9_2_2_BOUND
+    assert json.loads((run / "design_point.json").read_text())["admissible"] is True
     # a second call reads the finished run instead of optimizing again (nothing is lost or
     # repeated when `hypate reproduce` runs again)
     before = (run / "evaluations.csv").read_text()
@@ -205,7 +206,7 @@ def test_sec9_2_3_case2_beats_case1(tunnel: str, tmp_path_factory) -> None:
     # the Eq. (9.7) equality holds exactly for every proposed design (cheap constraint)
     for case, run in runs.items():
         problem = ScalingProblem(load_study(STUDIES / f"sec9_2_3_case{case}_{tunnel}.toml").spec)
-        (con,) = problem.cheap_constraints()
+        con = problem.cheap_constraints()[0]  # then the tunnel's size and duration checks
         ev = pd.read_csv(run / "evaluations.csv")
         X = ev[problem.spec.names].to_numpy(float)
         assert max(abs(float(con.fun(x)[0])) for x in X) < 1e-8

@@ -33,12 +33,27 @@ def test_bench_study_json_fields_and_their_runs(bench, capsys):
                                   "simulator_seconds"}
     assert data["seeds"] == [3, 4] and data["compare"]["workers"] == 1
     # any finite J reaches 1e9: the target is reached at the first successful evaluation
+    # that holds the enforced admissibility columns
     for block, label in ((data, "main"), (data["compare"], "single")):
         for s, n in zip(block["seeds"], block["evaluations_to_target"]):
             table = pd.read_csv(out / label / f"seed-{s}" / "evaluations.csv")
-            assert n == int((table["status"] == "ok").to_numpy().argmax()) + 1
+            cols = [c for c in table.columns if c.startswith("G_")]
+            good = (table["status"] == "ok") & (table[cols] <= 0.0).all(axis=1)
+            assert n == int(good.to_numpy().argmax()) + 1
             assert block["simulator_seconds_to_target"][block["seeds"].index(s)] == \
                 pytest.approx(table["seconds"].iloc[:n].sum(), rel=1e-9)
+        # each seed's design point, and the failures after the initial design
+        for s, point, (failed, evaluated) in zip(block["seeds"], block["design_points"],
+                                                 block["failed_after_initial"]):
+            run = out / label / f"seed-{s}"
+            rec = json.loads((run / "design_point.json").read_text())
+            assert point == max(rec["objectives"].values())
+            table = pd.read_csv(run / "evaluations.csv")
+            after = table["iteration"] >= 1
+            assert (failed, evaluated) == (int((after & (table["status"] != "ok")).sum()),
+                                           int(after.sum()))
+        assert block["worst_design_point"] == max(block["design_points"])
+        assert block["best_known"] is None and block["gap"] == [None, None]
         assert block["final"]["evaluations"] == 1 + 4 + 2 * 2
     # the campaign depends on the batch, not on the workers: the same final design point
     assert data["final"]["J_u"] == data["compare"]["final"]["J_u"]

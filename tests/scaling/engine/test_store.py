@@ -75,7 +75,7 @@ def test_dataframe_columns():
         store.append(e)
     df = store.to_dataframe()
     assert list(df.columns) == ["iteration", "batch_index", "x0", "x1", "x2", "f0", "f1", "g0",
-                                "status", "message", "warnings", "seconds", "seed"]
+                                "status", "message", "warnings", "seconds", "seed", "aux"]
     assert list(df["status"]) == ["ok", "error", "invalid"]
     assert df.loc[0, "x0"] == 0.1 + 0.2
 

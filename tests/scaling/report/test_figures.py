@@ -7,6 +7,7 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
+import hypate.scaling.report.figures as pareto_mod
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
@@ -14,15 +15,14 @@ import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.report.figures import (
-    clip_to_box,
     embed_png,
     figure_html,
     history_figure,
+    log_limits,
     pareto_figure,
     plot_sweep,
     response_figure,
     variable_unit,
-    zoom_limits,
 )
 from hypate.scaling.report.rundata import RunData
 
@@ -66,34 +66,45 @@ def test_run_figures_of_two_objectives(fabricated_run: Callable[..., RunData]) -
     assert not plt.get_fignums()
 
 
-def test_pareto_figure_zooms_on_the_front(fabricated_run: Callable[..., RunData]) -> None:
-    """An evaluation far from the front is clipped to the edge and counted; the full view
-    sits behind a <details> toggle; the axes are in percent."""
+def test_pareto_figure_draws_every_evaluation_where_it_is(
+        fabricated_run: Callable[..., RunData], monkeypatch: pytest.MonkeyPatch) -> None:
+    """No clipping to an edge: an evaluation at 4000 % sits at its own coordinates on the
+    log axes, and inadmissible evaluations are drawn apart (issue 40)."""
     run = fabricated_run()
     run.evaluations.loc[len(run.evaluations)] = run.evaluations.iloc[0]
     run.evaluations.loc[len(run.evaluations) - 1, ["J_u", "J_T"]] = [40.0, 30.0]  # 4000 %
+    run.evaluations["admissible"] = True
+    run.evaluations.loc[len(run.evaluations) - 1, "admissible"] = False
+    drawn: list = []
+    original = pareto_mod._pareto_plot
+
+    def spy(run_, F):
+        fig = original(run_, F)
+        drawn.append(fig)
+        return fig
+
+    monkeypatch.setattr(pareto_mod, "_pareto_plot", spy)
     part = pareto_figure(run)
-    assert "1 evaluation beyond the axes" in part
-    assert "<details" in part and "Show all evaluations" in part
-    assert _embedded(part, count=2) == run.figure_path("pareto_front").read_bytes()
-    assert run.figure_path("pareto_front_all").is_file()
+    assert "1 inadmissible: grey crosses" in part and "<details" not in part
+    assert _embedded(part) == run.figure_path("pareto_front").read_bytes()
+    ax = drawn[0].axes[0]
+    assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
+    points = np.vstack([c.get_offsets() for c in ax.collections if len(c.get_offsets())])
+    F = 100.0 * run.ok[["J_u", "J_T"]].to_numpy(float)
+    for f in F:  # every successful evaluation at its true coordinates
+        assert np.any(np.all(np.isclose(points, f), axis=1)), f
+    lo, hi = ax.get_xlim()
+    assert lo < F[:, 0].min() and hi > 4000.0
+    crosses = [c for c in ax.collections if c.get_label().startswith("inadmissible")]
+    np.testing.assert_allclose(crosses[0].get_offsets(), [[4000.0, 3000.0]])
     assert not plt.get_fignums()
 
 
-def test_zoom_limits_keep_a_margin() -> None:
-    lo, hi = zoom_limits(np.array([8.84]), log=False)  # a one-point front: not degenerate
-    assert lo < 8.84 < hi and hi - lo > 1.0
-    lo, hi = zoom_limits(np.array([0.0, 10.0]), log=False)
-    assert lo == 0.0 and hi > 10.0  # errors are never negative
-
-
-def test_clipped_points_keep_their_direction() -> None:
-    C, out = clip_to_box(np.array([[0.5, 0.5], [10.0, 1.0], [10.0, 10.0]]),
-                          (0.0, 1.0), (0.0, 1.0))
-    assert out.tolist() == [False, True, True]
-    np.testing.assert_allclose(C[0], [0.5, 0.5])
-    assert C[1, 0] == pytest.approx(1.0) and 0.5 < C[1, 1] < 0.6  # on the right edge
-    np.testing.assert_allclose(C[2], [1.0, 1.0])  # the corner, along the diagonal
+def test_log_limits_hold_every_point_with_a_margin() -> None:
+    lo, hi = log_limits(np.array([8.84]))  # one point: not degenerate, a decade around it
+    assert lo < 8.84 < hi and np.log10(hi / lo) >= 1.0 - 1e-12
+    lo, hi = log_limits(np.array([0.0, 5.0, 4000.0]))  # zero has no place on a log axis
+    assert lo < 5.0 and hi > 4000.0
 
 
 def test_run_figures_of_one_objective(fabricated_run: Callable[..., RunData]) -> None:

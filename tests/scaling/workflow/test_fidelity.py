@@ -95,7 +95,11 @@ def test_the_design_point_and_front_are_top_level(mf_run: Path) -> None:
     row = df.iloc[point["evaluation"]]
     assert row["fidelity_name"] == "full"
     top = df[(df["fidelity"] == 1) & (df["status"] == "ok")]
-    worst = np.maximum(top["J_u"], top["J_T"])
+    # chosen among the admissible top-level evaluations (the coarse level has no flag)
+    assert set(df.loc[df["fidelity"] == 0, "admissible"].dropna()) == set()
+    admissible = top[top["admissible"].astype(str) == "True"]
+    assert len(admissible) and point["admissible"] is True
+    worst = np.maximum(admissible["J_u"], admissible["J_T"])
     assert max(point["objectives"].values()) == pytest.approx(worst.min(), rel=1e-12)
     assert set(pd.read_csv(mf_run / "pareto.csv")["fidelity_name"]) == {"full"}
     by = point["fidelity"]["by_level"]

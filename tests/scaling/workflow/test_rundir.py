@@ -95,7 +95,7 @@ def test_design_point_key_is_validated(tmp_path: Path) -> None:
 
 def test_a_run_records_and_applies_its_rule(tmp_path: Path) -> None:
     """design_point.json names the rule, and its evaluation is that rule's choice among the
-    successful rows of evaluations.csv (ids = row numbers)."""
+    successful, admissible rows of evaluations.csv (ids = row numbers)."""
     study = tmp_path / "knee.toml"
     study.write_text(tiny_study_text(tail='design_point = "knee"\n'))
     out = tmp_path / "run"
@@ -103,6 +103,8 @@ def test_a_run_records_and_applies_its_rule(tmp_path: Path) -> None:
     point = json.loads((out / "design_point.json").read_text())
     assert point["rule"] == "knee"
     csv = pd.read_csv(out / "evaluations.csv")
-    ok = csv[(csv["status"] == "ok") & csv[["J_u", "J_T"]].notna().all(axis=1)]
+    ok = csv[(csv["status"] == "ok") & csv[["J_u", "J_T"]].notna().all(axis=1)
+             & (csv["admissible"].astype(str) == "True")]
+    assert len(ok) >= 3 and point["admissible"] is True
     chosen = ok["id"].to_numpy()[design_point_index(ok[["J_u", "J_T"]].to_numpy(), "knee")]
     assert point["evaluation"] == chosen

@@ -7,6 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypate.scaling.workflow.problem import simulate_configuration
+from hypate.scaling.workflow.study import load_study
+from hypate.solvers.aero.factory import make_fluid_model
+from hypate.solvers.coupling.model import PanelModel
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
@@ -65,3 +69,35 @@ def test_malformed_files_name_the_member(tmp_path: Path, tamper, message: str) -
     with pytest.raises(InputError, match=message) as info:
         Response.load(bad)
     assert info.value.field == str(bad)
+
+
+def test_what_the_structure_goes_through_is_recorded_from_the_fields(tmp_path: Path) -> None:
+    """A short coupled run with its fields kept: every recorded maximum wall temperature
+    is the maximum of the thermal solver's upper-surface nodes, each layer's range the
+    extremes of its thermal levels, |w|/h the largest nodal deflection, and the von Mises
+    peak the surface stress of the recorded state (issue 40); the histories survive a
+    round trip and a file without them still loads."""
+    study = load_study("quickstart")  # the Sec. 9.2 sandwich prototype, 4 x 4, 3 steps
+    config = study.spec.with_steps(3).prototype
+    resp = simulate_configuration(config, keep_fields=True)
+    s = config.run_settings()
+    model = PanelModel(config.panel, config.flow,
+                       make_fluid_model(s.aero, s.heating, s.boundary_layer), s)
+    th = model.thermal
+    assert len(resp.T) == len(resp.max_wall_temperature) == 4
+    for k, T in enumerate(resp.T):
+        assert resp.max_wall_temperature[k] == np.max(th.wall_temperature(T))
+        profile = th.profile(T)
+        assert resp.layer_temperature[k][1][1] == profile[:, 1:4].max()  # the core
+        assert resp.layer_temperature[k][0][0] == profile[:, 0:2].min()  # lower sheet
+        w = np.asarray(resp.u[k])[2::5]
+        assert resp.max_deflection_ratio[k] == np.max(np.abs(w)) / resp.thickness
+        peak = model.surface_stress.peak(resp.u[k], profile)
+        assert resp.max_von_mises[k] == peak.von_mises
+    ext = resp.extremes()
+    assert ext["max_wall_temperature"] == max(resp.max_wall_temperature)
+    assert ext["layer_materials"] == ["inconel718", "core", "inconel718"]
+    back = Response.load(resp.save(tmp_path / "r.npz"))
+    assert json.dumps(back.extremes(), sort_keys=True) == json.dumps(ext, sort_keys=True)
+    old = Response.load(_response().save(tmp_path / "old.npz"))  # no limit histories
+    assert old.max_von_mises == [] and np.isnan(old.extremes()["max_von_mises"])
