@@ -57,6 +57,8 @@ __all__ = [
     "HypervolumePoI",
     "HypervolumeEI",
     "HypervolumeLCB",
+    "MinMaxEI",
+    "MinMaxLCB",
     "ACQUISITIONS",
     "SINGLE_OBJECTIVE_ACQUISITIONS",
     "MULTI_OBJECTIVE_ACQUISITIONS",
@@ -456,6 +458,118 @@ class HypervolumeLCB(_Hypervolume):
                    v=context.weight(cls.default_v))
 
 
+class _MinMax(Acquisition):
+    """Shared part of the acquisitions of the design-point criterion ``c(x) = max_j J_j(x)``
+    (Sec. 9.2.3's min-max rule, the design point a test engineer builds): samples of the
+    objectives at ``n_samples`` fixed base samples -- the model's own joint samples when it
+    has them (:meth:`~hypate.scaling.engine.histories.HistoriesModel.sample_with_gradients`:
+    J_u and J_T of one history), else independent normal samples of its moments -- and
+    their gradients by the reparameterization, so the acquisition is smooth and
+    deterministic in x."""
+
+    multi_objective = True
+
+    def __init__(self, model: Model, n_samples: int = 128,
+                 rng: np.random.Generator | int | None = None) -> None:
+        super().__init__(model)
+        self._joint = callable(getattr(model, "sample_with_gradients", None))
+        self.n_samples = int(n_samples)
+        self._rng = as_rng(rng)
+        self._eps: np.ndarray | None = None
+
+    @staticmethod
+    def _criterion(Y: np.ndarray, dY: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``c = max_j Y_j`` per sample (N, S) and its derivative (N, S, ...) from the
+        objectives' samples (N, S, m) and derivatives (N, S, m, ...)."""
+        j = np.argmax(Y, axis=2)
+        c = np.take_along_axis(Y, j[..., None], axis=2)[..., 0]
+        dc = np.take_along_axis(dY, j.reshape(j.shape + (1,) * (dY.ndim - 2)), axis=2)[:, :, 0]
+        return c, dc
+
+    @abstractmethod
+    def _value(self, c: np.ndarray, dc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The acquisition (N,) and its derivative (N, ...) from the criterion's samples
+        (N, S) and their derivatives (N, S, ...)."""
+
+    def _from_moments(self, mu, sigma):
+        """A model of independent normal objectives: ``Y = mu + sigma eps`` at fixed base
+        samples (drawn once: common random numbers for every x)."""
+        if self._eps is None:
+            self._eps = self._rng.standard_normal((self.n_samples, mu.shape[1]))
+        Y = mu[:, None, :] + sigma[:, None, :] * self._eps[None]
+        onehot = np.broadcast_to(np.eye(mu.shape[1]), Y.shape + (mu.shape[1],))
+        c, dc_mu = self._criterion(Y, onehot)
+        val, dmu = self._value(c, dc_mu)
+        _, dc_sigma = self._criterion(Y, onehot * self._eps[None, :, :, None])
+        return val, dmu, self._value(c, dc_sigma)[1]
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        return self.value_and_gradient(X)[0]
+
+    def value_and_gradient(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if not self._joint:
+            return super().value_and_gradient(X)
+        return self._value(*self._criterion(*self.model.sample_with_gradients(np.atleast_2d(X))))
+
+
+def _best_minmax(context: AcquisitionContext) -> float:
+    """The best design-point criterion so far: ``min over the front of max_j J_j``."""
+    F = np.asarray(context.pareto_front, float)
+    return float(np.max(F, axis=1).min()) if len(F) else math.inf
+
+
+class MinMaxEI(_MinMax):
+    """Expected improvement of the design-point criterion: ``E[(b - max_j J_j(x))^+]`` with
+    ``b`` the best feasible ``max_j J_j`` so far (model space), maximized (see
+    :class:`_MinMax`)."""
+
+    maximize = True
+
+    def __init__(self, model: Model, best: float, n_samples: int = 128,
+                 rng: np.random.Generator | int | None = None) -> None:
+        super().__init__(model, n_samples, rng)
+        self.best = float(best)
+
+    @classmethod
+    def from_context(cls, model: Model, context: AcquisitionContext) -> MinMaxEI:
+        return cls(model, _best_minmax(context), rng=context.rng)
+
+    def _value(self, c, dc):
+        gain = self.best - c
+        on = gain > 0.0
+        mask = on.reshape(on.shape + (1,) * (dc.ndim - 2))
+        return np.mean(np.where(on, gain, 0.0), axis=1), -np.mean(mask * dc, axis=1)
+
+
+class MinMaxLCB(_MinMax):
+    """Lower confidence bound of the design-point criterion, ``mean(c) - v std(c)`` over the
+    samples of ``c = max_j J_j(x)``, minimized (see :class:`_MinMax`); its exploration
+    weight falls like HVLCB's (``v_final = "auto"``)."""
+
+    maximize = False
+    default_v = 1.5
+    default_v_final = 0.5
+
+    def __init__(self, model: Model, v: float = default_v, n_samples: int = 128,
+                 rng: np.random.Generator | int | None = None) -> None:
+        super().__init__(model, n_samples, rng)
+        self.v = float(v)
+
+    @classmethod
+    def from_context(cls, model: Model, context: AcquisitionContext) -> MinMaxLCB:
+        return cls(model, v=context.weight(cls.default_v), rng=context.rng)
+
+    def _value(self, c, dc):
+        mean, dmean = c.mean(axis=1), dc.mean(axis=1)
+        dev = c - mean[:, None]
+        std = np.sqrt(np.mean(dev**2, axis=1))
+        tail = (1,) * (dc.ndim - 2)
+        safe = np.where(std > 1e-15, std, 1.0).reshape(std.shape + tail)
+        dstd = np.mean(dev.reshape(dev.shape + tail) * (dc - dmean[:, None]), axis=1) / safe
+        dstd = np.where((std > 1e-15).reshape(std.shape + tail), dstd, 0.0)
+        return mean - self.v * std, dmean - self.v * dstd
+
+
 #: ``factory(model, context) -> Acquisition``: a user's acquisition instead of a name.
 AcquisitionFactory = Callable[[Any, AcquisitionContext], Acquisition]
 
@@ -471,6 +585,8 @@ ACQUISITIONS: dict[str, type[Acquisition]] = {
     "ws": WeightedSumLCB,
     "cheb": ChebyshevLCB,
     "wm": WeightedMetricLCB,
+    "mmei": MinMaxEI,
+    "mmlcb": MinMaxLCB,
 }
 SINGLE_OBJECTIVE_ACQUISITIONS: tuple[str, ...] = tuple(
     k for k, c in ACQUISITIONS.items() if not c.multi_objective)

@@ -27,8 +27,9 @@ from sklearn.gaussian_process.kernels import ConstantKernel, Matern
 
 __all__ = ["SuccessModel", "Calibration", "held_out_calibration", "P_SUCCESS"]
 
-#: Default smallest predicted probability of success of a proposal.
-P_SUCCESS = 0.5
+#: Default smallest predicted probability of success of a proposal (the optimizer's
+#: ``p_success``: see :class:`~hypate.scaling.engine.settings.OptimizerSettings`).
+P_SUCCESS = 0.85
 #: Central-difference step of the Jacobian, in the unit box.
 FD_STEP = 1e-4
 #: Length-scale bounds of the latent process (unit box): failures are regions, not points.

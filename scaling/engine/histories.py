@@ -209,10 +209,10 @@ class HistoriesModel:
         Y = self._out(J)
         return Y.mean(axis=1), Y.std(axis=1)
 
-    def predict_with_gradients(self, X: np.ndarray
-                               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Mean, std (N, m) and their gradients (N, m, d): the reparameterization
-        ``a = mu + sigma eps`` through the composition."""
+    def sample_with_gradients(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The objectives at the base samples (model space), shape (N, S, m), and their
+        gradients (N, S, m, d): the reparameterization ``a = mu + sigma eps`` through the
+        composition (the samples are joint across the objectives: one history each)."""
         mu, sd, dmu, dsd = self.coefficients.predict_with_gradients(np.atleast_2d(X))
         C, J = self._samples(mu, sd)                                    # (N,S,K), (N,S,m)
         # dJ_j/dc_k = w_{j, g(k)} c_k / J_j   (J^2 = sum_g w_jg (rho_g + ||c_g||^2))
@@ -223,8 +223,13 @@ class HistoriesModel:
             dJdc = dJdc / Jsafe[..., None]
         # dc_k/dx = dmu_k + eps_k dsd_k
         dc = dmu[:, None] + self.eps[None, :, :, None] * dsd[:, None]    # (N, S, K, d)
-        dY = np.einsum("nsmk,nskd->nsmd", dJdc, dc)                     # (N, S, m, d)
-        Y = self._out(J)
+        return self._out(J), np.einsum("nsmk,nskd->nsmd", dJdc, dc)
+
+    def predict_with_gradients(self, X: np.ndarray
+                               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Mean, std (N, m) and their gradients (N, m, d): the samples' moments
+        (:meth:`sample_with_gradients`)."""
+        Y, dY = self.sample_with_gradients(X)
         mean = Y.mean(axis=1)
         dmean = dY.mean(axis=1)
         dev = Y - mean[:, None]

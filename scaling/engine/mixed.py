@@ -160,6 +160,36 @@ class LevelSlice:
         i = self.categorical.index
         return mean, std, np.delete(dmean, i, axis=2), np.delete(dstd, i, axis=2)
 
+    @property
+    def sample_with_gradients(self) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+        """The model's joint samples at one level (an AttributeError when it draws none,
+        as ``getattr(model, "sample_with_gradients", None)`` expects)."""
+        inner = self.model.sample_with_gradients
+
+        def sample(Xc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            Y, dY = inner(self.categorical.insert(Xc, self.level))
+            return Y, np.delete(dY, self.categorical.index, axis=3)
+
+        return sample
+
+
+class LevelConstraint:
+    """A model constraint of full designs (``c(X) -> (N, k)``, ``c.jacobian(X) -> (N, k,
+    d)``: a :class:`ProbabilisticConstraint` or the success classifier) at one level, on the
+    continuous entries (N, d - 1)."""
+
+    def __init__(self, constraint: Any, categorical: Categorical, level: int) -> None:
+        self.constraint = constraint
+        self.categorical = categorical
+        self.level = int(level)
+
+    def __call__(self, Xc: np.ndarray) -> np.ndarray:
+        return self.constraint(self.categorical.insert(Xc, self.level))
+
+    def jacobian(self, Xc: np.ndarray) -> np.ndarray:
+        J = self.constraint.jacobian(self.categorical.insert(Xc, self.level))
+        return np.delete(J, self.categorical.index, axis=2)
+
 
 def sliced_constraints(constraints: Sequence[CheapConstraint], categorical: Categorical,
                        level: int) -> list[CheapConstraint]:
@@ -199,8 +229,7 @@ def propose_by_level(categorical: Categorical, model: Any,
     best: tuple[float, np.ndarray] | None = None
     for level in range(cat.levels):  # a handful of levels: one multistart each
         acq = acquisition_of(LevelSlice(model, cat, level))
-        cons = [ProbabilisticConstraint(LevelSlice(c.model, cat, level), p_min=c.p_min,
-                                        threshold=c.threshold) for c in model_constraints]
+        cons = [LevelConstraint(c, cat, level) for c in model_constraints]
         avoid = cat.continuous(X_avoid[avoid_level == level])
         starts = cat.continuous(extra[extra_level == level])
         try:

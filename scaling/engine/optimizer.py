@@ -59,6 +59,7 @@ from typing import Any
 import numpy as np
 from hypate.scaling.engine.acquisition import (
     ACQUISITIONS,
+    MinMaxEI,
     MULTI_OBJECTIVE_ACQUISITIONS,
     SINGLE_OBJECTIVE_ACQUISITIONS,
     Acquisition,
@@ -88,6 +89,7 @@ from hypate.scaling.engine.problem import (
 )
 from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.engine.settings import OptimizerSettings, SettingError
+from hypate.scaling.engine.stopping import Stopping, check
 from hypate.scaling.engine.store import (
     Evaluation,
     EvaluationStore,
@@ -110,6 +112,8 @@ FAILURE_NUGGET = 0.05
 FAILURE_LENGTH_SCALES = (0.15, 1e2)
 #: Largest predicted failure indicator the robust search accepts for a proposal.
 FAILURE_THRESHOLD = 0.15
+#: The random stream of the stopping rule's candidates (apart from the proposal's).
+STOP_STREAM = 7
 #: Largest length scale (unit box) of the surrogates' metric for the inward probe.
 MAX_METRIC_LENGTH = 1.0
 
@@ -159,6 +163,9 @@ class BayesianOptimizer:
         else:
             self.acquisition = s.acquisition
         self.ref_point = None if s.ref_point is None else np.asarray(s.ref_point, dtype=float)
+        #: Why the run ended (``settings.stopping``): updated at every check of the rule.
+        self.stopping = Stopping(rule=None if s.stopping is None
+                                 else dataclasses.asdict(s.stopping))
         #: How the objectives compose from the histories (None: model the objectives).
         self.composition = None
         if s.surrogate == "histories":
@@ -401,6 +408,9 @@ class BayesianOptimizer:
             model_constraints.append(ProbabilisticConstraint(others.pop(0), p_min=st.p_feasible))
         if not np.all(ok):  # the failed evaluations' region: a calibrated classifier
             model_constraints.append(self.success_model(X, ok, rng))
+        if st.stopping is not None and self.n_obj > 1 and self._stops(model, records, X, F, ok,
+                                                                      feas, iteration):
+            return np.zeros((0, self.n_var))  # converged: no more designs
         # exploitation starts: the best feasible designs (nudged off the data points)
         F_good = np.where(feas[:, None], F, np.inf)
         if self.n_obj == 1:
@@ -453,6 +463,35 @@ class BayesianOptimizer:
                 feas_obs = np.r_[feas_obs, True]
                 cur_model = model.condition(X_obs, F_obs)
         return np.array(pending)
+
+    def _stops(self, model: Any, records: list[Evaluation], X: np.ndarray, F: np.ndarray,
+               ok: np.ndarray, feas: np.ndarray, iteration: int) -> bool:
+        """The stopping rule of ``iterations = "auto"`` (:mod:`hypate.scaling.engine.stopping`)
+        with the surrogates just fitted; the evidence is kept in :attr:`stopping`."""
+        rule = self.settings.stopping
+        if iteration <= rule.min_iterations:
+            return False
+        it = np.array([r.iteration for r in records])[ok]
+        Fo, fe = F[ok], feas[ok]
+        c = np.where(fe, np.max(Fo, axis=1), np.inf)
+        best = int(np.argmin(c)) if np.isfinite(c).any() else None
+        try:
+            loo = model.leave_one_out()
+        except (AttributeError, np.linalg.LinAlgError):
+            loo = None
+        gain = np.inf
+        if best is not None:
+            here = np.random.default_rng([self.settings.seed, iteration, STOP_STREAM])
+            lo, span = self.bounds[:, 0], self.bounds[:, 1] - self.bounds[:, 0]
+            cand = np.vstack([lo + here.random((self.settings.n_raw, self.n_var)) * span,
+                              X[ok][fe]])
+            if self.settings.categorical is not None:
+                cand = self.settings.categorical.snap(cand)
+            gain = float(np.max(MinMaxEI(model, float(c[best]), rng=here)(cand)))
+        stop, evidence = check(rule, iteration, Fo, fe, it, loo, best, gain)
+        self.stopping = Stopping("converged" if stop else "cap", iteration if stop else None,
+                                 evidence, dataclasses.asdict(rule))
+        return stop
 
     def success_model(self, X: np.ndarray, ok: np.ndarray, rng: np.random.Generator
                       ) -> SuccessModel:
@@ -621,6 +660,8 @@ class BayesianOptimizer:
             with blas_threads(self.settings.blas_threads):
                 Xb = self.propose(prior, t)
             overhead.append(time.perf_counter() - t0)
+            if not len(Xb):  # the stopping rule held (iterations = "auto")
+                break
             todo = [i for i in range(self.settings.batch_size) if (t, i) not in done]
             stored = {r.batch_index: r.x for r in records if r.iteration == t}
             for i, x in stored.items():
@@ -634,4 +675,6 @@ class BayesianOptimizer:
         X, F, G, ok, feas = self._arrays(records)
         ref = self._reference_point(F[feas]) if self.n_obj > 1 else None
         return OptimizationResult(data=data, n_var=self.n_var, n_obj=self.n_obj, ref_point=ref,
-                                  seconds_per_iteration=np.array(overhead))
+                                  seconds_per_iteration=np.array(overhead),
+                                  stopping=None if self.settings.stopping is None
+                                  else self.stopping.to_dict())

@@ -33,6 +33,9 @@ class OptimizationResult:
     n_obj: int
     ref_point: np.ndarray | None = None
     seconds_per_iteration: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: Why the run ended (:class:`hypate.scaling.engine.stopping.Stopping` as a dict; None
+    #: without a stopping rule).
+    stopping: dict | None = None
 
     @property
     def X(self) -> np.ndarray:

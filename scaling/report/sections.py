@@ -166,7 +166,9 @@ def _study_section(run: RunData) -> Section:
                   + (f" &mdash; {html.escape(tun.description)}" if tun.description else ""))
     sim = spec.simulation
     opt = study.optimizer
-    budget = (f"{opt.initial_samples} initial samples + {opt.iterations} iterations x "
+    its = (f"up to {opt.max_iterations} (auto: stopped when converged)"
+           if opt.iterations == "auto" else f"{opt.iterations}")
+    budget = (f"{opt.initial_samples} initial samples + {its} iterations x "
               f"batch {opt.batch_size}"
               + (f" + {opt.polish} polish evaluations" if opt.polish else "")
               + f" ({study.acquisition.upper()}, {opt.approach} approach, seed "
@@ -500,7 +502,7 @@ def _statistics_section(run: RunData) -> Section:
         it = df["iteration"].to_numpy()
         opt = run.study.optimizer if run.study is not None else None
         if opt is not None and opt.polish:
-            polish = it > opt.iterations
+            polish = it > run.study.iteration_cap
             items.append(("classical seed / initial / BO / polish evaluations",
                           f"{int((it < 0).sum())} / {int((it == 0).sum())} / "
                           f"{int(((it > 0) & ~polish).sum())} / {int(polish.sum())}"))

@@ -110,7 +110,7 @@ def nominal_study(study: Study) -> Study:
 def robust_budget(study: Study) -> int:
     """Evaluations of a robust run: the nominal campaign's and the robust search's."""
     unc = study.uncertainty
-    iterations = study.optimizer.iterations if unc.iterations is None else unc.iterations
+    iterations = study.iteration_cap if unc.iterations is None else unc.iterations
     return study.budget + unc.initial_samples + iterations
 
 
@@ -206,7 +206,7 @@ def _robust_campaign(study: Study, nominal: RunOutcome, store: EvaluationStore,
     opt = study.optimizer
     settings = OptimizerSettings(
         acquisition=study.acquisition, n_init=unc.initial_samples,
-        n_iter=opt.iterations if unc.iterations is None else unc.iterations,
+        n_iter=study.iteration_cap if unc.iterations is None else unc.iterations,
         v=opt.v, v_final=opt.v_final, weights=opt.weights,
         cheap_constraints=problem.cheap_constraints(),
         executor=executor, timeout=opt.timeout, store=store, seed=run_seed,

@@ -426,7 +426,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
             write_json(out / CLASSICAL_JSON, classical or {"status": "not available"})
             settings = OptimizerSettings(
                 acquisition=study.acquisition, n_init=opt.initial_samples,
-                n_iter=opt.iterations, batch_size=opt.batch_size, v=opt.v, v_final=opt.v_final,
+                n_iter=study.iteration_cap, batch_size=opt.batch_size, v=opt.v,
+                v_final=opt.v_final, stopping=study.stopping_rule,
                 weights=opt.weights,
                 cheap_constraints=problem.cheap_constraints(), executor=executor,
                 timeout=opt.timeout, store=store, seed=run_seed, callback=callback,
@@ -653,6 +654,8 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
                                 f"least-violating of the {int(result.ok.sum())} successful ones")
     n = len(table)
     ok = int(full.ok.sum()) if n else 0
+    if full.stopping is not None:
+        point["stopping"] = finite(full.stopping)
     point["statistics"] = {"evaluations": n, "successful": ok, "failed": n - ok,
                            "admissible": int(adm.sum()),
                            "wall_seconds": finite_or_none(wall_seconds),

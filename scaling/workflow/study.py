@@ -75,6 +75,7 @@ import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
+from hypate.scaling.engine.stopping import StoppingRule
 from hypate.scaling.workflow import uncertainty as scatter
 from hypate.scaling.workflow.admissibility import AdmissibilitySection
 from hypate.scaling.workflow.configuration import Configuration
@@ -249,13 +250,18 @@ class ConstraintsSection(InputModel):
 
 class OptimizerSection(InputModel):
     approach: Literal["indirect", "direct"] = "indirect"
-    acquisition: Literal["hvlcb", "hvei", "hvpoi", "ws", "cheb", "lcb", "ei", "poi"] | None = None
+    acquisition: Literal["hvlcb", "hvei", "hvpoi", "ws", "cheb", "mmei", "mmlcb", "lcb", "ei",
+                         "poi"] | None = None
     v: Annotated[float, Field(ge=0.0, le=100.0)] | None = None
     #: The exploration weight of the last iteration (v falls linearly to it; None: constant v).
     v_final: Annotated[float, Field(ge=0.0, le=100.0)] | None = None
     weights: list[Annotated[float, Field(ge=0.0)]] | None = None
     initial_samples: Annotated[int, Field(ge=1, le=10000)] = 20
-    iterations: Annotated[int, Field(ge=0, le=100000)] = 50
+    #: BO iterations, or "auto": stop when converged (scaling.engine.stopping), at most
+    #: ``max_iterations``, never before ``min_iterations``
+    iterations: Annotated[int, Field(ge=0, le=100000)] | Literal["auto"] = 50
+    max_iterations: Annotated[int, Field(ge=1, le=100000)] = 40
+    min_iterations: Annotated[int, Field(ge=1, le=100000)] = 8
     batch_size: Annotated[int, Field(ge=1, le=64)] = 1
     seed: Annotated[int, Field(ge=0)] = 0
     classical_seed: bool = True
@@ -304,6 +310,13 @@ class StudyFile(InputModel):
             if single != (n_obj == 1):
                 raise ValueError(f"optimizer.acquisition: {acq!r} does not fit {n_obj} objective(s) "
                                  "(lcb/ei/poi for one; hvlcb/hvei/hvpoi/ws/cheb for two)")
+        opt = self.optimizer
+        if opt.iterations == "auto" and opt.min_iterations >= opt.max_iterations:
+            raise ValueError(f"optimizer.min_iterations: must be below max_iterations "
+                             f"({opt.max_iterations}); got {opt.min_iterations}")
+        if opt.iterations == "auto" and (self.robust is not None or self.fidelity):
+            raise ValueError("optimizer.iterations: \"auto\" stops a single-fidelity search "
+                             "(not a [robust] or [[fidelity]] one); give a number")
         if self.optimizer.polish and n_obj != 1:
             raise ValueError(f"optimizer.polish: a local polish needs one objective, the "
                              f"study has {n_obj}")
@@ -370,7 +383,21 @@ class Study:
         opt = self.optimizer
         nested = opt.initial_samples * len(self.lower_levels) + sum(  # the lower levels' share
             default_low_samples(f, opt.initial_samples) for _, _, f in self.lower_levels)
-        return opt.initial_samples + nested + opt.iterations * opt.batch_size + opt.polish
+        return opt.initial_samples + nested + self.iteration_cap * opt.batch_size + opt.polish
+
+    @property
+    def iteration_cap(self) -> int:
+        """The iterations the optimizer may run: ``iterations``, or with ``"auto"`` its
+        ``max_iterations`` (the hard cap of the stopping rule)."""
+        opt = self.optimizer
+        return opt.max_iterations if opt.iterations == "auto" else int(opt.iterations)
+
+    @property
+    def stopping_rule(self) -> StoppingRule | None:
+        """The stopping rule of ``iterations = "auto"`` (None: a fixed count)."""
+        opt = self.optimizer
+        return (StoppingRule(min_iterations=opt.min_iterations) if opt.iterations == "auto"
+                else None)
 
     def summary(self) -> list[str]:
         """A few lines describing the study (``hypate validate``)."""

@@ -201,9 +201,9 @@ def budget(opt: Optimization) -> float:
     every point's)."""
     study = opt.study()
     o, sweep = study.optimizer, study.sweep
-    evaluations = o.initial_samples + o.iterations + o.polish
+    evaluations = o.initial_samples + study.iteration_cap + o.polish
     if sweep is not None:  # the later points' budgets (None: the study's)
         later = (o.initial_samples if sweep.initial_samples is None else sweep.initial_samples)
-        later += o.iterations if sweep.iterations is None else sweep.iterations
+        later += study.iteration_cap if sweep.iterations is None else sweep.iterations
         evaluations += (len(sweep_points(study)) - 1) * later
     return float(evaluations * study.raw.simulation.steps)

@@ -157,3 +157,53 @@ def test_success_model_is_calibrated_on_held_out_evaluations() -> None:
     # likely to succeed mostly did
     pred = cal.predicted
     assert cal.observed[pred < 0.5].mean() < 0.35 and cal.observed[pred > 0.5].mean() > 0.9
+
+
+# -- the design-point (min-max) acquisitions -------------------------------------------------
+@pytest.mark.parametrize("name", ["mmei", "mmlcb"])
+@pytest.mark.parametrize("joint", [True, False])
+def test_min_max_acquisitions_and_their_gradients(name: str, joint: bool) -> None:
+    """Both on the joint samples of a histories model and on independent normal samples of
+    a kriging model's moments: the value is the samples' statistic of max_j J_j, and the
+    gradient matches finite differences (common random numbers: smooth in x)."""
+    from hypate.scaling.engine.acquisition import ACQUISITIONS
+
+    m = _model()
+    model = m if joint else fit_surrogate(m.X, m.composition(_histories(m.X)), BOUNDS, rng=0)
+    cls = ACQUISITIONS[name]
+    acq = cls(model, 0.05, rng=0) if name == "mmei" else cls(model, 1.0, rng=0)
+    X = np.array([[0.23, 0.81], [0.45, 1.25], [0.7, 1.9]])
+    val, grad = acq.value_and_gradient(X)
+    for k, x in enumerate(X):
+        fd, bound = richardson_jacobian(lambda z: acq(z[None]), x, 1e-4)
+        assert_matches_richardson(grad[k], fd[0], bound[0], f"{name} at {x}", safety=8.0)
+    if name == "mmei":
+        # EI of max(J) over b: zero where every sample is worse, positive near the target
+        assert np.all(val >= 0.0)
+        best = cls(model, 10.0, rng=0)(X)  # a bar every sample beats: b - E[max J]
+        Y = (model.sample_with_gradients(X)[0] if joint else None)
+        if Y is not None:
+            np.testing.assert_allclose(best, 10.0 - Y.max(axis=2).mean(axis=1), rtol=1e-12)
+
+
+# -- the stopping rule -----------------------------------------------------------------------
+def test_stopping_rule_needs_all_three_tests() -> None:
+    from hypate.scaling.engine.stopping import StoppingRule, check
+
+    rule = StoppingRule(min_iterations=2, patience=2, tolerance=0.01, z_max=2.0, gain=0.01)
+    F = np.array([[0.2, 0.3], [0.1, 0.12], [0.1, 0.11], [0.3, 0.1]])
+    its = np.array([0, 1, 3, 4])
+    feas = np.ones(4, bool)
+    loo = (F + 0.001, np.full(F.shape, 0.01))        # z = -0.1 at every row
+    stop, ev = check(rule, 6, F, feas, its, loo, 2, 0.0005)
+    assert stop and ev["stalled"] and ev["surrogate_knows_it"] and ev["no_promise_left"]
+    assert ev["improvement"] == 0.0 and ev["z"] == pytest.approx([-0.1, -0.1])
+    # before iteration 5 the best was 0.12 (iterations < 3): improved by 9 %, not stalled
+    assert not check(rule, 5, F, feas, its, loo, 2, 0.0005)[0]
+    # the surrogate did not expect the design point
+    far = (F + 0.1, np.full(F.shape, 0.01))
+    assert not check(rule, 6, F, feas, its, far, 2, 0.0005)[0]
+    # the acquisition still promises 5 %
+    assert not check(rule, 6, F, feas, its, loo, 2, 0.0055)[0]
+    # never before min_iterations
+    assert not check(StoppingRule(min_iterations=6), 6, F, feas, its, loo, 2, 0.0)[0]
