@@ -92,8 +92,8 @@ class Resolution:
     smoothing: float = 0.2
     max_iterations: int = 20000
     sample_every: int = 50
-    window: int = 10
-    tolerance: float = 2e-3
+    window: int = 20
+    tolerance: float = 5e-4
 
     def as_dict(self) -> dict[str, float]:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
