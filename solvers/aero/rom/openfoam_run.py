@@ -7,7 +7,9 @@ in one line. :func:`run_case` meshes and runs a case written by
 write the area-averaged wall pressure, temperature and heat flux and the wall distributions
 every ``sample_every`` pseudo-time iterations; the run is watched while it goes and stopped
 once the averages have stopped drifting (density-based local time stepping has no residuals
-worth watching): the solver is then ended, the samples hold all a snapshot needs. The distributions of the last ``window`` samples are averaged.
+worth watching): the solver is then ended, the samples hold all a snapshot needs. The
+snapshot is the average over the first window that met the tolerance, so that it does not
+depend on how late the watcher saw it (the machine's load). The distributions of the last ``window`` samples are averaged.
 A case that fails, stays unconverged or holds NaN gives a :class:`CaseResult` with
 ``converged = False`` and a stated ``reason``; nothing is raised for it, so that a campaign
 can record the reason and go on.
@@ -144,13 +146,27 @@ def drift(values: Array) -> float:
     return abs(float(np.mean(v[h:]) - np.mean(v[:h]))) / scale
 
 
-def _converged(avg: Array, r: Resolution, viscous: bool) -> tuple[bool, float, float]:
-    if avg.shape[0] < max(r.window, 2) or not np.all(np.isfinite(avg[-r.window:])):
-        return False, math.nan, math.nan
-    last = avg[-r.window:]
-    dp = drift(last[:, 1])
-    dq = drift(last[:, 3]) if viscous else 0.0
-    return dp < r.tolerance and dq < r.tolerance, dp, dq
+def _converged(avg: Array, r: Resolution, viscous: bool) -> tuple[int, float, float]:
+    """The first sample at which the averages of ``avg`` have converged (its row index, -1
+    if none yet) and the drifts of the pressure and heat flux there (or at the last row).
+
+    The newest row is left out: its distributions may still be being written. The answer
+    depends only on the solver's (deterministic) history, not on when it was looked at.
+    """
+    rows = avg[:-1]
+    W = max(r.window, 2)
+    if rows.shape[0] < W:
+        return -1, math.nan, math.nan
+    dp = dq = math.nan
+    for k in range(W - 1, rows.shape[0]):
+        last = rows[k - W + 1:k + 1]
+        if not np.all(np.isfinite(last)):
+            return -1, math.nan, math.nan
+        dp = drift(last[:, 1])
+        dq = drift(last[:, 3]) if viscous else 0.0
+        if dp < r.tolerance and dq < r.tolerance:
+            return k, dp, dq
+    return -1, dp, dq
 
 
 def read_samples(folder: str | Path, iterations: list[int]) -> tuple[Array, ...]:
@@ -212,8 +228,6 @@ def run_case(folder: str | Path, openfoam: OpenFoam, resolution: Resolution,
                           cpu_seconds=time.monotonic() - t0)
     log_path = folder / "log.rhoCentralFoam"
     stopped = False
-    dp = dq = math.nan
-    converged = False
     with open(log_path, "w", encoding="utf-8") as log:
         proc = subprocess.Popen([openfoam.solver, "-case", str(folder)], env=env, stdout=log,
                                 stderr=subprocess.STDOUT)
@@ -221,44 +235,44 @@ def run_case(folder: str | Path, openfoam: OpenFoam, resolution: Resolution,
             while proc.poll() is None:
                 time.sleep(POLL)
                 avg = read_averages(folder)
-                converged, dp, dq = _converged(avg, resolution, viscous)
                 if avg.size and not np.all(np.isfinite(avg[-1])):
-                    proc.terminate()
-                    proc.wait()
                     break
-                if converged or (timeout is not None and time.monotonic() - t0 > timeout):
-                    # the samples hold everything the snapshot needs: no final write
-                    stopped = True
-                    proc.terminate()
-                    proc.wait()
+                if (_converged(avg, resolution, viscous)[0] >= 0
+                        or (timeout is not None and time.monotonic() - t0 > timeout)):
+                    break  # the samples hold everything the snapshot needs: no final write
         finally:
             if proc.poll() is None:
-                proc.kill()
+                stopped = True
+                proc.terminate()
+                try:
+                    proc.wait(timeout=30.0)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
             proc.wait()
     seconds = time.monotonic() - t0
     avg = read_averages(folder)
-    iterations = int(avg[-1, 0]) if avg.size else 0
-    if not converged:
-        converged, dp, dq = _converged(avg, resolution, viscous)
+    k, dp, dq = _converged(avg, resolution, viscous)
+    iterations = int(avg[k if k >= 0 else -1, 0]) if avg.size else 0
     result = CaseResult(False, iterations=iterations, drift_pressure=dp, drift_heat_flux=dq,
                         cpu_seconds=seconds)
     if avg.size and not np.all(np.isfinite(avg)):
         result.reason = "NaN in the wall averages (the solution diverged)"
         return result
-    if not converged:
+    if k < 0:
         if proc.returncode not in (0, None) and not stopped:
             result.reason = f"rhoCentralFoam failed: {_fatal(log_path)}"
         elif timeout is not None and seconds > timeout:
             result.reason = (f"not converged within the {timeout:g} s time limit "
                              f"({iterations} iterations, drift p {dp:.2g}, q {dq:.2g})")
         else:
-            result.reason = (f"not converged after {iterations} iterations (drift of the "
-                             f"wall averages over the last {resolution.window} samples: p "
-                             f"{dp:.2g}, q {dq:.2g}; tolerance {resolution.tolerance:g})")
+            figures = (f"drift of the wall averages over the last {resolution.window} "
+                       f"samples: p {dp:.2g}, q {dq:.2g}; tolerance {resolution.tolerance:g}"
+                       if math.isfinite(dp) else
+                       f"fewer than the {resolution.window} samples the check needs")
+            result.reason = f"not converged after {iterations} iterations ({figures})"
         return result
-    # a stopped solver may have been writing its newest sample: average the window before it
-    rows = avg[-resolution.window - 1:-1] if stopped else avg[-resolution.window:]
-    window = [int(i) for i in rows[:, 0]]
+    # the window that first met the tolerance: the same however late the run was stopped
+    window = [int(i) for i in avg[k - resolution.window + 1:k + 1, 0]]
     try:
         x, y, p, T, q = read_samples(folder, window)
     except (OSError, ValueError) as exc:
