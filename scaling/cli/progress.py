@@ -1,7 +1,9 @@
 """Progress of a command that works through named steps (``hypate rom build``).
 
 In a terminal a live tqdm bar per step; without one (a log file, CI, a pipe) a line when a
-step finishes and every :data:`LOG_EVERY` seconds in between; nothing when quiet. Always on
+step finishes and every :data:`LOG_EVERY` seconds in between (with an ETA from the step's
+rate since its first report, so that work reused from an earlier run does not count);
+nothing when quiet. Always on
 stderr, so that stdout stays the command's result (``--json``).
 """
 from __future__ import annotations
@@ -46,6 +48,7 @@ class StepProgress:
         self.clock = clock
         self.t0 = self.last = self.seen = clock()
         self.step: str | None = None
+        self.step_first = (self.t0, 0)
         self.step_t0 = self.t0
         self.bar: tqdm | None = None
 
@@ -54,6 +57,7 @@ class StepProgress:
         if step != self.step:  # a step begins where the previous report ended
             self._close_bar()
             self.step, self.step_t0 = step, self.seen
+            self.step_first = (now, done)  # the rate (ETA) counts from the first report
             if self.bars:
                 self.bar = tqdm(total=total, desc=f"{self.label}: {step}", file=self.file,
                                 dynamic_ncols=True, leave=True)
@@ -64,8 +68,11 @@ class StepProgress:
         if self.lines and (finished or now - self.last >= LOG_EVERY):
             self.last = now
             state = "done" if finished else "running"
+            t1, d1 = self.step_first
+            eta = (f", ETA {(now - t1) / (done - d1) * (total - done):.0f} s"
+                   if not finished and done > d1 and now > t1 else "")
             print(f"{self.label}: {step} {done}/{total} {state}, {now - self.step_t0:.1f} s "
-                  f"(total {now - self.t0:.0f} s)", file=self.file, flush=True)
+                  f"(total {now - self.t0:.0f} s){eta}", file=self.file, flush=True)
         self.seen = now
 
     def _close_bar(self) -> None:

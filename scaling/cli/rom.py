@@ -4,7 +4,9 @@
   shock-expansion source (or external snapshots), POD-kriging, saved as NPZ;
 * ``hypate rom check ROM.npz --samples N [--mach M --altitude H --scale XI] [--json]`` --
   mean NRMSE (Eq. 7.7, fractions) of pressure and heat flux on fresh source samples:
-  ``{"pressure_nrmse": x, "heat_flux_nrmse": y, "samples": n}``;
+  ``{"pressure_nrmse": x, "heat_flux_nrmse": y, "samples": n}``; without ``--samples`` a
+  ROM built from CFD snapshots shows its provenance and its errors on its held-out
+  snapshots (``{"samples", "pressure": {...}, "heat_flux": {...}, "provenance": {...}}``);
 * ``hypate rom plan CONFIG.toml --out PLAN.csv [--samples N --groups n_C]`` -- an OLH plan in
   smart order (App. B) for an external CFD campaign, with the restart distances (Eq. 2.82).
 """
@@ -18,7 +20,7 @@ from hypate.scaling.cli.arguments import integer_in, output_file, positive
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.progress import StepProgress
 from hypate.scaling.workflow.shipped import resolve
-from hypate.solvers.aero.rom.build import build_rom_from_config, check_rom
+from hypate.solvers.aero.rom.build import build_rom_from_config, check_holdout, check_rom
 from hypate.solvers.aero.rom.config import MAX_SAMPLES, MIN_SAMPLES, load_rom_config
 from hypate.solvers.aero.rom.io import load_rom, save_rom
 from hypate.solvers.aero.rom.plan import olh_plan, smart_order, write_plan_csv
@@ -44,6 +46,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     b.add_argument("--samples", type=int, help="override [training] samples")
     b.add_argument("--workers", type=int, default=1,
                    help="processes generating samples (default 1: in-process)")
+    b.add_argument("--resume", action="store_true",
+                   help="openfoam source: reuse the finished CFD snapshots of OUT's store "
+                   "(OUT with the suffix .snapshots) instead of refusing it")
     b.add_argument("--json", action="store_true", help="print a JSON summary")
     b.add_argument("-q", "--quiet", action="store_true",
                    help="no progress output (otherwise on stderr: a bar in a terminal, a "
@@ -55,7 +60,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "and heat flux against fresh samples of the built-in source, at the "
                         "reference condition or at --mach/--altitude and scale --scale.")
     c.add_argument("rom", help="ROM file (.npz)")
-    c.add_argument("--samples", type=int, required=True, help="number of fresh samples")
+    c.add_argument("--samples", type=int, help="number of fresh samples of the built-in "
+                   "source (required unless the ROM holds held-out CFD snapshots, which are "
+                   "then checked)")
     c.add_argument("--mach", type=float, help="free-stream Mach number (default: reference)")
     c.add_argument("--altitude", type=float, help="altitude (m) (default: reference)")
     c.add_argument("--scale", type=float, default=1.0,
@@ -96,13 +103,17 @@ def run_build(args: argparse.Namespace) -> int:
     cfg, base = load_rom_config(resolve(args.config, "rom"))
     out = output_file(args.out, "--out", make_folders=True)
     progress = StepProgress("rom build", quiet=args.quiet)
+    # CFD snapshots are kept beside the ROM file as they finish (crash-safe; --resume)
+    store = out.with_suffix(".snapshots") if cfg.source.kind == "openfoam" else None
     try:
         if args.workers > 1:
             with ProcessPoolExecutor(args.workers) as pool:
                 rom = build_rom_from_config(cfg, base, executor=pool, samples=args.samples,
-                                            progress=progress)
+                                            progress=progress, store=store,
+                                            resume=args.resume)
         else:
-            rom = build_rom_from_config(cfg, base, samples=args.samples, progress=progress)
+            rom = build_rom_from_config(cfg, base, samples=args.samples, progress=progress,
+                                        store=store, resume=args.resume)
     finally:
         progress.close()
     out.parent.mkdir(parents=True, exist_ok=True)  # like `hypate run --out runs/...`
@@ -119,12 +130,41 @@ def run_build(args: argparse.Namespace) -> int:
     return 0
 
 
+def _print_provenance(prov: dict) -> None:
+    res = prov.get("resolution", {})
+    it = prov.get("iterations", {})
+    print(f"snapshots: {prov.get('solver', '?')} {prov.get('openfoam_version', '?')}, model "
+          f"{prov.get('model', '?')}, {prov.get('snapshots', 0)} training + "
+          f"{prov.get('holdout', 0)} held out, {prov.get('rejected', 0)} rejected; "
+          f"{res.get('cells_panel', '?')} x {res.get('cells_normal', '?')} cells on the panel, "
+          f"wall cell {res.get('wall_cell', float('nan')):g} m; iterations median "
+          f"{it.get('median', float('nan')):g} (max {it.get('max', float('nan')):g}); heat "
+          f"flux: {prov.get('heat_flux', '?')}")
+
+
 def run_check(args: argparse.Namespace) -> int:
 
+    rom = load_rom(args.rom, correction=args.correction)
+    if args.samples is None:
+        if rom.holdout is None:
+            raise InputError("--samples", "required: this ROM holds no held-out snapshots")
+        result = check_holdout(rom)
+        result["provenance"] = rom.provenance
+        if args.json:
+            print(dumps(result))
+            return 0
+        if rom.provenance:
+            _print_provenance(rom.provenance)
+        for name in ("pressure", "heat_flux"):
+            r = result[name]
+            print(f"held-out {name.replace('_', ' ')} on {result['samples']} snapshots, in % "
+                  f"of each snapshot's range: NRMSE median {100 * r['nrmse_median']:.2f}, "
+                  f"max {100 * r['nrmse_max']:.2f}; largest point error median "
+                  f"{100 * r['max_error_median']:.2f}, max {100 * r['max_error_max']:.2f}")
+        return 0
     integer_in(args.samples, "--samples", 1, MAX_SAMPLES)
     positive(args.scale, "--scale")
     integer_in(args.seed, "--seed", 0)
-    rom = load_rom(args.rom, correction=args.correction)
     ref = rom.reference
     if args.mach is None and args.altitude is None:
         flow = ref

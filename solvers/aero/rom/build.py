@@ -7,7 +7,9 @@ fresh source samples (data sets 2 and 3 of Sec. 7.1).
 """
 from __future__ import annotations
 
+import contextlib
 import math
+import tempfile
 import warnings
 from collections.abc import Callable
 from concurrent.futures import Executor
@@ -16,9 +18,16 @@ from typing import Any
 
 import numpy as np
 from hypate.solvers.aero.base import Array, SurfaceState
-from hypate.solvers.aero.rom.config import RomBuildConfig
+from hypate.solvers.aero.rom.config import MIN_SAMPLES, RomBuildConfig
 from hypate.solvers.aero.rom.geometry import RomGeometry, eq76_wall_temperature
 from hypate.solvers.aero.rom.model import RomFluid
+from hypate.solvers.aero.rom.openfoam import (
+    OpenFoamSettings,
+    SnapshotStore,
+    provenance,
+    run_snapshots,
+)
+from hypate.solvers.aero.rom.openfoam_run import find_openfoam
 from hypate.solvers.aero.rom.plan import olh_plan
 from hypate.solvers.aero.rom.pod import PodKriging
 from hypate.solvers.aero.rom.snapshots import generate_samples, read_snapshots
@@ -26,8 +35,8 @@ from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.numerics.random import as_rng
 
-__all__ = ["BUILD_STEPS", "build_rom", "build_rom_from_config", "check_rom", "check_samples",
-           "geometry_from_config", "nrmse", "snapshots_path"]
+__all__ = ["BUILD_STEPS", "build_rom", "build_rom_from_config", "check_holdout", "check_rom",
+           "check_samples", "geometry_from_config", "nrmse", "snapshots_path"]
 
 #: The steps of a build, in order, as named to a ``progress(step, done, total)`` callback:
 #: source samples (``done`` of ``total`` samples; external snapshots are read in one go),
@@ -92,9 +101,52 @@ def snapshots_path(cfg: RomBuildConfig, base_dir: str | Path | None = None) -> P
     return Path(base_dir) / path if base_dir is not None and not path.is_absolute() else path
 
 
+def _openfoam_snapshots(cfg: RomBuildConfig, geometry: RomGeometry, reference: FlowCondition,
+                        D: Array, holdout: Array, executor: Executor | None,
+                        store: str | Path | None, resume: bool,
+                        progress: BuildProgress | None
+                        ) -> tuple[Array, Array, Array, dict[str, Any], tuple | None]:
+    """Training and held-out snapshots of the OpenFOAM source (:mod:`.openfoam`): inputs,
+    pressure, heat flux of the converged training snapshots, the provenance, the held-out
+    set. Rejected snapshots are left out with a warning that gives their reasons."""
+    openfoam = find_openfoam()
+    src = cfg.source
+    settings = OpenFoamSettings(src.model, src.resolution.resolution(src.model), src.regime,
+                                src.timeout)
+    with contextlib.ExitStack() as stack:
+        if store is None:
+            store = stack.enter_context(tempfile.TemporaryDirectory(prefix="hypate-cfd-"))
+        snapshot_store = SnapshotStore(store)
+        if snapshot_store.count() and not resume:
+            raise InputError("--resume", f"the snapshot store {store} holds "
+                             f"{snapshot_store.count()} finished snapshots: resume to reuse "
+                             "them, or remove the folder")
+        total = D.shape[0] + holdout.shape[0]
+        stage = _stage(progress, BUILD_STEPS[0])
+        train = run_snapshots(geometry, D, reference, settings, openfoam, snapshot_store,
+                              executor, None if stage is None else
+                              (lambda done, _n: stage(done, total)))
+        held = run_snapshots(geometry, holdout, reference, settings, openfoam,
+                             snapshot_store, executor, None if stage is None else
+                             (lambda done, _n: stage(D.shape[0] + done, total)))
+    rejected = train.rejections() + held.rejections()
+    X, P, Q = train.arrays()
+    if X.shape[0] < MIN_SAMPLES:
+        raise InputError("source", f"only {X.shape[0]} of {D.shape[0]} CFD snapshots "
+                         f"converged (at least {MIN_SAMPLES} needed): "
+                         + "; ".join(rejected[:3]))
+    if rejected:
+        warnings.warn(f"{len(rejected)} CFD snapshot(s) rejected and left out: "
+                      + "; ".join(rejected[:5]), RuntimeWarning, stacklevel=3)
+    Xh, Ph, Qh = held.arrays()
+    return X, P, Q, provenance(train, held), ((Xh, Ph, Qh) if Xh.shape[0] else None)
+
+
 def build_rom_from_config(cfg: RomBuildConfig, base_dir: str | Path | None = None,
                           executor: Executor | None = None, samples: int | None = None,
-                          progress: BuildProgress | None = None) -> RomFluid:
+                          progress: BuildProgress | None = None,
+                          store: str | Path | None = None, resume: bool = False
+                          ) -> RomFluid:
     """Build the ROM described by a :class:`~hypate.solvers.aero.rom.config.RomBuildConfig`:
     OLH plan + built-in source (or external snapshots) + POD-kriging.
 
@@ -110,6 +162,12 @@ def build_rom_from_config(cfg: RomBuildConfig, base_dir: str | Path | None = Non
     progress : callable, optional
         ``progress(step, done, total)`` as each step of :data:`BUILD_STEPS` advances (the
         caller decides how to show it; the builder prints nothing).
+    store : str or Path, optional
+        OpenFOAM source: the folder of finished snapshots (:class:`.openfoam.SnapshotStore`;
+        default a temporary one).
+    resume : bool
+        OpenFOAM source: reuse the snapshots already in ``store`` (otherwise a store that
+        holds some is refused).
     """
     geometry = geometry_from_config(cfg)
     reference = cfg.reference.flow()
@@ -143,6 +201,20 @@ def build_rom_from_config(cfg: RomBuildConfig, base_dir: str | Path | None = Non
                          n_restarts=tr.restarts, source=src, regime=cfg.source.regime, rng=rng,
                          optimized_modes=tr.optimized_modes, progress=progress)
     bounds = np.vstack([a_bounds, t_bounds])
+    if cfg.source.kind == "openfoam":
+        D = olh_plan(bounds, samples or tr.samples, rng)
+        # the held-out plan has its own seed: the training plan stays that of the samples
+        H = olh_plan(bounds, cfg.source.holdout, tr.seed + 1) if cfg.source.holdout else \
+            np.zeros((0, bounds.shape[0]))
+        D, P, Q, prov, held = _openfoam_snapshots(cfg, geometry, reference, D, H, executor,
+                                                  store, resume, progress)
+        src["model"] = cfg.source.model
+        rom = build_rom(geometry, reference, D, P, Q, bounds=bounds,
+                        tolerance=tr.pod_tolerance, kernel=tr.kernel, trend=tr.trend,
+                        n_restarts=tr.restarts, source=src, regime=cfg.source.regime,
+                        rng=rng, optimized_modes=tr.optimized_modes, progress=progress)
+        rom.provenance, rom.holdout = prov, held
+        return rom
     if cfg.source.kind == "snapshots":
         D, P, Q = read_snapshots(snapshots_path(cfg, base_dir), geometry)
         bounds = np.stack([np.minimum(bounds[:, 0], D.min(axis=0)),
@@ -221,3 +293,30 @@ def check_rom(rom: RomFluid, n_samples: int = 100, flow: FlowCondition | None = 
     return {"pressure_nrmse": float(nrmse(P, pr, pts.weights).mean()),
             "heat_flux_nrmse": float(nrmse(Q, qr, pts.weights).mean()),
             "samples": int(n_samples)}
+
+
+def check_holdout(rom: RomFluid) -> dict[str, Any]:
+    """Errors of the ROM on its held-out snapshots (snapshots of the source kept out of the
+    fit, stored in the ROM file): per snapshot the NRMSE of Eq. (7.7) and the largest
+    pointwise error, both in units of the snapshot's range ``max(y) - min(y)``; their median
+    and maximum for pressure and heat flux (fractions).
+
+    At the reference condition and scale, with a uniform wall temperature, the corrections
+    of :class:`RomFluid` are the identity (Eqs. 2.65, 2.72), so the POD-kriging prediction
+    at the snapshot's inputs is what the ROM returns.
+    """
+    if rom.holdout is None:
+        raise InputError("rom", "this ROM file holds no held-out snapshots (build it with "
+                         "[source] holdout > 0)")
+    D, P, Q = rom.holdout
+    w = rom.geometry.points(1.0).weights
+    out: dict[str, Any] = {"samples": int(D.shape[0])}
+    for name, model, Y in (("pressure", rom.pressure_model, P),
+                           ("heat_flux", rom.heat_model, Q)):
+        pred = model.predict(D)
+        e_rms = nrmse(Y, pred, w)
+        e_max = np.max(np.abs(pred - Y), axis=1) / np.maximum(np.ptp(Y, axis=1), 1e-300)
+        out[name] = {"nrmse_median": float(np.median(e_rms)), "nrmse_max": float(e_rms.max()),
+                     "max_error_median": float(np.median(e_max)),
+                     "max_error_max": float(e_max.max())}
+    return out

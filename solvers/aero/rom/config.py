@@ -33,8 +33,21 @@ Public schema (keys are a contract; see README "Fluid ROM"), example
     boundary_layer = true        # shock-expansion: Cox-Crabtree effective shape
     regime = "turbulent"         # Eckert regime
 
+    # or: kind = "openfoam"      # OpenFOAM rhoCentralFoam snapshots (2d panels)
+    # model = "euler"            # "euler" | "laminar" | "spalart-allmaras"
+    # holdout = 20               # extra OLH snapshots kept out of the fit (rom check)
+    # timeout = 3600.0           # s per snapshot before it is rejected
+    # [source.resolution]        # mesh and convergence (openfoam_case.Resolution)
+    # cells_panel = 128          # streamwise cells on the panel (plate: cells_plate)
+    # cells_normal = 60          # wall-normal cells, first one wall_cell (m) high
+    # wall_cell = 5e-4
+    # courant = 0.2              # local time stepping (default 0.2 Euler, 0.1 viscous)
+    # max_iterations = 20000     # then the snapshot is rejected as unconverged
+    # window = 20                # samples (every sample_every iterations) judged ...
+    # tolerance = 5e-4           # ... by the relative drift of the wall averages
+
     [training]
-    samples = 200                # OLH samples (shock-expansion source)
+    samples = 200                # OLH samples (shock-expansion and openfoam sources)
     seed = 0
     pod_tolerance = 0.005        # Eq. (A.14) energy criterion
     kernel = "rbf"               # "rbf" (Gaussian, Eq. A.4) or "matern52"
@@ -53,6 +66,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from hypate.solvers.aero.rom.geometry import MAX_N_X, MAX_N_Y
+from hypate.solvers.aero.rom.openfoam_case import Resolution
 from hypate.solvers.config import InputModel, Pair, pydantic_input_error, read_toml
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
@@ -132,11 +146,40 @@ class RomWallTemperature(InputModel):
         return self
 
 
+class RomOpenFoamResolution(InputModel):
+    """``[source.resolution]`` of an ``openfoam`` source (see
+    :class:`~hypate.solvers.aero.rom.openfoam_case.Resolution`)."""
+
+    cells_panel: Annotated[int, Field(ge=4, le=4000)] = 128
+    cells_plate: Annotated[int, Field(ge=2, le=4000)] = 64
+    cells_normal: Annotated[int, Field(ge=4, le=1000)] = 60
+    wall_cell: Annotated[float, Field(gt=0.0, le=1.0)] = 5e-4
+    height: Annotated[float, Field(gt=0.05, le=10.0)] = 0.5
+    upstream: Annotated[float, Field(ge=0.0, le=1.0)] = 0.0
+    courant: Annotated[float, Field(gt=0.0, le=1.0)] | None = None
+    smoothing: Annotated[float, Field(ge=0.0, le=1.0)] = 0.2
+    max_iterations: Annotated[int, Field(ge=100, le=10_000_000)] = 20000
+    sample_every: Annotated[int, Field(ge=1, le=100_000)] = 50
+    window: Annotated[int, Field(ge=4, le=1000)] = 20
+    tolerance: Annotated[float, Field(gt=0.0, lt=1.0)] = 5e-4
+
+    def resolution(self, model: str) -> Resolution:
+        """The case settings; the Courant number defaults to 0.2 (Euler) or 0.1 (viscous)."""
+        values = self.model_dump()
+        if values["courant"] is None:
+            values["courant"] = 0.2 if model == "euler" else 0.1
+        return Resolution(**values)
+
+
 class RomSource(InputModel):
-    kind: Literal["shock-expansion", "snapshots"] = "shock-expansion"
+    kind: Literal["shock-expansion", "snapshots", "openfoam"] = "shock-expansion"
     path: str = ""
     boundary_layer: bool = True
     regime: Literal["turbulent", "laminar"] = "turbulent"
+    model: Literal["euler", "laminar", "spalart-allmaras"] = "euler"
+    holdout: Annotated[int, Field(ge=0, le=MAX_SAMPLES)] = 0
+    timeout: Annotated[float, Field(gt=0.0, le=1e6)] = 3600.0
+    resolution: RomOpenFoamResolution = RomOpenFoamResolution()
 
     @model_validator(mode="after")
     def _check(self) -> RomSource:
@@ -189,6 +232,9 @@ class RomBuildConfig(InputModel):
                 raise ValueError("modes: a 2d panel has no spanwise waves (n = 0)")
             if self.panel.flow_angle != 0.0:
                 raise ValueError("panel: a 2d panel is aligned with the flow (flow_angle = 0)")
+        if self.source.kind == "openfoam" and self.panel.kind != "2d":
+            raise ValueError("source: the openfoam source computes 2d snapshots (panel kind "
+                             "= '2d'); a 3-D panel uses a 2-D ROM strip-wise")
         seen = {(m.m, m.n) for m in self.modes}
         if len(seen) != len(self.modes):
             raise ValueError("modes: each (m, n) pair may appear once")

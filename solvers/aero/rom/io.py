@@ -10,6 +10,7 @@ the kriging Cholesky factors with the stored hyperparameters (no optimization).
 from __future__ import annotations
 
 import hashlib
+import json
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +26,9 @@ __all__ = ["FORMAT_VERSION", "load_rom", "save_rom"]
 #: Version of the NPZ layout written by :func:`save_rom`.
 FORMAT_VERSION = 1
 
+
+#: Optional members: the snapshots kept out of the fit (inputs, pressure, heat flux).
+_HOLDOUT = ("holdout_inputs", "holdout_pressure", "holdout_heat_flux")
 
 #: Members every ROM file has besides the ``pressure_*`` / ``heat_flux_*`` POD-kriging arrays.
 _MEMBERS = ("format_version", "digest", "kind", "correction", "regime", "reference",
@@ -58,7 +62,8 @@ def save_rom(rom: RomFluid, path: str | Path) -> None:
     n_y]), ``panel_kind``, ``modes`` (N_S, 2), ``input_names``, ``input_bounds`` (N_d, 2)
     (training ranges), ``source`` ([kind, boundary_layer, regime] as strings), the
     ``pressure_*`` and ``heat_flux_*`` POD-kriging arrays and ``digest`` (SHA-256 of the
-    rest).
+    rest); optional ``provenance`` (JSON text) and ``holdout_inputs``,
+    ``holdout_pressure``, ``holdout_heat_flux`` when the ROM has them.
     """
     ref = rom.reference
     g = rom.geometry
@@ -77,6 +82,11 @@ def save_rom(rom: RomFluid, path: str | Path) -> None:
                             str(rom.source.get("boundary_layer", True)),
                             str(rom.source.get("regime", rom.regime))]),
     }
+    if rom.provenance:  # optional members: a CFD source's provenance and held-out set
+        arrays["provenance"] = np.array(json.dumps(rom.provenance, sort_keys=True))
+    if rom.holdout is not None:
+        for key, value in zip(_HOLDOUT, rom.holdout):
+            arrays[key] = np.asarray(value, float)
     arrays.update(rom.pressure_model.state("pressure"))
     arrays.update(rom.heat_model.state("heat_flux"))
     arrays["digest"] = np.array(_digest(arrays))
@@ -127,6 +137,10 @@ def load_rom(path: str | Path, correction: str | None = None, unsteady: bool = T
         p_model = PodKriging.from_state(data, "pressure")
         q_model = PodKriging.from_state(data, "heat_flux")
         src = [str(s) for s in data["source"]]
+        provenance = json.loads(str(data["provenance"])) if "provenance" in data else {}
+        holdout = None
+        if all(k in data for k in _HOLDOUT):
+            holdout = tuple(np.asarray(data[k], float) for k in _HOLDOUT)
     except KeyError as exc:
         raise InputError(field, f"missing key {exc.args[0]!r} (not a hypate ROM file?)") \
             from None
@@ -134,7 +148,7 @@ def load_rom(path: str | Path, correction: str | None = None, unsteady: bool = T
         if exc.field == field:
             raise
         raise InputError(field, exc.message) from None  # a part's check, e.g. kriging data
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError) as exc:  # json.JSONDecodeError is a ValueError
         raise InputError(field, f"malformed ROM file ({exc})") from None
     n = geometry.n_x * geometry.n_y
     n_d = geometry.n_modes + (4 if kind == "conventional" else 1)
@@ -145,7 +159,11 @@ def load_rom(path: str | Path, correction: str | None = None, unsteady: bool = T
         if model.D_.shape[1] != n_d:
             raise InputError(field, f"{name} inputs have {model.D_.shape[1]} columns; a "
                              f"{kind} ROM with {geometry.n_modes} modes needs {n_d}")
+    if holdout is not None and (holdout[0].ndim != 2 or holdout[0].shape[1] != n_d
+                                or any(h.shape != (holdout[0].shape[0], n) for h in holdout[1:])):
+        raise InputError(field, "held-out snapshots have the wrong shapes")
     source = {"kind": src[0], "boundary_layer": src[1] == "True", "regime": src[2]}
     return RomFluid(geometry, reference, p_model, q_model, kind,
                     correction or str(data["correction"]), unsteady,
-                    regime or str(data["regime"]), scale, source)
+                    regime or str(data["regime"]), scale, source, provenance=provenance,
+                    holdout=holdout)

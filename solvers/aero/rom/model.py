@@ -108,13 +108,20 @@ class RomFluid(FluidModel):
         Edge pressure of the Eckert fluxes in the heat-flux correction (Eq. 2.65): the
         corrected ROM pressure on the panel over the ROM pressure on the reference ("rom",
         default), or piston theory on both ("pt", Eq. 2.44 as written).
+    provenance : dict, optional
+        Where the snapshots came from (CFD source: solver, version, model, resolution,
+        counts, convergence figures), kept for ``rom check``.
+    holdout : tuple of ndarray, optional
+        ``(inputs, pressure, heat_flux)`` of snapshots kept out of the fit, for ``rom
+        check``.
     """
 
     def __init__(self, geometry: RomGeometry, reference: FlowCondition,
                  pressure_model: PodKriging, heat_model: PodKriging, kind: str = "scaled",
                  correction: str = "bl", unsteady: bool = True, regime: str = "turbulent",
                  scale: float | None = None, source: dict[str, Any] | None = None,
-                 edge_pressure: str = "rom") -> None:
+                 edge_pressure: str = "rom", provenance: dict[str, Any] | None = None,
+                 holdout: tuple[Array, Array, Array] | None = None) -> None:
         if edge_pressure not in ("rom", "pt"):
             raise InputError("rom.edge_pressure", "must be 'rom' or 'pt'")
         self.edge_pressure = edge_pressure
@@ -132,6 +139,8 @@ class RomFluid(FluidModel):
         self.regime = regime
         self.scale = scale
         self.source = dict(source or {"kind": "unknown"})
+        self.provenance = dict(provenance or {})
+        self.holdout = holdout
         self.name = f"rom-{kind}-{correction}"
         self._cache: _PointCache | None = None
 
@@ -158,7 +167,7 @@ class RomFluid(FluidModel):
                         self.kind, correction or self.correction,
                         self.unsteady if unsteady is None else unsteady, self.regime,
                         scale if scale is not None else self.scale, self.source,
-                        edge_pressure or self.edge_pressure)
+                        edge_pressure or self.edge_pressure, self.provenance, self.holdout)
 
     def _points(self, points: SurfacePoints) -> _PointCache:
         c = self._cache

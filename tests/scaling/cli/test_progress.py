@@ -27,11 +27,21 @@ def test_lines_every_interval_and_when_a_step_finishes() -> None:
     p("two", 1, 1)
     p.close()
     lines = out.getvalue().splitlines()
-    assert lines == ["job: one 10/30 running, 10.0 s (total 10 s)",
-                     "job: one 20/30 running, 20.0 s (total 20 s)",
+    # ETA from the rate since the step's first report (1 unit per second)
+    assert lines == ["job: one 10/30 running, 10.0 s (total 10 s), ETA 20 s",
+                     "job: one 20/30 running, 20.0 s (total 20 s), ETA 10 s",
                      "job: one 30/30 done, 30.0 s (total 30 s)",
                      "job: two 1/1 done, 2.0 s (total 32 s)"]
     assert LOG_EVERY == 10.0
+
+
+def test_eta_leaves_out_the_work_reused_at_the_start() -> None:
+    out, clock = io.StringIO(), Clock()
+    p = StepProgress("job", tty=False, file=out, clock=clock)
+    p("cfd", 50, 100)  # 50 reused from an earlier run, reported at once
+    clock.now = 10.0
+    p("cfd", 55, 100)  # then 5 in 10 s: 45 left take 90 s
+    assert out.getvalue().splitlines()[-1].endswith("ETA 90 s")
 
 
 def test_quiet_prints_nothing_and_a_terminal_gets_a_bar() -> None:

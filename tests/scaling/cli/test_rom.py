@@ -166,3 +166,35 @@ def test_build_makes_missing_folders_of_out_and_refuses_a_file_as_folder(
                  str(tmp_path / "file" / "x.npz"), "-q"]) == 2
     assert "is not a directory" in capsys.readouterr().err
     assert not (tmp_path / "file" / "x.npz").exists()
+
+
+def test_check_of_the_shipped_cfd_rom_prints_provenance_and_held_out_errors(
+        capsys: pytest.CaptureFixture) -> None:
+    rom = REPO / "studies" / "rom" / "rom_2d_panel_cfd.npz"
+    assert main(["rom", "check", str(rom)]) == 0
+    out = capsys.readouterr().out
+    assert "OpenFOAM rhoCentralFoam 1912, model euler, 100 training + 20 held out" in out
+    assert "held-out pressure on 20 snapshots" in out and "held-out heat flux" in out
+    assert main(["rom", "check", str(rom), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["provenance"]["model"] == "euler"
+    assert result["pressure"]["nrmse_max"] < 0.05 and result["heat_flux"]["nrmse_max"] < 0.05
+    # the built-in source cannot check a CFD ROM on fresh samples: a one-line refusal
+    assert main(["rom", "check", str(rom), "--samples", "5"]) == 2
+    assert "external snapshots" in capsys.readouterr().err
+
+
+def test_check_without_samples_needs_held_out_snapshots(built: Path,
+                                                        capsys: pytest.CaptureFixture) -> None:
+    assert main(["rom", "check", str(built / "rom.npz")]) == 2
+    assert "--samples" in capsys.readouterr().err
+
+
+def test_shipped_cfd_build_file_is_the_sec7_1_panel() -> None:
+    from hypate.solvers.aero.rom.config import load_rom_config
+
+    cfd, _ = load_rom_config(REPO / "studies" / "rom" / "rom_2d_panel_cfd.toml")
+    ana, _ = load_rom_config(REPO / "studies" / "rom" / "rom_2d_panel.toml")
+    assert cfd.source.kind == "openfoam" and cfd.source.model == "euler"
+    assert (cfd.panel, cfd.grid, cfd.reference, cfd.modes, cfd.wall_temperature) == (
+        ana.panel, ana.grid, ana.reference, ana.modes, ana.wall_temperature)
