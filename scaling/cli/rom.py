@@ -138,8 +138,10 @@ def _print_provenance(prov: dict) -> None:
           f"{prov.get('holdout', 0)} held out, {prov.get('rejected', 0)} rejected; "
           f"{res.get('cells_panel', '?')} x {res.get('cells_normal', '?')} cells on the panel, "
           f"wall cell {res.get('wall_cell', float('nan')):g} m; iterations median "
-          f"{it.get('median', float('nan')):g} (max {it.get('max', float('nan')):g}); heat "
-          f"flux: {prov.get('heat_flux', '?')}")
+          f"{it.get('median', float('nan')):g} (max {it.get('max', float('nan')):g})"
+          + (f"; {prov['lower_courant']} converged at a lower Courant number after a diverged "
+             "start" if prov.get("lower_courant") else "")
+          + f"; heat flux: {prov.get('heat_flux', '?')}")
 
 
 def run_check(args: argparse.Namespace) -> int:

@@ -9,7 +9,14 @@ loads"; the figures of the README's "CFD snapshots" section).
   grids refined in the wall-normal direction by a constant ratio: the panel-mean heat flux,
   its Richardson extrapolation (observed order from three grids) and the laminar Eckert
   reference-temperature estimate (Eqs. 2.39-2.43) with the Prandtl number the CFD gas has
-  (OpenFOAM's Sutherland transport: Eucken conductivity, Pr 0.690).
+  (OpenFOAM's Sutherland transport: Eucken conductivity, Pr 0.690);
+* :func:`leading_edge` -- Euler, the same deformed panel behind rigid plates of different
+  lengths ``L_le``: the premise of an inviscid ROM serving any ``a / L_le`` (the panel
+  pressure does not depend on ``L_le``);
+* :func:`strips` -- Euler, a 3-D panel in a flat wall (:mod:`~hypate.solvers.aero.rom.
+  openfoam_case3d`, deformed as the Sec. 9.2 prototype at the end of its 160 s) against 2-D
+  Euler cases of its streamwise strips on the same mesh spacing and against a 2-D CFD ROM
+  applied strip-wise: what strip theory (Eq. 2.36) misses in 3-D.
 
 ``run(config)`` runs the parts named in ``config`` and returns their figures; nothing runs
 at import. Each case runs on one core.
@@ -19,12 +26,15 @@ from __future__ import annotations
 import math
 import tempfile
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from hypate.scaling.workflow.shipped import shipped
 from hypate.solvers.aero.analytic import eckert_heat_flux
-from hypate.solvers.aero.base import SurfacePoints
+from hypate.solvers.aero.base import Array, SurfacePoints, SurfaceState
+from hypate.solvers.aero.rom.io import load_rom
 from hypate.solvers.aero.rom.openfoam_case import (
     CaseSpec,
     Resolution,
@@ -32,12 +42,24 @@ from hypate.solvers.aero.rom.openfoam_case import (
     wedge_wall,
     write_case,
 )
+from hypate.solvers.aero.rom.openfoam_case3d import (
+    PanelCase3D,
+    deform_points,
+    panel_deflection,
+    write_case_3d,
+)
 from hypate.solvers.aero.rom.openfoam_run import CaseResult, find_openfoam, run_case
-from hypate.solvers.aero.shock_expansion import ShockExpansionFluid, oblique_shock
+from hypate.solvers.aero.shock_expansion import (
+    ShockExpansionFluid,
+    eckert_heat_flux_edge,
+    oblique_shock,
+)
+from hypate.solvers.config import load_case
+from hypate.solvers.coupling.run import simulate
 from hypate.solvers.flow import FlowCondition
 
-__all__ = ["FLAT_PLATE_GRIDS", "WEDGE_RESOLUTION", "bump", "flat_plate", "richardson", "run",
-           "wedge"]
+__all__ = ["FLAT_PLATE_GRIDS", "WEDGE_RESOLUTION", "bump", "flat_plate", "leading_edge",
+           "prototype_deflection", "richardson", "run", "strips", "wedge"]
 
 #: Euler wedge mesh of the issue's table: 7,200 cells, 6.7 mm wall cell.
 WEDGE_RESOLUTION = Resolution(cells_panel=60, cells_plate=60, cells_normal=60, wall_cell=6.7e-3,
@@ -157,10 +179,190 @@ def flat_plate(wall_temperature: float, grids: tuple[tuple[int, float], ...] = F
     return out
 
 
+#: Euler mesh of the shipped CFD ROMs (64 cells on the 1 m panel, 40 wall-normal, 1 mm at
+#: the wall) with their convergence settings; the checks below use its spacing.
+ROM_RESOLUTION = Resolution(cells_panel=64, cells_plate=16, cells_normal=40, wall_cell=1e-3,
+                            height=0.35, courant=0.2, max_iterations=20000, sample_every=25,
+                            window=20, tolerance=3e-4)
+
+
+def _panel_wall(l_le: float, x: Array, w: Array) -> tuple[Array, Array]:
+    """Plate and panel polylines of a 2-D case: the flat plate of ``l_le`` and the panel
+    ``(l_le + x, w)``."""
+    return np.array([[0.0, 0.0], [l_le, 0.0]]), np.column_stack([l_le + x, w])
+
+
+def leading_edge(l_le: tuple[float, ...] = (1.0, 1.406), amplitudes: tuple[float, ...] = (
+        3.0, 0.3, 0.2), thickness: float = 0.018, height: float = 0.7,
+        resolution: Resolution = ROM_RESOLUTION, folder: Path | None = None
+        ) -> dict[str, Any]:
+    """Euler, M 6, 25 km: the 1 m panel ``w = h sum_m A_m sin(m pi x)`` behind rigid plates of
+    each length in ``l_le`` (the plate meshed with the same cell length, the domain equally
+    high in metres): the panel pressure of each against the first, the largest pointwise
+    difference relative to the local pressure (``max_difference``) and in units of the
+    largest ``|p - p_inf|`` (``max_difference_overpressure``).
+
+    Default: the ROM's ``a / L_le = 1`` and the Table 9.8 xi = 4 model's ``L_le / a =
+    0.3516 / 0.25 = 1.406``."""
+    flow = FlowCondition.from_altitude(6.0, 25000.0)
+    xs = np.linspace(0.0, 1.0, 4 * resolution.cells_panel + 1)
+    w = thickness * sum(A * np.sin((k + 1) * np.pi * xs) for k, A in enumerate(amplitudes))
+    w[[0, -1]] = 0.0
+    cases = []
+    for L in l_le:
+        res = replace(resolution, height=height / (L + 1.0),
+                      cells_plate=max(2, int(round(resolution.cells_plate * L))))
+        r = _run(CaseSpec(*_panel_wall(L, xs, w), flow, 300.0, "euler", res), folder)
+        cases.append({"l_le": L, "converged": r.converged, "reason": r.reason,
+                      "iterations": r.iterations, "seconds": r.cpu_seconds,
+                      "x": r.x - L, "pressure": r.pressure})
+    out: dict[str, Any] = {"amplitudes": list(amplitudes), "cases": [
+        {k: v for k, v in c.items() if k not in ("x", "pressure")} for c in cases]}
+    if all(c["converged"] for c in cases):
+        ref = cases[0]
+        scale = float(np.max(np.abs(ref["pressure"] - flow.pressure)))
+        diffs = [np.interp(ref["x"], c["x"], c["pressure"]) - ref["pressure"]
+                 for c in cases[1:]]
+        out.update(max_difference=max(float(np.max(np.abs(d) / ref["pressure"]))
+                                      for d in diffs),
+                   max_difference_overpressure=max(float(np.max(np.abs(d))) / scale
+                                                   for d in diffs))
+    return out
+
+
+def prototype_deflection() -> tuple[Array, Array]:
+    """The Sec. 9.2 prototype's deflection at the end of its run (``pt-bl`` + Eckert, the
+    shipped case ``sec9_2_prototype``, 160 s): modal amplitudes (m) of the modes ``sin(i pi x
+    / a) sin(j pi y / b)`` symmetric about the centre line (odd j), as ``(modes,
+    amplitudes)``."""
+    case = load_case(shipped("case")["sec9_2_prototype"])
+    r = simulate(case.panel, case.flow, case.simulation, keep_fields=False)
+    modal = np.asarray(r.modal)[-1] * case.panel.thickness  # amplitude / h -> m
+    idx = np.asarray(r.mode_indices, int)
+    keep = idx[:, 1] % 2 == 1
+    return idx[keep], modal[keep]
+
+
+def _nrmse_and_max(ref: Array, other: Array) -> tuple[float, float]:
+    """NRMSE (Eq. 7.7, uniform faces) and largest error of ``other``, both in units of the
+    range of ``ref``."""
+    span = float(np.ptp(ref))
+    return (float(np.sqrt(np.mean((other - ref) ** 2))) / span,
+            float(np.max(np.abs(other - ref))) / span)
+
+
+def strips(rom_path: str | Path | None = None, modes: Array | None = None,
+           amplitudes: Array | None = None, l_le: float = 0.25, cells_span: int = 32,
+           cells_margin: int = 8, margin: float = 0.25, height: float = 0.6,
+           strip_rows: int = 8, resolution: Resolution = ROM_RESOLUTION,
+           folder: Path | None = None) -> dict[str, Any]:
+    """Euler, M 6, 25 km: the 1 m x 1 m panel deformed by ``sum A_k sin(m pi x) sin(n pi y)``
+    (default: :func:`prototype_deflection`) in 3-D (half span, the mesh spacing of
+    ``resolution`` on the panel and at the wall) against
+
+    * 2-D Euler cases of ``strip_rows`` of its streamwise strips (every ``k``-th row of the
+      3-D panel faces from the centre line out; the same streamwise and wall-normal mesh):
+      the error of strip theory itself;
+    * the 2-D CFD ROM of ``rom_path`` applied strip-wise (as the coupled solvers do) on
+      every row of faces: the error of what ships (strip theory + the ROM's own error +
+      its finer wall-normal mesh).
+
+    Errors of the overpressure ``p - p_inf`` in units of the 3-D range over the compared
+    faces (NRMSE of Eq. 7.7, largest point error), of the panel-mean overpressure and of the
+    generalized force on the first mode, ``int (p - p_inf) sin(pi x) sin(pi y) dA``; and
+    of the Eckert heat flux (turbulent, 500 K wall) on each one's edge state. ``l_le``: any
+    plate length serves an Euler case (:func:`leading_edge`)."""
+    flow = FlowCondition.from_altitude(6.0, 25000.0)
+    if modes is None or amplitudes is None:
+        modes, amplitudes = prototype_deflection()
+    r = resolution
+    case = PanelCase3D(1.0, 1.0, l_le, np.asarray(modes), np.asarray(amplitudes, float), flow,
+                       cells_plate=max(2, int(round(r.cells_plate * l_le))),
+                       cells_panel=r.cells_panel, cells_span=cells_span,
+                       cells_margin=cells_margin, cells_normal=r.cells_normal, margin=margin,
+                       height=height, wall_cell=r.wall_cell, resolution=r)
+    with tempfile.TemporaryDirectory() as tmp:
+        where = (folder or Path(tmp)) / "case3d"
+        res3 = run_case(write_case_3d(where, case), find_openfoam(), r, False,
+                        after_mesh=partial(deform_points, case=case))
+    out: dict[str, Any] = {"cells": case.n_cells, "converged": res3.converged,
+                           "reason": res3.reason, "iterations": res3.iterations,
+                           "seconds": res3.cpu_seconds, "modes": np.asarray(modes).tolist(),
+                           "amplitudes_m": [float(v) for v in amplitudes],
+                           "max_deflection_m": float(np.max(np.abs(panel_deflection(
+                               case, *np.meshgrid(np.linspace(0, 1, 41),
+                                                  np.linspace(0, 1, 41))))))}
+    if not res3.converged:
+        return out
+    x3, y3 = res3.x - l_le, res3.y
+    rows = np.unique(np.round(y3, 9))  # centre line out (half span)
+    T_w = 500.0
+
+    def eckert(p: Array, T: Array, x: Array) -> Array:
+        return eckert_heat_flux_edge(flow, p, T, np.full(p.shape, T_w), l_le + x)
+
+    def compare(sel: Array, p_other: Array, q_other: Array) -> dict[str, float]:
+        p3, q3 = res3.pressure[sel] - flow.pressure, eckert(res3.pressure[sel],
+                                                            res3.temperature[sel], x3[sel])
+        phi = np.sin(np.pi * x3[sel]) * np.sin(np.pi * y3[sel])
+        e_p, m_p = _nrmse_and_max(p3, p_other)
+        e_q, m_q = _nrmse_and_max(q3, q_other)
+        return {"faces": int(sel.sum()), "pressure_nrmse": e_p, "pressure_max_error": m_p,
+                "mean_overpressure_error": float(np.mean(p_other) / np.mean(p3) - 1.0),
+                "mode11_force_error": float(np.sum(p_other * phi) / np.sum(p3 * phi) - 1.0),
+                "heat_flux_nrmse": e_q, "heat_flux_max_error": m_q}
+
+    # 2-D Euler cases of some strips, on the 3-D case's spacing
+    step = max(1, rows.size // strip_rows)
+    picked = rows[::step][:strip_rows]
+    xs = np.linspace(0.0, 1.0, 4 * r.cells_panel + 1)
+    res2 = replace(r, height=height / (l_le + 1.0), cells_plate=case.cells_plate)
+    p2, q2, sel2, strip_seconds = [], [], np.zeros(x3.size, bool), 0.0
+    for y in picked:
+        w = panel_deflection(case, xs, np.full(xs.size, y))
+        w[[0, -1]] = 0.0
+        c2 = _run(CaseSpec(*_panel_wall(l_le, xs, w), flow, T_w, "euler", res2), folder)
+        strip_seconds += c2.cpu_seconds
+        if not c2.converged:
+            out["strip_failure"] = f"y = {y:g} m: {c2.reason}"
+            return out
+        on = np.isclose(y3, y, atol=1e-9)
+        sel2 |= on
+        xf = x3[on]
+        p2.append(np.interp(xf, c2.x - l_le, c2.pressure) - flow.pressure)
+        q2.append(eckert(np.interp(xf, c2.x - l_le, c2.pressure),
+                         np.interp(xf, c2.x - l_le, c2.temperature), xf))
+    # the rows in the order of the faces: re-gather by the face mask
+    order = np.concatenate([np.flatnonzero(np.isclose(y3, y, atol=1e-9)) for y in picked])
+    inv = np.argsort(order)
+    p2a, q2a = np.concatenate(p2)[inv], np.concatenate(q2)[inv]
+    out["strips_2d"] = dict(compare(sel2, p2a, q2a), rows=[float(y) for y in picked],
+                            seconds=strip_seconds)
+    if rom_path is not None:  # the 2-D ROM strip-wise on every row of faces
+        rom = load_rom(rom_path)
+        pr, qr = np.empty(x3.size), np.empty(x3.size)
+        line = SurfacePoints.grid(1.0, 1.0, l_le, 4 * r.cells_panel + 1, 1)
+        for y in rows:
+            on = np.isclose(y3, y, atol=1e-9)
+            w = panel_deflection(case, line.x, np.full(line.n, y))
+            st = SurfaceState(w, line.streamwise_derivative @ w, 0.0 * w, np.full(line.n, T_w))
+            loads = rom.evaluate(line, st, flow)
+            pr[on] = np.interp(x3[on], line.x, loads.pressure)
+            qr[on] = np.interp(x3[on], line.x, loads.heat_flux)
+        out["rom_strips"] = compare(np.ones(x3.size, bool), pr, qr)
+    return out
+
+
 def run(config: dict[str, Any]) -> dict[str, Any]:
     """The verification parts named in ``config``: ``wedge`` (list of Mach numbers),
-    ``bump`` (true), ``flat_plate`` (list of wall temperatures)."""
+    ``bump`` (true), ``flat_plate`` (list of wall temperatures), ``leading_edge`` (true),
+    ``strips`` (the path of a 2-D CFD ROM, or true for the strip cases alone)."""
     out: dict[str, Any] = {}
+    if config.get("leading_edge"):
+        out["leading_edge"] = leading_edge()
+    if config.get("strips"):
+        rom = config["strips"]
+        out["strips"] = strips(rom if isinstance(rom, (str, Path)) else None)
     for mach in config.get("wedge", ()):
         out.setdefault("wedge", []).append(wedge(float(mach)))
     if config.get("bump"):

@@ -28,6 +28,29 @@ in units of the reference thickness; Eq. 2.64) and ``dd/dw = (xi / h_ref) P``. T
 temperature is the area-weighted mean ``mean T_w = sum(W T_w) / sum(W)``. The ROM outputs
 live on the reference grid; on other points they are interpolated (piecewise linear in
 ``x``, bilinear in ``(x, y)``), so the coupled solvers may use any fluid grid.
+
+Inviscid ROMs and any leading-edge distance
+-------------------------------------------
+A ROM learnt from inviscid snapshots (the OpenFOAM source's Euler model, or the
+shock-expansion source without its boundary layer) holds no boundary layer. On a flat
+plate at zero incidence the inviscid flow ahead of the panel is the free stream whatever
+``L_le``, so its panel pressure does not depend on ``L_le`` and the Euler equations have no
+length scale: such a ROM accepts a panel of any ``a / L_le``. Its scale is read from the
+panel length, ``xi = a_ref / a``; its BL correction (Eq. 2.72) keeps ``R_delta = 1`` (Eq.
+2.70 rescales a boundary layer's displacement slope, and the effective slope of Eq. 2.68 of
+an inviscid snapshot is the panel's own shock-expansion departure from piston theory, not a
+boundary layer); and the heat-flux correction (Eq. 2.65) evaluates the reference Eckert flux
+at the reference panel's own distance from its leading edge, ``L_le,ref + xi s`` (``s``
+along the flow from the panel's leading edge), and the corrected flux at the panel's actual
+``L_le + s``.
+
+Strip-wise evaluation of a 2-D ROM on a 3-D panel
+-------------------------------------------------
+A 2-D ROM (one line of points) evaluated on the structured grid of a 3-D panel aligned
+with the flow (``beta = 0``) is applied strip by strip, the strip theory of Eq. (2.36):
+each streamwise line of points ``y = y_j`` is a 2-D panel with its own inputs (the
+projection of ``w(x, y_j)`` on the streamwise modes and the strip's mean wall temperature)
+and its own POD-kriging prediction; the Jacobians are block-diagonal over the strips.
 """
 from __future__ import annotations
 
@@ -69,13 +92,22 @@ _VACUUM = 1e-9
 
 @dataclass
 class _PointCache:
+    """What a set of points needs from the ROM, computed once per points object.
+
+    The points fall into ``n_groups`` groups of ``m`` points each (point ``k`` in group
+    ``k // m``): one group holding every point, or the streamwise strips of a 3-D grid when
+    a 2-D ROM is applied strip-wise. Every group sees the same streamwise stations, so the
+    interpolation, projection and mean weights are those of one group.
+    """
+
     points: SurfacePoints
     scale: float
-    interp: sp.csr_matrix
+    n_groups: int
+    interp: sp.csr_matrix  # (m, n_rom): ROM grid -> the points of one group
     identity: bool
-    projection: Array  # (N_S, n): q = P w (m)
-    mean_weights: Array  # (n,): mean T_w = mean_weights @ T_w
-    x_le_ref: Array
+    projection: Array  # (N_S, m): q = P w on one group (m)
+    mean_weights: Array  # (m,): mean T_w = mean_weights @ T_w on one group
+    x_le_ref: Array  # (n,): the reference panel's distance from its leading edge
 
 
 class RomFluid(FluidModel):
@@ -100,7 +132,7 @@ class RomFluid(FluidModel):
         Regime of the Eckert heat-flux correction (Eq. 2.65).
     scale : float or None
         Geometric scale ratio xi = L_ref / L of the evaluated panel; ``None`` infers it from
-        the points (``L_le,ref / L_le``).
+        the points (``L_le,ref / L_le``; an inviscid ROM: ``a_ref / a``).
     source : dict
         Description of the sample source (``{"kind": ..., "boundary_layer": ..., "regime":
         ...}``), kept for ``rom check``.
@@ -154,6 +186,18 @@ class RomFluid(FluidModel):
         """Training ranges of the inputs (N_d, 2)."""
         return self.pressure_model.bounds_
 
+    @property
+    def inviscid(self) -> bool:
+        """Whether the snapshots hold no boundary layer (the OpenFOAM source's Euler model, or
+        the shock-expansion source without its effective shape): then the ROM serves panels
+        of any ``a / L_le`` (module docstring)."""
+        kind = self.source.get("kind")
+        if kind == "openfoam":
+            return (self.source.get("model") or self.provenance.get("model")) == "euler"
+        if kind == "shock-expansion":
+            return not self.source.get("boundary_layer", True)
+        return False
+
     def input_names(self) -> list[str]:
         modes = [f"a{k + 1}" for k in range(self.geometry.n_modes)]
         cond = ["mach", "pressure", "temperature"] if self.kind == "conventional" else []
@@ -174,76 +218,118 @@ class RomFluid(FluidModel):
         if c is not None and c.points is points:
             return c
         g = self.geometry
-        if g.kind == "2d" and points.shape[1] != 1:
-            raise InputError("rom", "this ROM describes a 2D panel (one line of points); the "
-                             f"case has {points.shape[1]} spanwise points")
+        n_x, n_y = points.shape
+        strips = g.kind == "2d" and n_y > 1
+        if strips and not (n_x * n_y == points.n
+                           and np.allclose(points.x.reshape(n_y, n_x), points.x[None, :n_x])):
+            raise InputError("rom", "a 2D ROM is applied strip-wise to a structured grid of "
+                             "points (point k = j n_x + i)")
         if abs(points.flow_angle - g.flow_angle) > 1e-9:
             raise InputError("rom", f"flow angle {math.degrees(points.flow_angle):g} deg does "
-                             f"not match the ROM's {math.degrees(g.flow_angle):g} deg")
+                             f"not match the ROM's {math.degrees(g.flow_angle):g} deg"
+                             + (" (a 2D ROM is applied strip-wise along the flow)"
+                                if strips else ""))
         cb, sb = math.cos(points.flow_angle), math.sin(points.flow_angle)
-        l_le = points.x_le - cb * points.x - (sb * points.y if g.kind == "3d" else 0.0)
+        s_flow = cb * points.x + (sb * points.y if g.kind == "3d" else 0.0)
+        l_le = points.x_le - s_flow
         L_le = float(np.mean(l_le))
         if L_le <= 0.0 or np.ptp(l_le) > 1e-9 * max(L_le, 1.0):
             raise InputError("rom", "cannot read the leading-edge distance from the points")
-        scale = self.scale if self.scale is not None else g.leading_edge_length / L_le
-        if abs(scale * L_le - g.leading_edge_length) > GEOMETRY_TOL * g.leading_edge_length:
-            raise InputError("rom", f"panel mismatch: L_le = {L_le:g} m at scale {scale:g} is "
-                             f"not the ROM's {g.leading_edge_length:g} m / scale")
-        xr = points.x * scale
-        yr = points.y * scale if g.kind == "3d" else np.full(points.n, 0.5 * g.width)
+        a = float(points.x.max())
+        if self.inviscid:  # any L_le: the scale of the panel length (module docstring)
+            scale = self.scale if self.scale is not None else g.length / a
+        else:
+            scale = self.scale if self.scale is not None else g.leading_edge_length / L_le
+            if abs(scale * L_le - g.leading_edge_length) > GEOMETRY_TOL * g.leading_edge_length:
+                raise InputError("rom", f"panel mismatch: L_le = {L_le:g} m at scale {scale:g} "
+                                 f"is not the ROM's {g.leading_edge_length:g} m / scale (a ROM "
+                                 "with a boundary layer in its snapshots needs the same a/L_le)")
+        m = n_x if strips else points.n
+        sel = slice(0, m)  # the points of one group (the first strip, or all)
+        xr = points.x[sel] * scale
+        yr = (points.y[sel] * scale if g.kind == "3d"
+              else np.full(m, 0.5 * g.width))
         tol = GEOMETRY_TOL * g.length
         if (xr.min() < -tol or xr.max() > g.length + tol
                 or abs(xr.max() - g.length) > 0.05 * g.length):
-            raise InputError("rom", f"panel mismatch: the panel length {points.x.max():g} m "
-                             f"x scale {scale:g} is not the ROM's {g.length:g} m (the ROM "
-                             "needs a geometrically similar panel: same a/L_le)")
+            raise InputError("rom", f"panel mismatch: the panel length {a:g} m x scale "
+                             f"{scale:g} is not the ROM's {g.length:g} m" + (
+                                 "" if self.inviscid else " (a ROM with a boundary layer in "
+                                 "its snapshots needs a geometrically similar panel: same "
+                                 "a/L_le; an inviscid ROM takes any)"))
         if g.kind == "3d" and (yr.min() < -tol or yr.max() > g.width + tol
                                or abs(yr.max() - g.width) > 0.05 * g.width):
             raise InputError("rom", f"panel mismatch: the panel width x scale {scale:g} is not "
                              f"the ROM's {g.width:g} m")
         ref_pts = g.points(1.0)
-        identity = points.n == ref_pts.n and np.allclose(xr, ref_pts.x, atol=tol) and (
+        identity = m == ref_pts.n and np.allclose(xr, ref_pts.x, atol=tol) and (
             g.kind == "2d" or np.allclose(yr, ref_pts.y, atol=tol))
-        interp = sp.identity(points.n, format="csr") if identity else interpolation_matrix(
+        interp = sp.identity(m, format="csr") if identity else interpolation_matrix(
             g, np.clip(xr, 0, g.length), np.clip(yr, 0, g.width))
         Phi = g.mode_shapes(xr, yr)
-        W = points.weights
+        W = points.weights[sel]
         G = Phi.T @ (W[:, None] * Phi)
         try:
             P = np.linalg.solve(G, Phi.T * W[None, :])
         except np.linalg.LinAlgError:
             raise InputError("rom", "the points cannot resolve the ROM's deformation modes "
                              "(refine the fluid grid)") from None
-        self._cache = _PointCache(points, float(scale), interp, identity, P, W / W.sum(),
-                                  points.x_le * scale)
+        # Eq. (2.65)'s reference flux: the reference panel at xi s from its own leading edge
+        x_le_ref = (g.leading_edge_length + scale * s_flow if self.inviscid
+                    else points.x_le * scale)
+        self._cache = _PointCache(points, float(scale), n_y if strips else 1, interp,
+                                  identity, P, W / W.sum(), x_le_ref)
         return self._cache
 
-    def inputs(self, points: SurfacePoints, state: SurfaceState, flow: FlowCondition) -> Array:
-        """The ROM input d for a wall state (Eq. 2.64 or 2.62)."""
-        c = self._points(points)
-        a = c.scale / self.geometry.thickness * (c.projection @ np.asarray(state.displacement))
-        T_mean = float(c.mean_weights @ np.asarray(state.wall_temperature))
+    def _group_inputs(self, c: _PointCache, state: SurfaceState, flow: FlowCondition
+                      ) -> Array:
+        """The ROM inputs of every group of points, (n_groups, N_d) (Eq. 2.64 or 2.62)."""
+        w = np.asarray(state.displacement, float).reshape(c.n_groups, -1)
+        T = np.asarray(state.wall_temperature, float).reshape(c.n_groups, -1)
+        a = (c.scale / self.geometry.thickness) * (w @ c.projection.T)
+        d = np.column_stack([a, T @ c.mean_weights])
         if self.kind == "conventional":
-            return np.r_[flow.mach, flow.pressure, flow.temperature, a, T_mean]
-        return np.r_[a, T_mean]
+            d = np.column_stack([np.tile([flow.mach, flow.pressure, flow.temperature],
+                                         (c.n_groups, 1)), d])
+        return d
+
+    def inputs(self, points: SurfacePoints, state: SurfaceState, flow: FlowCondition) -> Array:
+        """The ROM input d for a wall state (Eq. 2.64 or 2.62): shape (N_d,), or (n_y, N_d)
+        for a 2-D ROM applied strip-wise to a 3-D grid (one row per strip)."""
+        c = self._points(points)
+        d = self._group_inputs(c, state, flow)
+        return d[0] if c.n_groups == 1 else d
 
     def _check_range(self, d: Array) -> None:
         lo, hi = self.input_bounds[:, 0], self.input_bounds[:, 1]
         span = np.where(hi > lo, hi - lo, 1.0)
-        out = (d < lo - 0.05 * span) | (d > hi + 0.05 * span)
+        out = np.any((d < lo - 0.05 * span) | (d > hi + 0.05 * span), axis=0)
         if np.any(out):
             names = [n for n, o in zip(self.input_names(), out) if o]
             warnings.warn(f"ROM extrapolation: inputs {', '.join(names)} outside the training "
                           "ranges (by > 5 %)", RuntimeWarning, stacklevel=3)
 
     # -- evaluation ------------------------------------------------------------------------
+    def _predict(self, model: PodKriging, c: _PointCache, d: Array) -> tuple[Array, Array]:
+        """POD-kriging output on the points (n,) and its derivative with respect to the
+        inputs of the point's own group (n, N_d), Eqs. (2.56), (2.59)."""
+        coef, dcoef = model.predict_coefficients(d, gradient=True)
+        y = model.pod_.reconstruct(coef)  # (G, n_rom)
+        dy = np.einsum("rp,gpd->rgd", model.pod_.modes_, dcoef)  # (n_rom, G, N_d)
+        G, n_d = d.shape
+        I = c.interp  # (m, n_rom)
+        y_pts = (I @ y.T).T.reshape(-1)
+        dy_pts = (I @ dy.reshape(dy.shape[0], G * n_d)).reshape(-1, G, n_d)
+        return y_pts, dy_pts.transpose(1, 0, 2).reshape(-1, n_d)
+
     def evaluate(self, points: SurfacePoints, state: SurfaceState, flow: FlowCondition,
                  jacobians: bool = False) -> FluidLoads:
         """Pressure ``p - p_inf`` and heat flux, Eq. (2.73); Jacobians Eqs. (2.74)-(2.76)."""
-        # Long on purpose (~145 lines): the pressure, heat-flux and unsteady corrections
+        # Long on purpose (~150 lines): the pressure, heat-flux and unsteady corrections
         # share the POD-kriging outputs and their input derivatives, and every partial of a
         # correction chains into the Jacobians at the end; the comment headings below mark
-        # the sections (a split would hand some twenty arrays between helpers).
+        # the sections (a split would hand some twenty arrays between helpers). Every
+        # pointwise array refers to the inputs d of the point's own group (strip).
         c = self._points(points)
         g = self.geometry
         n = points.n
@@ -253,22 +339,21 @@ class RomFluid(FluidModel):
         T_w = np.asarray(state.wall_temperature, float)
         if np.any(T_w <= 0.0) or not np.all(np.isfinite(T_w)):
             raise InputError("state.wall_temperature", "must be positive and finite (K)")
-        d = self.inputs(points, state, flow)
+        d = self._group_inputs(c, state, flow)  # (n_groups, N_d)
         self._check_range(d)
+        m = n // c.n_groups
         n_s = g.n_modes
         i_a = slice(3, 3 + n_s) if self.kind == "conventional" else slice(0, n_s)
         # POD-kriging outputs on the points, Eqs. (2.56), (2.59)
-        p_r, dp_r = self.pressure_model.predict_jacobian(d)
-        q_r, dq_r = self.heat_model.predict_jacobian(d)
-        I = c.interp
-        p_pk, q_pk = I @ p_r, I @ q_r
-        dp_pk, dq_pk = I @ dp_r, I @ dq_r  # (n, N_d)
-        dd_dw = (xi / g.thickness) * c.projection  # (N_S, n)
-        dd_dT = c.mean_weights  # d(mean T_w)/dT_w
+        p_pk, dp_pk = self._predict(self.pressure_model, c, d)
+        q_pk, dq_pk = self._predict(self.heat_model, c, d)
+        dd_dw = (xi / g.thickness) * c.projection  # (N_S, m) within a group
+        T_bar = np.repeat(d[:, -1], m)  # each point's group mean
 
         gam, M, p_inf, a_inf = flow.gamma, flow.mach, flow.pressure, flow.speed_of_sound
         cref = self.reference
         zero_n = np.zeros(n)
+        dpst_dTloc = dq_dTloc = None  # local wall-temperature partials (sparse), if any
         if self.kind == "conventional":
             if abs(xi - 1.0) > GEOMETRY_TOL:
                 raise InputError("rom", "a conventional ROM has no geometric scaling; use the "
@@ -276,32 +361,32 @@ class RomFluid(FluidModel):
             p_st, q = p_pk, q_pk
             dpst_dws = zero_n
             dpst_dd = dp_pk
-            dpst_dTloc = None
             dq_dd = dq_pk
             dq_dws = zero_n
-            dq_dTloc = np.zeros((n, n))
         else:
-            T_bar = d[-1]
             # -- pressure correction
             fac = (p_inf * M) / (cref.pressure * cref.mach)
             if self.correction == "pt":  # Eq. (2.67)
                 p_st = fac * p_pk
                 dpst_dd = fac * dp_pk
                 dpst_dws = zero_n
-                dpst_dTloc = None
             else:  # BL correction, Eqs. (2.68)-(2.72)
-                S = points.streamwise_derivative
-                bl = BoundaryLayerShape(flow)
-                bl_r = BoundaryLayerShape(cref)
-                s_c, s_c_dT, s_c_dTs = bl.slope(points.x_le, T_w, S @ T_w)
-                s_r, s_r_dT, _ = bl_r.slope(c.x_le_ref, np.full(n, T_bar), zero_n)
-                # Eq. (2.70) with the local wall temperature (and its gradient) on the panel
-                # and the uniform mean on the reference: d delta/ds is dimensionless, so the
-                # ratio compares the scaled panel at x with the reference at xi x
-                R = s_c / s_r
-                dR_dT = s_c_dT / s_r
-                dR_dTs = s_c_dTs / s_r
-                dR_dTbar = -s_c * s_r_dT / s_r**2
+                if self.inviscid:  # no boundary layer in the snapshots: R_delta = 1
+                    R, dR_dT, dR_dTs, dR_dTbar = np.ones(n), zero_n, zero_n, zero_n
+                else:
+                    S = points.streamwise_derivative
+                    bl = BoundaryLayerShape(flow)
+                    bl_r = BoundaryLayerShape(cref)
+                    s_c, s_c_dT, s_c_dTs = bl.slope(points.x_le, T_w, S @ T_w)
+                    s_r, s_r_dT, _ = bl_r.slope(c.x_le_ref, T_bar, zero_n)
+                    # Eq. (2.70) with the local wall temperature (and its gradient) on the
+                    # panel and the uniform mean on the reference: d delta/ds is
+                    # dimensionless, so the ratio compares the scaled panel at x with the
+                    # reference at xi x
+                    R = s_c / s_r
+                    dR_dT = s_c_dT / s_r
+                    dR_dTs = s_c_dTs / s_r
+                    dR_dTbar = -s_c * s_r_dT / s_r**2
                 ge = (cref.gamma - 1.0) / (2.0 * cref.gamma)
                 # vacuum floor (as piston theory, Eq. 2.30): states with a negative absolute
                 # pressure only occur in Newton overshoots; there p = -p_inf, derivative 0
@@ -320,13 +405,14 @@ class RomFluid(FluidModel):
                 dpst_dd = (Lam_u * dB_dpk)[:, None] * dp_pk  # Eq. (2.75), second term
                 dpst_dd[:, -1] += Lam_u * dB_dR * dR_dTbar
                 dpst_dws = Lam_u * (1.0 - R) * 0.5 * (gam - 1.0) * M  # Eq. (2.75), first term
-                dpst_dTloc = (np.diag(Lam_u * dB_dR * dR_dT)
-                              + (sp.diags(Lam_u * dB_dR * dR_dTs) @ S).toarray())
                 if np.any(vac):
                     p_st = np.where(vac, -p_inf, p_st)
                     dpst_dd[vac] = 0.0
                     dpst_dws = np.where(vac, 0.0, dpst_dws)
-                    dpst_dTloc[vac] = 0.0
+                if not self.inviscid:
+                    k_T = np.where(vac, 0.0, Lam_u * dB_dR)
+                    dpst_dTloc = (sp.diags(k_T * dR_dT)
+                                  + sp.diags(k_T * dR_dTs) @ points.streamwise_derivative)
             # -- heat-flux correction, Eq. (2.65): ratio of Eckert fluxes; the edge pressure
             # (Eq. 2.44: the wall pressure) is the corrected ROM pressure on the panel and
             # the ROM pressure on the reference ("rom"), or piston theory on both ("pt")
@@ -342,7 +428,7 @@ class RomFluid(FluidModel):
             num, dnum_dp, dnum_dT = eckert_with_derivatives(flow, p_inf + pe, T_w, points.x_le,
                                                             self.regime)
             den, dden_dp, dden_dT = eckert_with_derivatives(
-                cref, cref.pressure + pe_r, np.full(n, T_bar), c.x_le_ref, self.regime)
+                cref, cref.pressure + pe_r, T_bar, c.x_le_ref, self.regime)
             if np.any(np.abs(den) < 1e-9 * np.max(np.abs(den))):
                 warnings.warn("heat-flux correction: the reference Eckert flux vanishes at "
                               "some points (wall at the adiabatic temperature)",
@@ -354,9 +440,9 @@ class RomFluid(FluidModel):
             dq_dd = r[:, None] * dq_pk + a_num[:, None] * dpe_dd + a_den[:, None] * dper_dd
             dq_dd[:, -1] += -q * dden_dT / den
             dq_dws = a_num * dpe_dws + a_den * dper_dws
-            dq_dTloc = np.diag(q_pk * dnum_dT / den)
+            dq_dTloc = sp.diags(q_pk * dnum_dT / den)
             if dpe_dTloc is not None:
-                dq_dTloc = dq_dTloc + a_num[:, None] * dpe_dTloc
+                dq_dTloc = dq_dTloc + sp.diags(a_num) @ dpe_dTloc
         # -- unsteady correction, Eq. (2.55)
         if self.unsteady:
             p1, dp1 = piston_pressure(M * ws + wdot / a_inf, p_inf, gam, "pt")
@@ -369,20 +455,32 @@ class RomFluid(FluidModel):
         loads = FluidLoads(pressure=p_st + p_uns, heat_flux=q)
         if not jacobians:
             return loads
-        # -- Jacobians (dense; the deformation parts are rank N_S, the mean-T_w parts rank 1)
-        dp_dw = dpst_dd[:, i_a] @ dd_dw  # Eqs. (2.74a), (2.75)
-        dq_dw = dq_dd[:, i_a] @ dd_dw
-        dp_dT = np.outer(dpst_dd[:, -1], dd_dT)
-        if dpst_dTloc is not None:
-            dp_dT += dpst_dTloc
-        dq_dT = np.outer(dq_dd[:, -1], dd_dT) + dq_dTloc
+        # -- Jacobians: the deformation parts are rank N_S and the mean-T_w parts rank 1
+        # within each group (block-diagonal over the strips), the rest pointwise
+        groups = c.n_groups
+
+        def blocks(left: Array, right: Array) -> Array:
+            """Per group ``left_g @ right`` with left (n, k) and right (k, m): (G, m, m)."""
+            return np.einsum("gik,kj->gij", left.reshape(groups, m, -1), right)
+
+        def assemble(block: Array, local: sp.spmatrix | None) -> object:
+            if groups == 1:
+                out = block[0] if local is None else block[0] + local.toarray()
+                return sp.csr_matrix(out) if n <= SPARSE_JACOBIAN_MAX else out
+            out = sp.block_diag(list(block), format="csr")
+            return out if local is None else (out + local).tocsr()
+
+        mw = c.mean_weights[None, :]
+        diag = (lambda v: sp.diags(v, format="csr")) if (groups > 1 or n <= SPARSE_JACOBIAN_MAX) \
+            else np.diag
         jac = {
-            "dp_dw": dp_dw, "dp_dws": np.diag(dpst_dws + dpu_dws),
-            "dp_dwdot": np.diag(dpu_dwdot), "dp_dTw": dp_dT,
-            "dq_dw": dq_dw, "dq_dws": np.diag(dq_dws), "dq_dwdot": np.zeros((n, n)),
-            "dq_dTw": dq_dT,
+            "dp_dw": assemble(blocks(dpst_dd[:, i_a], dd_dw), None),  # Eqs. (2.74a), (2.75)
+            "dp_dws": diag(dpst_dws + dpu_dws), "dp_dwdot": diag(dpu_dwdot),
+            "dp_dTw": assemble(blocks(dpst_dd[:, -1:], mw), dpst_dTloc),
+            "dq_dw": assemble(blocks(dq_dd[:, i_a], dd_dw), None),
+            "dq_dws": diag(dq_dws),
+            "dq_dwdot": sp.csr_matrix((n, n)) if diag is not np.diag else np.zeros((n, n)),
+            "dq_dTw": assemble(blocks(dq_dd[:, -1:], mw), dq_dTloc),
         }
-        if n <= SPARSE_JACOBIAN_MAX:  # small grids: CSR so solvers can assemble directly
-            jac = {k: sp.csr_matrix(v) for k, v in jac.items()}
         loads.jacobians = jac
         return loads

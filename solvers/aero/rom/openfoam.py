@@ -33,7 +33,7 @@ import shutil
 import tempfile
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor, Future, as_completed
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -52,6 +52,10 @@ __all__ = ["OpenFoamSettings", "SnapshotRecord", "SnapshotSet", "SnapshotStore",
 #: Points of the panel's polyLine edge per streamwise cell: the deformed shape is followed
 #: well inside a cell.
 EDGE_POINTS_PER_CELL = 4
+#: A snapshot whose solution diverges (the impulsive start of the free stream over a
+#: strongly deformed panel) is run again from the start at half the Courant number, at
+#: most this many times: its steady state does not depend on the pseudo-time step.
+DIVERGED_RETRIES = 2
 
 
 @dataclass(frozen=True)
@@ -91,6 +95,7 @@ class SnapshotRecord:
     drift_pressure: float
     drift_heat_flux: float
     seconds: float
+    courant: float = math.nan  # of the run that gave the record (nan: not recorded)
 
     def arrays(self) -> dict[str, np.ndarray]:
         return {"inputs": self.inputs, "converged": np.array(self.converged),
@@ -98,14 +103,15 @@ class SnapshotRecord:
                 "heat_flux": self.heat_flux, "iterations": np.array(self.iterations),
                 "drift_pressure": np.array(self.drift_pressure),
                 "drift_heat_flux": np.array(self.drift_heat_flux),
-                "seconds": np.array(self.seconds)}
+                "seconds": np.array(self.seconds), "courant": np.array(self.courant)}
 
     @classmethod
     def from_arrays(cls, d: dict[str, np.ndarray]) -> SnapshotRecord:
         return cls(np.asarray(d["inputs"], float), bool(d["converged"]), str(d["reason"]),
                    np.asarray(d["pressure"], float), np.asarray(d["heat_flux"], float),
                    int(d["iterations"]), float(d["drift_pressure"]),
-                   float(d["drift_heat_flux"]), float(d["seconds"]))
+                   float(d["drift_heat_flux"]), float(d["seconds"]),
+                   float(d["courant"]) if "courant" in d else math.nan)
 
 
 def snapshot_spec(geometry: RomGeometry, amplitudes: Array, wall_temperature: float,
@@ -158,30 +164,41 @@ def run_snapshot(geometry: RomGeometry, inputs: Array, flow: FlowCondition,
                  settings: OpenFoamSettings, openfoam: OpenFoam, work: str | Path
                  ) -> SnapshotRecord:
     """Compute one snapshot (inputs ``[a_1 .. a_NS, T_w]``) in a fresh case folder under
-    ``work`` (removed afterwards; a rejected case keeps its solver log beside it).
-    Module-level, so that process pools and dask can run it."""
+    ``work`` (removed afterwards; a rejected case keeps its solver log beside it). A
+    solution that diverges is run again at half the Courant number, up to
+    :data:`DIVERGED_RETRIES` times; the record keeps the Courant number that gave it and the
+    seconds of every attempt. Module-level, so that process pools and dask can run it."""
     inputs = np.asarray(inputs, float)
     n = geometry.n_x * geometry.n_y
-    spec = snapshot_spec(geometry, inputs[:-1], inputs[-1], flow, settings)
     Path(work).mkdir(parents=True, exist_ok=True)
-    folder = Path(tempfile.mkdtemp(prefix="case-", dir=work))
-    try:
-        case = run_case(write_case(folder, spec), openfoam, settings.resolution,
-                        spec.viscous, timeout=settings.timeout)
-        nan = np.full(n, np.nan)
-        p, q = (_wall_loads(geometry, case, inputs[-1], flow, settings) if case.converged
-                else (nan, nan))
-        reason = case.reason
-        if case.converged and not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
-            reason = "NaN in the sampled wall loads"
-        if reason:
-            log = folder / "log.rhoCentralFoam"
-            if log.is_file():
-                shutil.copy(log, folder.with_suffix(".log"))
-        return SnapshotRecord(inputs, not reason, reason, p, q, case.iterations,
-                              case.drift_pressure, case.drift_heat_flux, case.cpu_seconds)
-    finally:
-        shutil.rmtree(folder, ignore_errors=True)
+    res = settings.resolution
+    seconds = 0.0
+    for attempt in range(DIVERGED_RETRIES + 1):
+        run = replace(settings, resolution=replace(res, courant=res.courant / 2**attempt))
+        spec = snapshot_spec(geometry, inputs[:-1], inputs[-1], flow, run)
+        folder = Path(tempfile.mkdtemp(prefix="case-", dir=work))
+        try:
+            case = run_case(write_case(folder, spec), openfoam, run.resolution,
+                            spec.viscous, timeout=settings.timeout)
+            seconds += case.cpu_seconds
+            if case.diverged and attempt < DIVERGED_RETRIES:
+                continue
+            nan = np.full(n, np.nan)
+            p, q = (_wall_loads(geometry, case, inputs[-1], flow, settings) if case.converged
+                    else (nan, nan))
+            reason = case.reason
+            if case.converged and not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
+                reason = "NaN in the sampled wall loads"
+            if reason:
+                log = folder / "log.rhoCentralFoam"
+                if log.is_file():
+                    shutil.copy(log, folder.with_suffix(".log"))
+            return SnapshotRecord(inputs, not reason, reason, p, q, case.iterations,
+                                  case.drift_pressure, case.drift_heat_flux, seconds,
+                                  run.resolution.courant)
+        finally:
+            shutil.rmtree(folder, ignore_errors=True)
+    raise AssertionError("unreachable: the last attempt returns")
 
 
 def snapshot_key(geometry: RomGeometry, inputs: Array, flow: FlowCondition,
@@ -301,8 +318,9 @@ def run_snapshots(geometry: RomGeometry, inputs: Array, flow: FlowCondition,
 
 def provenance(training: SnapshotSet, holdout: SnapshotSet | None = None) -> dict[str, Any]:
     """What a ROM file records about its CFD snapshots: solver and version, model,
-    resolution, counts (training, held out, rejected with their reasons) and convergence
-    figures (iterations, wall-average drifts, seconds per snapshot)."""
+    resolution, counts (training, held out, rejected with their reasons, converged only at
+    a lower Courant number after a diverged start) and convergence figures (iterations,
+    wall-average drifts, seconds per snapshot)."""
     s = training.settings
     records = training.records + (holdout.records if holdout is not None else [])
     ok = [r for r in records if r.converged]
@@ -327,5 +345,7 @@ def provenance(training: SnapshotSet, holdout: SnapshotSet | None = None) -> dic
         "drift_pressure": stats([r.drift_pressure for r in ok]),
         "drift_heat_flux": stats([r.drift_heat_flux for r in ok]),
         "seconds": stats([r.seconds for r in ok]),
+        "lower_courant": sum(1 for r in ok if s is not None and math.isfinite(r.courant)
+                             and r.courant < s.resolution.courant),
         "cpu_seconds_total": float(sum(r.seconds for r in records)),
     }

@@ -22,6 +22,7 @@ import re
 import shutil
 import subprocess
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -40,6 +41,8 @@ NOT_FOUND = "OpenFOAM not found; apt-get install openfoam"
 _SHARE = ("../share/openfoam",)
 #: Seconds between two looks at a running case's wall averages.
 POLL = 0.25
+#: The solver's floating-point exception, in :func:`_fatal`'s words.
+_FPE = "floating point exception (the solution diverged)"
 
 
 @dataclass(frozen=True)
@@ -106,6 +109,9 @@ class CaseResult:
         Relative drift of the panel's mean pressure and heat flux over the window.
     cpu_seconds : float
         Wall-clock seconds of mesh and solver.
+    diverged : bool
+        The solution blew up (a floating-point exception or NaN in the wall averages): a
+        case that may converge at a smaller pseudo-time step.
     """
 
     converged: bool
@@ -119,6 +125,7 @@ class CaseResult:
     drift_pressure: float = math.nan
     drift_heat_flux: float = math.nan
     cpu_seconds: float = 0.0
+    diverged: bool = False
 
 
 def read_averages(folder: str | Path) -> Array:
@@ -196,13 +203,14 @@ def _fatal(log: Path) -> str:
     if m:
         return m.group(1).strip()
     if "Floating point exception" in text or "sigFpe" in text:
-        return "floating point exception (the solution diverged)"
+        return _FPE
     tail = [ln for ln in text.splitlines() if ln.strip()]
     return tail[-1].strip() if tail else "no output"
 
 
 def run_case(folder: str | Path, openfoam: OpenFoam, resolution: Resolution,
-             viscous: bool, timeout: float | None = None) -> CaseResult:
+             viscous: bool, timeout: float | None = None,
+             after_mesh: Callable[[Path], None] | None = None) -> CaseResult:
     """Mesh and run the case in ``folder`` until its wall averages converge.
 
     Parameters
@@ -216,6 +224,9 @@ def run_case(folder: str | Path, openfoam: OpenFoam, resolution: Resolution,
         Whether the heat-flux average must converge too.
     timeout : float, optional
         Wall-clock seconds after which the case is stopped and rejected.
+    after_mesh : callable, optional
+        Called with the folder between blockMesh and the solver (e.g. to move the mesh's
+        points: :func:`~hypate.solvers.aero.rom.openfoam_case3d.deform_points`).
     """
     folder = Path(folder)
     env = openfoam.environment()
@@ -226,6 +237,8 @@ def run_case(folder: str | Path, openfoam: OpenFoam, resolution: Resolution,
     if code != 0:
         return CaseResult(False, f"blockMesh failed: {_fatal(folder / 'log.blockMesh')}",
                           cpu_seconds=time.monotonic() - t0)
+    if after_mesh is not None:
+        after_mesh(folder)
     log_path = folder / "log.rhoCentralFoam"
     stopped = False
     with open(log_path, "w", encoding="utf-8") as log:
@@ -257,10 +270,13 @@ def run_case(folder: str | Path, openfoam: OpenFoam, resolution: Resolution,
                         cpu_seconds=seconds)
     if avg.size and not np.all(np.isfinite(avg)):
         result.reason = "NaN in the wall averages (the solution diverged)"
+        result.diverged = True
         return result
     if k < 0:
         if proc.returncode not in (0, None) and not stopped:
-            result.reason = f"rhoCentralFoam failed: {_fatal(log_path)}"
+            fatal = _fatal(log_path)
+            result.reason = f"rhoCentralFoam failed: {fatal}"
+            result.diverged = fatal == _FPE
         elif timeout is not None and seconds > timeout:
             result.reason = (f"not converged within the {timeout:g} s time limit "
                              f"({iterations} iterations, drift p {dp:.2g}, q {dq:.2g})")

@@ -25,7 +25,7 @@ from hypate.solvers.aero.rom.config import parse_rom_config
 from hypate.solvers.aero.rom.io import load_rom, save_rom
 from hypate.solvers.aero.rom.openfoam import resample, snapshot_spec
 from hypate.solvers.aero.rom.openfoam_case import Resolution
-from hypate.solvers.aero.rom.openfoam_run import find_openfoam
+from hypate.solvers.aero.rom.openfoam_run import CaseResult, find_openfoam
 from hypate.solvers.aero.shock_expansion import ShockExpansionFluid
 from hypate.solvers.errors import InputError
 
@@ -79,6 +79,44 @@ def test_unknown_model_is_refused_naming_the_key():
     with pytest.raises(InputError) as err:
         parse_rom_config(data)
     assert "source.model" in err.value.field
+
+
+def test_a_diverged_snapshot_is_run_again_at_half_the_courant_number(tmp_path, monkeypatch):
+    """The retry policy of run_snapshot, on a stand-in solver (no OpenFOAM needed): diverged
+    starts are run again at Co / 2, Co / 4; any other failure is final."""
+    cfg = parse_rom_config(copy.deepcopy(TINY))
+    g = geometry_from_config(cfg)
+    flow = cfg.reference.flow()
+    settings = source.OpenFoamSettings("euler", Resolution(courant=0.2), timeout=60.0)
+    x = 1.0 + np.linspace(0.0, 1.0, 17)[:-1] + 1.0 / 32.0  # face centres of 16 cells
+    seen = []
+
+    def solver(folder, openfoam, resolution, viscous, timeout=None, converge_below=0.1):
+        seen.append(resolution.courant)
+        if resolution.courant > converge_below:  # the impulsive start blows up
+            return CaseResult(False, "rhoCentralFoam failed: floating point exception (the "
+                              "solution diverged)", cpu_seconds=1.0, diverged=True)
+        return CaseResult(True, x=x, y=0 * x, pressure=np.full(16, flow.pressure),
+                          temperature=np.full(16, flow.temperature), heat_flux=0 * x,
+                          iterations=500, cpu_seconds=2.0)
+
+    monkeypatch.setattr(source, "run_case", solver)
+    record = source.run_snapshot(g, np.array([2.0, 0.0, 500.0]), flow, settings, None,
+                                 tmp_path)
+    assert seen == [0.2, 0.1] and record.converged and record.courant == 0.1
+    assert record.seconds == 3.0 and np.allclose(record.pressure, 0.0)
+    seen.clear()  # never converging: rejected after 1 + DIVERGED_RETRIES attempts
+    monkeypatch.setattr(source, "run_case", lambda *a, **k: solver(*a, **k, converge_below=0))
+    record = source.run_snapshot(g, np.array([2.0, 0.0, 500.0]), flow, settings, None,
+                                 tmp_path)
+    assert seen == [0.2, 0.1, 0.05] and not record.converged
+    assert "diverged" in record.reason and record.courant == 0.05
+    seen.clear()  # a failure that is not a divergence is final
+    monkeypatch.setattr(source, "run_case", lambda *a, **k: seen.append(1) or CaseResult(
+        False, "not converged after 100 iterations"))
+    record = source.run_snapshot(g, np.array([2.0, 0.0, 500.0]), flow, settings, None,
+                                 tmp_path)
+    assert seen == [1] and record.reason == "not converged after 100 iterations"
 
 
 @needs_openfoam
