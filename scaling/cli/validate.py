@@ -60,7 +60,7 @@ def validate(path: Path, schema: str | None = None) -> tuple[str, list[str]]:
     schema = schema or schema_of(data)
     if schema == "study":
         study = parse_study(data, path)  # loads the prototype case, materials and tunnel
-        check_fluid_model(study.raw.simulation.aero)
+        check_fluid_model(study.spec.prototype.simulation.aero)
         return schema, study.summary()
     if schema == "rom":
         cfg = parse_rom_config(data)

@@ -63,13 +63,15 @@ def sweep_points(study: Study) -> list[SweepPoint]:
 
 def study_data(study: Study) -> dict[str, Any]:
     """The study as a plain dict that :func:`parse_study` accepts anywhere (the prototype
-    case path made absolute); stored in sweep run directories to rebuild sub-studies."""
+    case path made absolute, a ``rom:`` fluid model as the study found it); stored in sweep
+    run directories to rebuild sub-studies."""
     data = study.raw.model_dump(mode="json", exclude_none=True)
     for name in CATEGORICAL:  # the template's default would clash with the variable
         if name in data["variables"]:
             data["model"].pop(name, None)
     base = Path(study.path).parent if study.path != "<memory>" else Path.cwd()
     data["prototype"]["case"] = str(resolve(data["prototype"]["case"], "case", base).resolve())
+    data["simulation"]["aero"] = study.spec.prototype.simulation.aero  # a ROM as found
     return data
 
 

@@ -5,12 +5,16 @@ the quick-start study and its prototype case) and the examples and reproductions
 A command-line path or a study's ``prototype.case`` may name a shipped file by its stem
 (``quickstart``, ``sec9_2_2_xi4``, ``sec9_2_prototype``); a path under ``studies/`` that no
 longer exists (the layout before the files moved into sub-folders by kind) resolves to the
-shipped file of the same stem, so the commands of earlier READMEs keep working.
+shipped file of the same stem, so the commands of earlier READMEs keep working. A study's
+``aero = "rom:PATH"`` that does not exist from the working directory resolves against the
+study's folder, then to the shipped ROM of that file name (:func:`resolve_aero`).
 """
 from __future__ import annotations
 
 from importlib import resources
 from pathlib import Path
+
+from hypate.solvers.aero.factory import ROM_PREFIX
 
 #: Where each kind of shipped file lives: (package, sub-folder).
 _PLACES: dict[str, tuple[tuple[str, str], ...]] = {
@@ -50,6 +54,27 @@ def resolve(arg: str | Path, kind: str, base: Path | None = None) -> Path:
         if match is not None:
             return match
     return full
+
+
+def resolve_aero(aero: str, base: Path | None = None) -> str:
+    """``[simulation] aero`` with a ``rom:PATH`` that names an existing file: ``PATH`` as
+    given (relative to the working directory, the rule of case files), else relative to
+    ``base`` (the study file's folder), else the shipped ROM of that file name
+    (``hypate.studies/rom``), so that a shipped study finds its shipped ROM from any
+    working directory. Fixed model names, and paths found nowhere, come back unchanged
+    (the loader then reports the missing file)."""
+    if not aero.startswith(ROM_PREFIX):
+        return aero
+    path = Path(aero[len(ROM_PREFIX):])
+    if path.exists():
+        return aero
+    if base is not None and not path.is_absolute() and (base / path).exists():
+        return ROM_PREFIX + str((base / path).resolve())
+    for package, folder in _PLACES["rom"]:
+        candidate = Path(str(resources.files(package))).joinpath(folder, path.name)
+        if candidate.is_file():
+            return ROM_PREFIX + str(candidate)
+    return aero
 
 
 def default_study() -> Path:

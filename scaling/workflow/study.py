@@ -96,7 +96,7 @@ from hypate.scaling.workflow.problem import (
     ScalingProblem,
     ScalingSpec,
 )
-from hypate.scaling.workflow.shipped import resolve
+from hypate.scaling.workflow.shipped import resolve, resolve_aero
 from hypate.scaling.workflow.tunnels import TunnelEnvelope, resolve_tunnel
 from hypate.scaling.workflow.variables import CATEGORICAL, HARD_LIMITS, OPTIMIZABLE
 from hypate.solvers import materials as mat
@@ -502,6 +502,8 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
     if case.flow is None:
         raise InputError("prototype.case", f"{case_path} has no [flow] table")
     sim_cfg = cfg.simulation
+    if sim_cfg.aero != (aero := resolve_aero(sim_cfg.aero, base)):  # a ROM found elsewhere
+        sim_cfg = sim_cfg.model_copy(update={"aero": aero})
     proto_panel = case.panel
     if sim_cfg.mesh is not None:
         proto_panel = dataclasses.replace(proto_panel, mesh=tuple(sim_cfg.mesh))

@@ -170,3 +170,32 @@ def test_seed_from_an_earlier_run(tmp_path: Path, capsys) -> None:
                  str(tmp_path / "nowhere")]) == 2
     assert "--seed-from" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_a_rom_fluid_model_is_found_beside_the_study_or_shipped(tmp_path: Path,
+                                                                 monkeypatch) -> None:
+    """``aero = "rom:PATH"``: PATH from the working directory, else beside the study file,
+    else the shipped ROM of that file name; the sweep's stored study keeps what was found."""
+    from hypate.scaling.workflow.derived import study_data
+    from hypate.scaling.workflow.shipped import shipped
+    from hypate.solvers.aero.factory import ROM_PREFIX
+
+    shipped_rom = (REPO / "studies" / "rom" / "rom_sec9_2_cfd.npz").resolve()
+    monkeypatch.chdir(tmp_path)  # not the repository: the relative path does not exist here
+    study = load_study(shipped("study")["sec9_2_2_xi4_cfd"])
+    aero = study.spec.prototype.simulation.aero
+    assert aero.startswith(ROM_PREFIX) and Path(aero[len(ROM_PREFIX):]).resolve() == shipped_rom
+    assert study_data(study)["simulation"]["aero"] == aero
+    # a ROM file beside the study wins over the shipped one of the same name
+    sub = tmp_path / "mine"
+    sub.mkdir()
+    shutil.copy(shipped_rom, sub / "rom_sec9_2_cfd.npz")
+    text = TINY.replace('aero = "pt-bl"', 'aero = "rom:rom_sec9_2_cfd.npz"')
+    assert text != TINY
+    (sub / "s.toml").write_text(text)
+    aero = load_study(sub / "s.toml").spec.prototype.simulation.aero
+    assert aero == ROM_PREFIX + str((sub / "rom_sec9_2_cfd.npz").resolve())
+    # from the working directory first (the rule of case files)
+    monkeypatch.chdir(sub)
+    assert load_study(sub / "s.toml").spec.prototype.simulation.aero == \
+        "rom:rom_sec9_2_cfd.npz"
