@@ -255,7 +255,8 @@ def strips(rom_path: str | Path | None = None, modes: Array | None = None,
            amplitudes: Array | None = None, l_le: float = 0.25, cells_span: int = 32,
            cells_margin: int = 8, margin: float = 0.25, height: float = 0.6,
            strip_rows: int = 8, resolution: Resolution = ROM_RESOLUTION,
-           folder: Path | None = None) -> dict[str, Any]:
+           folder: Path | None = None, result3d: CaseResult | None = None
+           ) -> dict[str, Any]:
     """Euler, M 6, 25 km: the 1 m x 1 m panel deformed by ``sum A_k sin(m pi x) sin(n pi y)``
     (default: :func:`prototype_deflection`) in 3-D (half span, the mesh spacing of
     ``resolution`` on the panel and at the wall) against
@@ -271,7 +272,8 @@ def strips(rom_path: str | Path | None = None, modes: Array | None = None,
     faces (NRMSE of Eq. 7.7, largest point error), of the panel-mean overpressure and of the
     generalized force on the first mode, ``int (p - p_inf) sin(pi x) sin(pi y) dA``; and
     of the Eckert heat flux (turbulent, 500 K wall) on each one's edge state. ``l_le``: any
-    plate length serves an Euler case (:func:`leading_edge`)."""
+    plate length serves an Euler case (:func:`leading_edge`). ``result3d``: the result of
+    this 3-D case run before (``openfoam_run.read_result`` of its folder), not run again."""
     flow = FlowCondition.from_altitude(6.0, 25000.0)
     if modes is None or amplitudes is None:
         modes, amplitudes = prototype_deflection()
@@ -281,10 +283,13 @@ def strips(rom_path: str | Path | None = None, modes: Array | None = None,
                        cells_panel=r.cells_panel, cells_span=cells_span,
                        cells_margin=cells_margin, cells_normal=r.cells_normal, margin=margin,
                        height=height, wall_cell=r.wall_cell, resolution=r)
-    with tempfile.TemporaryDirectory() as tmp:
-        where = (folder or Path(tmp)) / "case3d"
-        res3 = run_case(write_case_3d(where, case), find_openfoam(), r, False,
-                        after_mesh=partial(deform_points, case=case))
+    if result3d is not None:
+        res3 = result3d
+    else:
+        with tempfile.TemporaryDirectory() as tmp:
+            where = (folder or Path(tmp)) / "case3d"
+            res3 = run_case(write_case_3d(where, case), find_openfoam(), r, False,
+                            after_mesh=partial(deform_points, case=case))
     out: dict[str, Any] = {"cells": case.n_cells, "converged": res3.converged,
                            "reason": res3.reason, "iterations": res3.iterations,
                            "seconds": res3.cpu_seconds, "modes": np.asarray(modes).tolist(),
@@ -295,7 +300,11 @@ def strips(rom_path: str | Path | None = None, modes: Array | None = None,
     if not res3.converged:
         return out
     x3, y3 = res3.x - l_le, res3.y
-    rows = np.unique(np.round(y3, 9))  # centre line out (half span)
+    # the row of each face (centre line out, half span): face centres of the deformed wall
+    # move off their row's y by ~1e-6 m, so the rows are the cells' spanwise index
+    dy = 0.5 / cells_span
+    row = np.clip(np.floor((y3 - 0.5) / dy).astype(int), 0, cells_span - 1)
+    rows = np.arange(cells_span)
     T_w = 500.0
 
     def eckert(p: Array, T: Array, x: Array) -> Array:
@@ -318,7 +327,9 @@ def strips(rom_path: str | Path | None = None, modes: Array | None = None,
     xs = np.linspace(0.0, 1.0, 4 * r.cells_panel + 1)
     res2 = replace(r, height=height / (l_le + 1.0), cells_plate=case.cells_plate)
     p2, q2, sel2, strip_seconds = [], [], np.zeros(x3.size, bool), 0.0
-    for y in picked:
+    for j in picked:
+        on = row == j
+        y = 0.5 + (j + 0.5) * dy  # the row's y on the flat wall
         w = panel_deflection(case, xs, np.full(xs.size, y))
         w[[0, -1]] = 0.0
         c2 = _run(CaseSpec(*_panel_wall(l_le, xs, w), flow, T_w, "euler", res2), folder)
@@ -326,25 +337,25 @@ def strips(rom_path: str | Path | None = None, modes: Array | None = None,
         if not c2.converged:
             out["strip_failure"] = f"y = {y:g} m: {c2.reason}"
             return out
-        on = np.isclose(y3, y, atol=1e-9)
         sel2 |= on
         xf = x3[on]
         p2.append(np.interp(xf, c2.x - l_le, c2.pressure) - flow.pressure)
         q2.append(eckert(np.interp(xf, c2.x - l_le, c2.pressure),
                          np.interp(xf, c2.x - l_le, c2.temperature), xf))
     # the rows in the order of the faces: re-gather by the face mask
-    order = np.concatenate([np.flatnonzero(np.isclose(y3, y, atol=1e-9)) for y in picked])
+    order = np.concatenate([np.flatnonzero(row == j) for j in picked])
     inv = np.argsort(order)
     p2a, q2a = np.concatenate(p2)[inv], np.concatenate(q2)[inv]
-    out["strips_2d"] = dict(compare(sel2, p2a, q2a), rows=[float(y) for y in picked],
+    out["strips_2d"] = dict(compare(sel2, p2a, q2a),
+                            rows=[float(0.5 + (j + 0.5) * dy) for j in picked],
                             seconds=strip_seconds)
     if rom_path is not None:  # the 2-D ROM strip-wise on every row of faces
         rom = load_rom(rom_path)
         pr, qr = np.empty(x3.size), np.empty(x3.size)
         line = SurfacePoints.grid(1.0, 1.0, l_le, 4 * r.cells_panel + 1, 1)
-        for y in rows:
-            on = np.isclose(y3, y, atol=1e-9)
-            w = panel_deflection(case, line.x, np.full(line.n, y))
+        for j in rows:
+            on = row == j
+            w = panel_deflection(case, line.x, np.full(line.n, 0.5 + (j + 0.5) * dy))
             st = SurfaceState(w, line.streamwise_derivative @ w, 0.0 * w, np.full(line.n, T_w))
             loads = rom.evaluate(line, st, flow)
             pr[on] = np.interp(x3[on], line.x, loads.pressure)

@@ -32,7 +32,7 @@ from hypate.solvers.aero.rom.openfoam_case import Resolution
 from hypate.solvers.errors import InputError
 
 __all__ = ["NOT_FOUND", "CaseResult", "OpenFoam", "drift", "find_openfoam", "read_averages",
-           "read_samples", "run_case"]
+           "read_result", "read_samples", "run_case"]
 
 #: The one-line refusal when OpenFOAM is missing (field ``[source] kind``).
 NOT_FOUND = "OpenFOAM not found; apt-get install openfoam"
@@ -208,6 +208,16 @@ def _fatal(log: Path) -> str:
     return tail[-1].strip() if tail else "no output"
 
 
+def _clear_output(folder: Path) -> None:
+    """Remove what an earlier run in ``folder`` left: its function objects' output (the
+    solver writes a new run's averages beside an existing file, so the watch would read
+    the old run's history and samples) and its written time folders (all but ``0``)."""
+    shutil.rmtree(folder / "postProcessing", ignore_errors=True)
+    for d in folder.iterdir():
+        if d.is_dir() and d.name != "0" and re.fullmatch(r"[0-9.eE+-]+", d.name):
+            shutil.rmtree(d, ignore_errors=True)
+
+
 def run_case(folder: str | Path, openfoam: OpenFoam, resolution: Resolution,
              viscous: bool, timeout: float | None = None,
              after_mesh: Callable[[Path], None] | None = None) -> CaseResult:
@@ -231,6 +241,7 @@ def run_case(folder: str | Path, openfoam: OpenFoam, resolution: Resolution,
     folder = Path(folder)
     env = openfoam.environment()
     t0 = time.monotonic()
+    _clear_output(folder)
     with open(folder / "log.blockMesh", "w", encoding="utf-8") as log:
         code = subprocess.run([openfoam.block_mesh, "-case", str(folder)], env=env,
                               stdout=log, stderr=subprocess.STDOUT).returncode
@@ -262,7 +273,19 @@ def run_case(folder: str | Path, openfoam: OpenFoam, resolution: Resolution,
                 except subprocess.TimeoutExpired:
                     proc.kill()
             proc.wait()
-    seconds = time.monotonic() - t0
+    return read_result(folder, resolution, viscous, time.monotonic() - t0,
+                       failed=proc.returncode not in (0, None) and not stopped,
+                       timeout=timeout)
+
+
+def read_result(folder: str | Path, resolution: Resolution, viscous: bool,
+                seconds: float = math.nan, failed: bool = False,
+                timeout: float | None = None) -> CaseResult:
+    """The result of a run in ``folder`` from its wall averages and samples (what
+    :func:`run_case` returns; also to read a finished case again). ``failed``: the solver
+    exited with an error; ``seconds``: the run's wall-clock time."""
+    folder = Path(folder)
+    log_path = folder / "log.rhoCentralFoam"
     avg = read_averages(folder)
     k, dp, dq = _converged(avg, resolution, viscous)
     iterations = int(avg[k if k >= 0 else -1, 0]) if avg.size else 0
@@ -273,7 +296,7 @@ def run_case(folder: str | Path, openfoam: OpenFoam, resolution: Resolution,
         result.diverged = True
         return result
     if k < 0:
-        if proc.returncode not in (0, None) and not stopped:
+        if failed:
             fatal = _fatal(log_path)
             result.reason = f"rhoCentralFoam failed: {fatal}"
             result.diverged = fatal == _FPE

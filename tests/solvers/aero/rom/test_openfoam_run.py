@@ -81,3 +81,25 @@ def test_unconverged_case_is_rejected_with_its_reason(tmp_path):
     result = run_case(write_case(tmp_path / "short", spec), find_openfoam(), res, False)
     assert not result.converged
     assert result.reason.startswith("not converged after 100 iterations")
+
+
+@needs_openfoam
+def test_a_case_folder_used_again_gives_the_new_cases_wall(tmp_path):
+    """A second case written into the folder of a finished one: the solver's function
+    objects would leave the first run's averages and samples beside the new ones; run_case
+    starts without them, so the 10 deg wedge gives its own oblique-shock pressure (within
+    1 %), not the 5 deg wedge's."""
+    flow = FlowCondition.from_altitude(6.0, 25000.0)
+    res = Resolution(cells_panel=12, cells_plate=12, cells_normal=20, wall_cell=0.02,
+                     height=0.5, courant=0.2, max_iterations=20000, sample_every=25, window=8,
+                     tolerance=2e-3)
+    foam = find_openfoam()
+    results = {}
+    for angle in (5.0, 10.0):
+        spec = CaseSpec(*wedge_wall(angle), flow, 300.0, "euler", res)
+        results[angle] = run_case(write_case(tmp_path / "same", spec), foam, res, False,
+                                  timeout=120.0)
+        assert results[angle].converged, results[angle].reason
+        exact = flow.pressure * float(oblique_shock(6.0, math.radians(angle))[1])
+        assert np.mean(results[angle].pressure) == pytest.approx(exact, rel=0.01), angle
+    assert results[10.0].iterations >= res.window * res.sample_every
