@@ -470,6 +470,40 @@ class KrigingRegressor(RegressorMixin, BaseEstimator):
         """
         return self._predict_all(X, gradient=True)
 
+    def predict_mean(self, X: np.ndarray, gradient: bool = False):
+        """Predictive mean (N, m) and, with ``gradient``, its gradient (N, m, d): the mean
+        part of :meth:`predict_with_gradients` without the variance. Outputs with equal
+        length scales share one kernel evaluation (the amplitude factors out of ``K`` and
+        ``dK``), so a model whose outputs mostly share their hyperparameters (POD-kriging
+        beyond its separately optimized modes) costs a few kernel matrices, not one each.
+
+        Returns
+        -------
+        mean : ndarray of shape (N, m)
+        dmean : ndarray of shape (N, m, d), or None
+        """
+        self._check_fitted()
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        U = (X - self.lower_) / self.scale_
+        N, d = U.shape
+        m = self.n_outputs_
+        mu = np.empty((N, m))
+        dmu = np.empty((N, m, d)) if gradient else None
+        groups: dict[bytes, list[int]] = {}
+        for j in range(m):
+            groups.setdefault(np.asarray(self.length_scale_[j], float).tobytes(), []).append(j)
+        for cols in groups.values():
+            K, dK = kernel_matrix(U, self.U_train_, 1.0, self.length_scale_[cols[0]],
+                                  self.kernel, gradient=gradient)
+            A = np.stack([self.amplitude_[j] * self.alpha_[j] for j in cols], axis=1)
+            mu[:, cols] = K @ A  # Eq. (A.6a), standardized
+            if gradient:
+                dmu[:, cols] = np.einsum("Nnd,ng->Ngd", dK, A)  # Eq. (A.8a)
+        mean = self.y_mean_ + self.y_std_ * mu
+        if not gradient:
+            return mean, None
+        return mean, self.y_std_[None, :, None] * dmu * (1.0 / self.scale_)
+
     def predict_moments(self, X: np.ndarray):
         """Mean and std, always multi-output shaped ``(N, m)`` (no gradients)."""
         mean, std, _, _ = self._predict_all(X, gradient=False)

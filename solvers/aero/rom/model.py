@@ -467,7 +467,12 @@ class RomFluid(FluidModel):
             if groups == 1:
                 out = block[0] if local is None else block[0] + local.toarray()
                 return sp.csr_matrix(out) if n <= SPARSE_JACOBIAN_MAX else out
-            out = sp.block_diag(list(block), format="csr")
+            # block-diagonal CSR built directly: row g m + i holds block[g, i, :] in columns
+            # g m .. g m + m - 1 (scipy's block_diag costs more than the blocks themselves)
+            cols = (np.arange(groups)[:, None, None] * m
+                    + np.zeros((1, m, 1), int) + np.arange(m)[None, None, :])
+            out = sp.csr_matrix((block.reshape(-1), cols.reshape(-1),
+                                 np.arange(0, n * m + 1, m)), shape=(n, n))
             return out if local is None else (out + local).tocsr()
 
         mw = c.mean_weights[None, :]

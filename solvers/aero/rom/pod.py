@@ -212,8 +212,8 @@ class PodKriging:
         D = np.atleast_2d(np.asarray(D, float))
         F, dF = _trend_basis(self._unit(D), self.trend_, gradient)
         if not gradient:
-            return F @ self.beta_f_ + self.gp_.predict_moments(D)[0], None
-        mean, _, dmean, _ = self.gp_.predict_with_gradients(D)
+            return F @ self.beta_f_ + self.gp_.predict_mean(D)[0], None
+        mean, dmean = self.gp_.predict_mean(D, gradient=True)
         lo, hi = self.bounds_[:, 0], self.bounds_[:, 1]
         inv = 1.0 / np.where(hi > lo, hi - lo, 1.0)
         dtrend = np.einsum("Nqd,qp->Npd", dF, self.beta_f_) * inv  # d f/d d beta_f

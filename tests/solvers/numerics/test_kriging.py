@@ -153,3 +153,26 @@ def test_leave_one_out_equals_the_model_refitted_without_each_point(kernel):
         np.testing.assert_allclose(mean[i], mu_i[0], rtol=1e-8, atol=1e-8 * np.abs(y).max())
         np.testing.assert_allclose(std[i], sd_i[0], rtol=1e-6, atol=1e-8)
     assert np.all(std > 1e-3 * y.std(axis=0))  # unlike the interpolating model's own std
+
+
+@pytest.mark.parametrize("kernel", KERNELS)
+def test_mean_only_prediction_with_shared_length_scales(kernel):
+    """predict_mean: the mean and its gradient of predict_with_gradients (which the
+    central-difference test above checks), with outputs of equal length scales sharing one
+    kernel evaluation -- here four outputs, three of them sharing (other amplitudes)."""
+    X, y = _data(n=25)
+    Y = np.c_[y, 2.0 * y[:, 0] - y[:, 1], np.sin(X[:, 2])]
+    d = X.shape[1]
+    shared = np.log([0.3, 0.5, 0.4])
+    theta0 = np.array([np.r_[0.0, shared], np.r_[0.7, shared], np.r_[0.0, np.log([0.2, 0.6, 0.3])],
+                       np.r_[-0.5, shared]])
+    gp = KrigingRegressor(kernel, bounds=np.c_[np.full(d, -2.0), np.full(d, 3.0)],
+                          theta0=theta0, optimize=False).fit(X, Y)
+    Xq = np.random.default_rng(2).uniform(-2.0, 3.0, (9, d))
+    mu, _, dmu, _ = gp.predict_with_gradients(Xq)
+    mean, dmean = gp.predict_mean(Xq, gradient=True)
+    np.testing.assert_allclose(mean, mu, rtol=1e-12, atol=1e-12 * np.abs(mu).max())
+    np.testing.assert_allclose(dmean, dmu, rtol=1e-11, atol=1e-11 * np.abs(dmu).max())
+    only, none = gp.predict_mean(Xq)
+    assert none is None
+    np.testing.assert_array_equal(only, mean)
