@@ -267,12 +267,14 @@ def _summary(out: Path, point: dict[str, Any], before: int, seconds: float) -> d
             "evaluations": n, "new_evaluations": n - before, "seconds": seconds,
             "failed": int(stats.get("failed", 0)), "admissible_evaluations":
                 stats.get("admissible"),
+            "failed_iterations": stats.get("failed_iterations"),
+            "iteration_evaluations": stats.get("iteration_evaluations"),
             "design_point": {k: point.get(k) for k in ("design", "objectives",
                                                        "active_constraints", "scatter",
                                                        "robust", "robust_search",
                                                        "nominal", "chosen", "admissible",
                                                        "binding", "message",
-                                                       "prototype_admissibility")
+                                                       "prototype_admissibility", "stopping")
                              if k in ("design", "objectives", "active_constraints")
                              or k in point}}
 
@@ -312,12 +314,23 @@ def _print_summary(summary: dict[str, Any], before: int) -> None:
     note = prototype_note(point.get("prototype_admissibility") or [])
     if note:
         print(note)
+    for line in point.get("binding") or []:
+        if line.startswith("data ") and "VIOLATED" in line:  # clamped property tables
+            print(f"hypate: error: the design point's model leaves its material's property "
+                  f"data ({line}); its results rest on clamped tables", file=sys.stderr)
     if point.get("design") and point.get("admissible") is False:
         print(f"hypate: error: {point.get('message') or 'the design point is not admissible'}"
               "; see the report's admissibility table", file=sys.stderr)
     print(f"failed evaluations: {summary['failed']} of {n}"
+          + (f" ({summary['failed_iterations']} of the {summary['iteration_evaluations']} "
+             "after the initial design)" if summary.get("iteration_evaluations") else "")
           + (f"; admissible: {summary['admissible_evaluations']}"
              if summary.get("admissible_evaluations") is not None else ""))
+    stopping = point.get("stopping")
+    if stopping:
+        why = ("converged before iteration " + str(stopping["iteration"])
+               if stopping["reason"] == "converged" else "spent its iteration cap")
+        print(f"the run {why} (stopping rule of iterations = \"auto\")")
     if summary["report"]:
         print(f"report: {summary['report']}")
 

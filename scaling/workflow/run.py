@@ -432,7 +432,10 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
                 cheap_constraints=problem.cheap_constraints(), executor=executor,
                 timeout=opt.timeout, store=store, seed=run_seed, callback=callback,
                 output_transform=opt.transform, coordinates=coordinates, polish=opt.polish,
-                categorical=problem.categorical, surrogate=opt.surrogate)
+                categorical=problem.categorical, surrogate=opt.surrogate,
+                exploit_last=opt.exploit_last,
+                **{k: getattr(opt, k) for k in ("p_feasible", "p_success", "p_exploit")
+                   if getattr(opt, k) is not None})
             t0 = time.perf_counter()
             optimizer = (BayesianOptimizer(problem, settings) if levels is None
                          else fidelity_optimizer(study, levels, settings))
@@ -656,7 +659,13 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     ok = int(full.ok.sum()) if n else 0
     if full.stopping is not None:
         point["stopping"] = finite(full.stopping)
+    it = table["iteration"].to_numpy() if n else np.zeros(0, int)
+    failed = (table["status"] != "ok").to_numpy() if n else np.zeros(0, bool)
     point["statistics"] = {"evaluations": n, "successful": ok, "failed": n - ok,
+                           # the classifier of failures acts after the initial design
+                           "failed_initial": int(np.sum(failed & (it <= 0))),
+                           "failed_iterations": int(np.sum(failed & (it >= 1))),
+                           "iteration_evaluations": int(np.sum(it >= 1)),
                            "admissible": int(adm.sum()),
                            "wall_seconds": finite_or_none(wall_seconds),
                            "median_seconds_per_evaluation":

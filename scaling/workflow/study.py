@@ -275,6 +275,15 @@ class OptimizerSection(InputModel):
     #: What the objective surrogates model: the objectives, or the nondimensional
     #: histories J is composed from (scaling.engine.histories).
     surrogate: Literal["objectives", "histories"] = "objectives"
+    #: Probability a proposal must have of holding every enforced admissibility check
+    #: (simulated ones: their surrogates) and of its simulation succeeding (the failure
+    #: classifier); engine defaults when unset.
+    p_feasible: Annotated[float, Field(gt=0.0, lt=1.0)] | None = None
+    p_success: Annotated[float, Field(gt=0.0, lt=1.0)] | None = None
+    #: The last iterations proposing the surrogates' best design point, every enforced
+    #: check and the simulation's success at probability ``p_exploit`` (engine default 0.95)
+    exploit_last: Annotated[int, Field(ge=0, le=1000)] = 0
+    p_exploit: Annotated[float, Field(gt=0.0, lt=1.0)] | None = None
 
 
 class StudyFile(InputModel):
