@@ -407,16 +407,12 @@ class BayesianOptimizer:
             return U if st.categorical is None else st.categorical.snap(U)
         # objectives (or their histories), expensive constraints, failure indicator:
         # fitted together
-        histories = self._histories(records, ok)
-        data = [(X[ok], F[ok] if histories is None else histories[1], {})]
+        objectives, histories = self.objective_data(records, X, F, ok)
+        data = [objectives]
         if self.n_constr:
             data.append((X[ok], G[ok], {}))
-        model, *others = self.surrogates(data, rng)
-        if histories is not None:
-            basis, A = histories
-            model = HistoriesModel(model, basis, self.composition, st.output_transform,
-                                   normal_samples(SAMPLES, A.shape[1],
-                                                  int(rng.integers(2**31))), X[ok], A)
+        fitted, *others = self.surrogates(data, rng)
+        model = self.objective_model(fitted, histories, X[ok], rng)
         model_constraints: list[Any] = []
         safe = self.exploiting(iteration)
         if self.n_constr:
@@ -522,6 +518,27 @@ class BayesianOptimizer:
                             box=None if coords is None else coords.box(self.bounds),
                             p_min=s.p_success if p_min is None else p_min,
                             rng=int(rng.integers(2**31)))
+
+    def objective_data(self, records: Sequence[Evaluation], X: np.ndarray, F: np.ndarray,
+                       ok: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray, dict],
+                                                tuple[HistoryBasis, np.ndarray] | None]:
+        """What the objective surrogate is fitted to: ``(X_ok, Y, options)`` -- the
+        objectives (model space) or, with ``surrogate = "histories"``, the POD coefficients of
+        the histories -- and the histories' basis and coefficients (None: objectives)."""
+        histories = self._histories(list(records), ok)
+        return (X[ok], F[ok] if histories is None else histories[1], {}), histories
+
+    def objective_model(self, fitted: Any, histories: tuple[HistoryBasis, np.ndarray] | None,
+                        X_ok: np.ndarray, rng: np.random.Generator) -> Any:
+        """The objective model from the fitted surrogate of :meth:`objective_data`: itself,
+        or the :class:`HistoriesModel` composing J from the coefficients' surrogate (its base
+        samples drawn from ``rng``)."""
+        if histories is None:
+            return fitted
+        basis, A = histories
+        return HistoriesModel(fitted, basis, self.composition, self.settings.output_transform,
+                              normal_samples(SAMPLES, A.shape[1], int(rng.integers(2**31))),
+                              X_ok, A)
 
     def _histories(self, records: list[Evaluation], ok: np.ndarray
                    ) -> tuple[HistoryBasis, np.ndarray] | None:

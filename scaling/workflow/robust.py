@@ -90,6 +90,11 @@ class JointProblem(Problem):
                          n_ieq_constr=0, xl=np.r_[problem.xl, support[:, 0]],
                          xu=np.r_[problem.xu, support[:, 1]])
 
+    def composition(self) -> Any:
+        """J as a composition of the histories (the scaled model's are compared with the
+        nominal prototype's): the study's own (:meth:`ScalingProblem.composition`)."""
+        return self.scaling.composition()
+
     def _evaluate(self, X: np.ndarray, out: dict[str, Any], *args: Any, **kwargs: Any) -> None:
         p, n = self.scaling, self.scaling.n_var
         # the robust statistic of a constraint is not modelled (the engine's robust search
@@ -130,9 +135,10 @@ def _prior(nominal: RunOutcome, n_inputs: int) -> list[Evaluation]:
     """The nominal campaign's evaluations as (design, inputs = 1) evaluations."""
     data = nominal.result
     ones = np.ones(n_inputs)
+    aux = data.data["aux"] if "aux" in data.data.columns else [{}] * len(data.data)
     return [Evaluation(x=np.r_[x, ones], F=np.asarray(F, float), G=np.zeros(0),
-                       status="ok" if ok else "error")
-            for x, F, ok in zip(data.X, data.F, data.ok)]
+                       status="ok" if ok else "error", aux=a if isinstance(a, dict) else {})
+            for x, F, ok, a in zip(data.X, data.F, data.ok, aux)]
 
 
 def run_robust_study(study: Study, out: str | Path, *, resume: bool = False, workers: int = 1,
@@ -210,7 +216,7 @@ def _robust_campaign(study: Study, nominal: RunOutcome, store: EvaluationStore,
         v=opt.v, v_final=opt.v_final, weights=opt.weights,
         cheap_constraints=problem.cheap_constraints(),
         executor=executor, timeout=opt.timeout, store=store, seed=run_seed,
-        callback=callback, output_transform=opt.transform,
+        callback=callback, output_transform=opt.transform, surrogate=opt.surrogate,
         coordinates=joint_coordinates(study, problem, n_inputs))
     optimizer = RobustBayesianOptimizer(
         joint, settings, n_design=problem.n_var,

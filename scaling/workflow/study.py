@@ -323,6 +323,10 @@ class StudyFile(InputModel):
         if opt.iterations == "auto" and opt.min_iterations >= opt.max_iterations:
             raise ValueError(f"optimizer.min_iterations: must be below max_iterations "
                              f"({opt.max_iterations}); got {opt.min_iterations}")
+        if opt.surrogate == "histories" and self.fidelity:
+            raise ValueError("optimizer.surrogate: \"histories\" is not available for a "
+                             "multi-fidelity study (its levels' histories differ in length; "
+                             "the co-kriging models the objectives): use \"objectives\"")
         if opt.iterations == "auto" and (self.robust is not None or self.fidelity):
             raise ValueError("optimizer.iterations: \"auto\" stops a single-fidelity search "
                              "(not a [robust] or [[fidelity]] one); give a number")
