@@ -10,6 +10,7 @@ import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.cli.run import Progress
+from hypate.scaling.workflow.study import load_study
 
 
 def _json(capsys: pytest.CaptureFixture) -> object:
@@ -51,6 +52,7 @@ def test_init_writes_a_study_that_validates_anywhere(source: str, tmp_path: Path
     path = tmp_path / "mine.toml"
     assert main(["init", str(path), "--from", source]) == 0
     assert path.read_text().startswith("# Study file written by `hypate init")
+    assert load_study(path).name == "mine"  # named after its file: runs/mine, not runs/<source>
     capsys.readouterr()
     assert main(["validate", str(path), "--json"]) == 0
     doc = _json(capsys)

@@ -262,6 +262,23 @@ def test_direct_and_indirect_approaches_converge_to_pareto_set(acq, tol):
     assert abs(res.best([0.5, 0.5], g=1.0)["x1"]) < tol
 
 
+def test_exploiting_iterations_propose_the_min_max_design():
+    """``exploit_last``: the last iterations propose the surrogates' minimum of max(f1, f2)
+    (closed form for _TwoParabolas: x = (0.5, 0), max f = 0.25); without it the same
+    iterations are still exploring (x0 = 0.75 at iteration 5, seed 1)."""
+    def late(exploit_last):
+        res = BayesianOptimizer(_TwoParabolas(), acquisition="hvlcb", n_init=8, n_iter=6,
+                                seed=1, exploit_last=exploit_last).run()
+        it = res.data["iteration"].to_numpy()
+        return res.X[it >= 5], res.F[it >= 5]
+
+    X, F = late(2)
+    assert np.abs(X - [0.5, 0.0]).max() < 0.02
+    assert F.max(axis=1).max() < 0.25 + 0.001
+    X, _ = late(0)
+    assert np.abs(X - [0.5, 0.0]).max() > 0.2
+
+
 # -------------------------------------------------------------- reproducibility/resume
 class _Counting(Problem):
     """Forward to ZDT1 (d = 3) and count evaluated designs."""
