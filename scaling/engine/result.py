@@ -6,7 +6,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 from hypate.scaling.engine.criteria import weighted_metric
-from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
+from hypate.scaling.engine.pareto import (
+    hypervolume,
+    non_dominated_mask,
+    pareto_front,
+    pareto_order,
+)
 from hypate.scaling.engine.problem import STATUS_OK
 
 __all__ = ["OptimizationResult"]
@@ -70,13 +75,29 @@ class OptimizationResult:
         mask[idx[non_dominated_mask(self.F[idx])]] = True
         return mask
 
+    def pareto_indices(self) -> np.ndarray:
+        """Rows of :attr:`data` in the Pareto set, in THE order of every Pareto table:
+        by the first objective, ties by the next ones, then by evaluation order
+        (:func:`~hypate.scaling.engine.pareto.pareto_order`).
+
+        Returns
+        -------
+        ndarray of int, shape (k,)
+            ``pareto_set()[i]`` is ``X[idx[i]]`` and ``pareto_front()[i]`` is ``F[idx[i]]``.
+        """
+        idx = np.flatnonzero(self.feasible)
+        return idx[pareto_order(self.F[idx])]
+
     def pareto_set(self) -> np.ndarray:
-        """Designs of the Pareto set, shape (k, d)."""
-        return self.X[self.pareto_mask()]
+        """Designs of the Pareto set, shape (k, d), row-aligned with :meth:`pareto_front`
+        (row ``i`` has the objectives ``pareto_front()[i]``; :meth:`pareto_indices`)."""
+        return self.X[self.pareto_indices()]
 
     def pareto_front(self) -> np.ndarray:
-        """Objectives of the Pareto set, shape (k, m), sorted by the first objective."""
-        return pareto_front(self.F[self.pareto_mask()])
+        """Objectives of the Pareto set, shape (k, m), sorted by the first objective and
+        row-aligned with :meth:`pareto_set` (designs with equal objectives each keep their
+        row)."""
+        return self.F[self.pareto_indices()]
 
     def hypervolume_history(self, ref_point: np.ndarray | None = None) -> np.ndarray:
         """Hypervolume of the feasible archive after each evaluation, shape (n,)."""

@@ -622,7 +622,9 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     tmp.replace(out / EVALUATIONS_CSV)
     mask = result.pareto_mask() if len(rows) else np.zeros(0, bool)
     top_table = table.iloc[rows]
-    pareto = top_table[mask] if study.spec.objectives and len(study.spec.objectives) > 1 else \
+    # one order for every Pareto table: by the first objective (result.pareto_indices)
+    front = result.pareto_indices() if len(rows) else np.zeros(0, int)
+    pareto = top_table.iloc[front] if len(study.spec.objectives) > 1 else \
         top_table[result.feasible].nsmallest(10, study.spec.objectives[0])
     tmp = out / "pareto.csv.tmp"
     pareto.to_csv(tmp, index=False)

@@ -54,6 +54,19 @@ def test_minimize_takes_several_objectives_and_pymoo_problems() -> None:
     assert res.nfev == 16 and res.pareto_fun.shape[1] == 2
 
 
+def test_minimize_pareto_x_and_pareto_fun_are_row_aligned() -> None:
+    """Issue 42's regression: BNH's objectives (known in closed form) of every Pareto
+    design equal its row of pareto_fun; sorted by the first objective."""
+    def f(x: np.ndarray) -> list[float]:
+        return [4 * x[0]**2 + 4 * x[1]**2, (x[0] - 5)**2 + (x[1] - 5)**2]
+
+    r = hypate.minimize(f, bounds=[(0, 5), (0, 3)], n_evaluations=30, seed=0)
+    assert len(r.pareto_x) == len(r.pareto_fun) >= 5
+    # the engine stored f(x) of these very x: equal to the last bit
+    np.testing.assert_array_equal(np.array([f(x) for x in r.pareto_x]), r.pareto_fun)
+    assert np.all(np.diff(r.pareto_fun[:, 0]) >= 0)
+
+
 def test_minimize_refuses_bad_input() -> None:
     with pytest.raises(ValueError, match="bounds"):
         hypate.minimize(branin, n_evaluations=20)
