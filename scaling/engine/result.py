@@ -1,6 +1,7 @@
 """The result of a run: every evaluation, with Pareto, hypervolume and best-design helpers."""
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -98,6 +99,46 @@ class OptimizationResult:
         row-aligned with :meth:`pareto_set` (designs with equal objectives each keep their
         row)."""
         return self.F[self.pareto_indices()]
+
+    def named_data(self, variables: Sequence[str] | None = None,
+                   objectives: Sequence[str] | None = None,
+                   constraints: Sequence[str] | None = None) -> pd.DataFrame:
+        """:attr:`data` with the columns ``x0..``, ``f0..``, ``g0..`` renamed.
+
+        Parameters
+        ----------
+        variables, objectives, constraints : sequence of str, optional
+            One distinct name per column of the kind (``None``: keep ``x0..`` etc.).
+
+        Returns
+        -------
+        pandas.DataFrame
+            A copy; the other columns (status, message, iteration, ...) unchanged.
+
+        Raises
+        ------
+        ValueError
+            A name list of the wrong length, with a repeated name, or a name another
+            column already has.
+        """
+        G_cols = [c for c in self.data.columns if c.startswith("g") and c[1:].isdigit()]
+        rename: dict[str, str] = {}
+        for arg, names, cols in (("variables", variables, [f"x{i}" for i in range(self.n_var)]),
+                                 ("objectives", objectives,
+                                  [f"f{i}" for i in range(self.n_obj)]),
+                                 ("constraints", constraints, G_cols)):
+            if names is None:
+                continue
+            names = [str(n) for n in names]
+            if len(names) != len(cols) or len(set(names)) != len(names):
+                raise ValueError(f"{arg}: need {len(cols)} distinct names; got {names!r}")
+            rename.update(zip(cols, names))
+        taken = set(self.data.columns) - set(rename)
+        clash = sorted(set(rename.values()) & taken)
+        if clash or len(set(rename.values())) != len(rename):
+            raise ValueError(f"names: {clash or sorted(rename.values())} would repeat a "
+                             "column name")
+        return self.data.rename(columns=rename)
 
     def hypervolume_history(self, ref_point: np.ndarray | None = None) -> np.ndarray:
         """Hypervolume of the feasible archive after each evaluation, shape (n,)."""
