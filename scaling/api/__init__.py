@@ -126,7 +126,8 @@ def minimize(fun: Callable[[np.ndarray], Any] | Problem,
           constraints from one simulation: a pymoo ``Problem`` with ``G``.)
         - :class:`CheapConstraint` ``(fun, jac, kind)``, ``fun(x) <= 0`` (``kind="ineq"``)
           or ``fun(x) == 0`` (``"eq"``) with its Jacobian: **cheap**, handed to the inner
-          SLSQP exactly (every design, the initial ones projected, satisfies it to 1e-8),
+          SLSQP exactly (every design, the initial ones projected, satisfies it to SLSQP's
+          precision: 1e-8 with its Jacobian, about 1e-7 with a finite-difference one),
           never counted as an evaluation.
         - a scipy-style dict ``{"type": "ineq" | "eq", "fun", "jac", "args", "cheap"}``
           with scipy's sign: an ``"ineq"`` holds where ``fun(x) >= 0`` (converted to

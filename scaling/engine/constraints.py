@@ -11,7 +11,8 @@ The engine knows two kinds of constraint (DESIGN.md, "Problem"):
 * **cheap** -- an analytic function of the design with its Jacobian
   (:class:`~hypate.scaling.engine.problem.CheapConstraint`, e.g. the studies' Eq. 9.7
   equality): handed to the inner SLSQP exactly, so every proposal (and the initial design,
-  projected) satisfies it to :data:`~hypate.scaling.engine.problem.CHEAP_TOL`. It costs no
+  projected) satisfies it to SLSQP's precision (:data:`~hypate.scaling.engine.problem.CHEAP_TOL`
+  with its Jacobian; a finite-difference Jacobian loses about a digit). It costs no
   evaluation. Equalities must be cheap: a surrogate's proposals cannot meet ``h(x) = 0``.
 
 :func:`sort_constraints` reads what a user passes as ``constraints`` (one list, three
