@@ -11,19 +11,31 @@ The documented Python API:
 - :func:`run_study` -- run it into a run directory (Bayesian optimization, crash-safe store,
   ``evaluations.csv``, ``design_point.json``, ``report.html``), as ``hypate run`` does;
 - :class:`BayesianOptimizer` -- the engine on any pymoo ``Problem``;
-- :func:`minimize` -- the engine on a plain Python function (or a pymoo problem), with a
-  scipy-style result.
+- :func:`minimize` -- the engine on a plain Python function (or a pymoo problem), with
+  expensive and cheap constraints and a scipy-style result;
+- :class:`Optimizer` -- the engine driven from outside: ``ask`` for designs, ``tell`` their
+  results (an external code, an experiment), crash-safe and resumable;
+- :class:`CheapConstraint` -- an analytic constraint with its Jacobian, enforced exactly.
 """
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
-from hypate.scaling.engine.functional import FunctionProblem, objective_count
+from hypate.scaling.engine.asktell import AskTellOptimizer
+from hypate.scaling.engine.constraints import sort_constraints
+from hypate.scaling.engine.functional import (
+    FunctionProblem,
+    check_bounds,
+    objective_count,
+    plan_budget,
+)
 from hypate.scaling.engine.optimizer import BayesianOptimizer
+from hypate.scaling.engine.problem import CheapConstraint
+from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.report.html import write_report_safely
 from hypate.scaling.workflow import run as _run
@@ -33,7 +45,8 @@ from hypate.scaling.workflow.study import Study, load_study
 from pymoo.core.problem import Problem
 from scipy.optimize import OptimizeResult
 
-__all__ = ["BayesianOptimizer", "RunOutcome", "Study", "load_study", "minimize", "run_study"]
+__all__ = ["BayesianOptimizer", "CheapConstraint", "Optimizer", "RunOutcome", "Study",
+           "load_study", "minimize", "run_study"]
 
 
 def run_study(study: Study, out: str | Path, *,
@@ -49,17 +62,40 @@ def run_study(study: Study, out: str | Path, *,
     return _run.run_study(study, out, on_written=on_written, **options)
 
 
+def _scipy_result(result: OptimizationResult, evaluations: pd.DataFrame) -> OptimizeResult:
+    """The scipy-style result of an engine result: the best feasible design by the design-
+    point ranking (the smallest largest objective), the row-aligned Pareto set."""
+    m = result.n_obj
+    ok = np.flatnonzero(result.feasible)
+    if ok.size == 0:
+        why = "no evaluation succeeded" if not result.ok.any() else \
+            "no successful evaluation satisfies the constraints"
+        return OptimizeResult(x=None, fun=None, nfev=len(evaluations), success=False,
+                              message=why, evaluations=evaluations,
+                              pareto_x=np.zeros((0, result.n_var)), pareto_fun=np.zeros((0, m)))
+    best = ok[rank_designs(result.F[ok])[0]]
+    x, f = result.X[best], result.F[best]
+    return OptimizeResult(x=x, fun=float(f[0]) if m == 1 else f, nfev=len(evaluations),
+                          success=True, message=f"{len(evaluations)} evaluations",
+                          pareto_x=result.pareto_set(), pareto_fun=result.pareto_front(),
+                          evaluations=evaluations)
+
+
 def minimize(fun: Callable[[np.ndarray], Any] | Problem,
              bounds: Any = None, *, n_evaluations: int = 50, seed: int | None = None,
              n_obj: int | None = None, n_init: int | None = None,
-             acquisition: str | None = None, refine: int | None = None) -> OptimizeResult:
+             acquisition: str | None = None, refine: int | None = None,
+             constraints: Sequence[Any] | None = None,
+             names: Sequence[str] | None = None,
+             objective_names: Sequence[str] | None = None) -> OptimizeResult:
     """Minimize an expensive function by Bayesian optimization (kriging + SLSQP multistart).
 
     Parameters
     ----------
     fun : callable or pymoo Problem
         ``fun(x) -> float`` or ``-> sequence of floats`` (several objectives), ``x`` of shape
-        (d,); or a pymoo ``Problem`` (then ``bounds`` is taken from it).
+        (d,); or a pymoo ``Problem`` (then ``bounds`` is taken from it, and its own
+        constraints ``G <= 0`` are expensive ones).
     bounds : sequence of (lower, upper)
         Finite bounds of each variable (a callable needs them).
     n_evaluations : int
@@ -80,14 +116,44 @@ def minimize(fun: Callable[[np.ndarray], Any] | Problem,
         exploiting steps then settle the last digits of the optimum (Branin, 40 evaluations,
         seeds 0-9: within 1e-4 of the minimum with 5, 1e-3 to 2e-3 without).
         ``None``: 5 for one objective (fewer for a small budget), 0 for several.
+    constraints : sequence, optional
+        Each entry one of (:mod:`hypate.scaling.engine.constraints`):
+
+        - a callable ``g(x) -> float``, feasible where ``g(x) <= 0``: **expensive**. It is
+          called once per evaluation, right after ``fun`` at the same design, and modelled
+          by kriging; every proposal must be feasible with predicted probability 0.5, and
+          only designs that satisfy it enter ``x`` and the Pareto set. (Objectives and
+          constraints from one simulation: a pymoo ``Problem`` with ``G``.)
+        - :class:`CheapConstraint` ``(fun, jac, kind)``, ``fun(x) <= 0`` (``kind="ineq"``)
+          or ``fun(x) == 0`` (``"eq"``) with its Jacobian: **cheap**, handed to the inner
+          SLSQP exactly (every design, the initial ones projected, satisfies it to SLSQP's
+          precision: 1e-8 with its Jacobian, about 1e-7 with a finite-difference one),
+          never counted as an evaluation.
+        - a scipy-style dict ``{"type": "ineq" | "eq", "fun", "jac", "args", "cheap"}``
+          with scipy's sign: an ``"ineq"`` holds where ``fun(x) >= 0`` (converted to
+          ``-fun(x) <= 0``). Cheap when it has ``"jac"`` or ``"cheap": True`` (then a
+          forward-difference Jacobian), else an expensive inequality. An equality must be
+          cheap.
+    names : sequence of str, optional
+        The variables' names, the column names of ``res.evaluations`` (default ``x0..``).
+    objective_names : sequence of str, optional
+        The objectives' names there (default ``f0..``).
 
     Returns
     -------
     scipy.optimize.OptimizeResult
-        ``x``, ``fun`` (best design and its objective(s); for several objectives the design
-        with the smallest largest objective), ``nfev``, ``success``, ``message``,
-        ``pareto_x`` / ``pareto_fun`` (the Pareto set), and ``evaluations`` (a DataFrame:
-        ``x0..``, ``f0..``, status, message, warnings, seconds, iteration).
+        ``x``, ``fun`` (best feasible design and its objective(s); for several objectives
+        the design with the smallest largest objective), ``nfev``, ``success``,
+        ``message``, ``pareto_x`` / ``pareto_fun`` (the feasible Pareto set and its
+        objectives, row-aligned -- ``pareto_fun[i]`` are the objectives of
+        ``pareto_x[i]`` -- sorted by the first objective), and ``evaluations`` (a
+        DataFrame, one row per evaluation: the variables and objectives by name,
+        constraints ``g0..``, status, message, warnings, seconds, iteration).
+
+    Raises
+    ------
+    ValueError
+        Bad bounds, budget, names or constraints (the message names the argument).
 
     Examples
     --------
@@ -102,40 +168,92 @@ def minimize(fun: Callable[[np.ndarray], Any] | Problem,
     """
     if isinstance(fun, Problem):
         problem = fun
+        if constraints:
+            raise ValueError("constraints: a pymoo Problem states its own (G, H)")
+        cheap: tuple[CheapConstraint, ...] = ()
     else:
         if bounds is None:
             raise ValueError("bounds: a callable needs the (lower, upper) of every variable")
-        problem = FunctionProblem(fun, bounds,
-                                  n_obj if n_obj is not None else objective_count(fun, bounds))
+        box = check_bounds(bounds)
+        sorted_ = sort_constraints(constraints, box)
+        cheap = sorted_.cheap
+        problem = FunctionProblem(fun, box, n_obj if n_obj is not None else
+                                  objective_count(fun, box), constraints=sorted_.expensive)
     d, m = int(problem.n_var), int(problem.n_obj)
-    if n_evaluations < 2 * d + 2:
-        raise ValueError(f"n_evaluations: need at least 2 d + 2 = {2 * d + 2}; got "
-                         f"{n_evaluations}")
-    n0 = n_init if n_init is not None else max(2 * d + 1, n_evaluations // 5)
-    n_refine = (min(5, n_evaluations // 8) if m == 1 else 0) if refine is None else int(refine)
-    if m > 1 and n_refine:
-        raise ValueError("refine: only for one objective")
-    n_iter = n_evaluations - n0 - n_refine
-    if n0 < 1 or n_refine < 0 or n_iter < 0:
-        raise ValueError(f"n_init + refine: must leave room in n_evaluations = {n_evaluations}; "
-                         f"got n_init {n0}, refine {n_refine}")
+    plan = plan_budget(d, m, n_evaluations, n_init, refine, acquisition)
     seed = 0 if seed is None else int(seed)
     with EvaluationStore(":memory:") as store:
-        common = {"n_init": n0, "seed": seed, "store": store}
-        result = BayesianOptimizer(problem, acquisition=acquisition or (
-            "ei" if m == 1 else "hvlcb"), n_iter=n_iter, **common).run()
-        if n_refine and result.feasible.any():
+        common = {"n_init": plan.n_init, "seed": seed, "store": store,
+                  "cheap_constraints": cheap}
+        result = BayesianOptimizer(problem, acquisition=plan.acquisition, n_iter=plan.n_iter,
+                                   **common).run()
+        if plan.refine and result.feasible.any():
             # the same store, continued: iterations n_iter + 1 ... are purely exploiting
             result = BayesianOptimizer(problem, acquisition="lcb", v=0.0,
-                                       n_iter=n_iter + n_refine, **common).run()
-    evaluations: pd.DataFrame = result.data.copy()
-    ok = np.flatnonzero(result.feasible)
-    if ok.size == 0:
-        return OptimizeResult(x=None, fun=None, nfev=len(evaluations), success=False,
-                              message="no evaluation succeeded", evaluations=evaluations)
-    best = ok[rank_designs(result.F[ok])[0]]
-    x, f = result.X[best], result.F[best]
-    return OptimizeResult(x=x, fun=float(f[0]) if m == 1 else f, nfev=len(evaluations),
-                          success=True, message=f"{len(evaluations)} evaluations",
-                          pareto_x=result.pareto_set(), pareto_fun=result.pareto_front(),
-                          evaluations=evaluations)
+                                       n_iter=plan.n_iter + plan.refine, **common).run()
+    return _scipy_result(result, result.named_data(names, objective_names))
+
+
+class Optimizer(AskTellOptimizer):
+    """Bayesian optimization driven by your own evaluations: ``ask`` for designs, evaluate
+    them anywhere (a cluster job, an experiment), ``tell`` the results.
+
+    The engine of :func:`minimize` (:class:`BayesianOptimizer`: its initial design, then its
+    proposals from the evaluations told so far), with the same crash-safe store: given a
+    ``store`` path, every told result is committed at once, and an optimizer opened later
+    on the same store resumes, handing out again the designs asked and never told (a
+    killed loop, resumed, ends with the evaluations of an uninterrupted one). Asking one
+    design at a time with ``n_evaluations`` set gives exactly the designs :func:`minimize`
+    evaluates for the same function, budget and seed.
+
+    Parameters
+    ----------
+    bounds : sequence of (lower, upper)
+        Finite bounds of each of the ``d`` variables.
+    n_objectives : int
+        Objectives told per design.
+    seed : int or None
+        Seed of every random choice (``None``: 0).
+    n_constraints : int
+        Expensive constraints told per design, ``tell(X, Y, G)``, feasible where ``G <= 0``.
+    constraints : sequence of CheapConstraint or dict, optional
+        Cheap constraints every design asked satisfies (as :func:`minimize`'s cheap ones).
+    n_init : int or None
+        Initial designs; ``None``: ``max(2 d + 1, n_evaluations // 5)``, or ``2 d + 1``
+        without a budget.
+    n_evaluations : int or None
+        The planned budget, which shapes the proposals as in :func:`minimize` (the last
+        ``min(5, n_evaluations // 8)`` of one objective at the minimum of the kriging mean;
+        HVLCB's exploration weight falling over it). Not a cap.
+    acquisition : str or None
+        As :func:`minimize`.
+    store : str, Path or None
+        SQLite store (``None``: in memory); an existing one is resumed.
+    names, objective_names, constraint_names : sequence of str, optional
+        Column names of :attr:`evaluations`.
+    **settings
+        Further engine settings (``v``, ``p_feasible``, ``kernel``, ...; the fields of
+        :class:`hypate.scaling.engine.settings.OptimizerSettings` the loop does not decide).
+
+    Examples
+    --------
+    >>> import numpy as np, hypate
+    >>> opt = hypate.Optimizer([(-5, 10), (0, 15)], seed=0, n_evaluations=12)
+    >>> X = opt.ask(3)                     # evaluate these three anywhere
+    >>> X.shape
+    (3, 2)
+    >>> opt.tell(X, [np.sum(x**2) for x in X])
+    >>> opt.n_told
+    3
+    """
+
+    def result(self) -> OptimizeResult:
+        """The evaluations told so far, as :func:`minimize` returns them.
+
+        Returns
+        -------
+        scipy.optimize.OptimizeResult
+            ``x``, ``fun``, ``nfev``, ``success``, ``message``, ``pareto_x``,
+            ``pareto_fun`` (row-aligned) and ``evaluations`` (:attr:`evaluations`).
+        """
+        return _scipy_result(self.history(), self.evaluations)

@@ -84,7 +84,7 @@ from hypate.scaling.workflow.rundir import (
 )
 from hypate.scaling.workflow.study import Study
 from hypate.scaling.workflow.uncertainty import propagate_or_failure
-from hypate.scaling.workflow.variables import schedule_point
+from hypate.scaling.workflow.variables import schedule_point, variable_unit
 from hypate.scaling.workflow.verdict import (
     choose_admissible_point,
     evaluation_admissibility,
@@ -95,6 +95,8 @@ from hypate.solvers.errors import InputError
 
 #: evaluations.csv column naming a categorical material's level (after its number).
 MATERIAL_NAME = "material_name"
+#: Text columns of evaluations.csv (an empty cell reads back as "").
+TEXT_COLUMNS = ("status", "message", "warnings")
 #: Store metadata key of the design point's propagated scatter (:func:`design_point_scatter`).
 SCATTER_META = "design_point_scatter"
 #: Parameters matched by the classical baseline (Eqs. 9.1, 6.3), per study kind.
@@ -116,6 +118,52 @@ class RunOutcome:
     design_point: dict[str, Any]
     problem: ScalingProblem
     prototype_warnings: tuple[str, ...] = ()
+
+    @property
+    def evaluations(self) -> pd.DataFrame:
+        """Every evaluation of the run, as ``evaluations.csv`` holds it.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per evaluation in the store order: ``id`` (the evaluation number the
+            report cites), the design variables by name (``M``, ``p0``, ``T0``, ``L_le``,
+            ``h``, ...), the objectives by name (``J_u``, ``J_T``), then ``status``,
+            ``message``, ``warnings``, ``seconds``, ``iteration`` and the admissibility
+            columns. ``attrs["units"]`` maps each variable and objective column to its SI
+            unit (``"-"``: dimensionless).
+        """
+        return run_table(self.directory / EVALUATIONS_CSV, self.problem.spec.names,
+                         self.problem.spec.objectives)
+
+    @property
+    def pareto(self) -> pd.DataFrame:
+        """The run's Pareto set, as ``pareto.csv`` holds it.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The feasible non-dominated evaluations sorted by the first objective (for one
+            objective: the ten best), with the columns of :attr:`evaluations`; each row is
+            its evaluation's row there (the same ``id``, design and objectives).
+        """
+        return run_table(self.directory / PARETO_CSV, self.problem.spec.names,
+                         self.problem.spec.objectives)
+
+
+def run_table(path: Path, variables: Sequence[str], objectives: Sequence[str]
+              ) -> pd.DataFrame:
+    """``evaluations.csv`` or ``pareto.csv`` of a run directory as a DataFrame: empty text
+    cells (``message``, ``warnings``) as ``""``; ``attrs["units"]`` the unit of each of the
+    ``variables`` (:func:`~hypate.scaling.workflow.variables.variable_unit`) and
+    ``objectives`` (``"-"``: the similarity errors are nondimensional)."""
+    df = pd.read_csv(path)
+    for col in TEXT_COLUMNS:
+        if col in df.columns:
+            df[col] = ["" if pd.isna(v) else str(v) for v in df[col]]
+    df.attrs["units"] = {**{n: variable_unit(n) for n in variables},
+                         **{o: "-" for o in objectives}}
+    return df
 
 
 def classical_design(study: Study, template: Configuration, names: Sequence[str],
@@ -622,7 +670,9 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     tmp.replace(out / EVALUATIONS_CSV)
     mask = result.pareto_mask() if len(rows) else np.zeros(0, bool)
     top_table = table.iloc[rows]
-    pareto = top_table[mask] if study.spec.objectives and len(study.spec.objectives) > 1 else \
+    # one order for every Pareto table: by the first objective (result.pareto_indices)
+    front = result.pareto_indices() if len(rows) else np.zeros(0, int)
+    pareto = top_table.iloc[front] if len(study.spec.objectives) > 1 else \
         top_table[result.feasible].nsmallest(10, study.spec.objectives[0])
     tmp = out / "pareto.csv.tmp"
     pareto.to_csv(tmp, index=False)

@@ -251,6 +251,18 @@ class _TwoParabolas(Problem):
         out["F"] = np.c_[(X**2).sum(1), (X[:, 0] - 1) ** 2 + X[:, 1] ** 2]
 
 
+def test_pareto_set_and_front_are_row_aligned():
+    """Row i of pareto_set() has the objectives of row i of pareto_front() (issue 42: the
+    set came in evaluation order, the front sorted by f1)."""
+    problem = _TwoParabolas()
+    res = BayesianOptimizer(problem, acquisition="hvlcb", n_init=6, n_iter=6, seed=0).run()
+    X, P = res.pareto_set(), res.pareto_front()
+    assert len(X) == len(P) >= 3
+    np.testing.assert_array_equal(problem.evaluate(X), P)  # the same floats: exact
+    assert np.all(np.diff(P[:, 0]) >= 0)
+    np.testing.assert_array_equal(res.X[res.pareto_indices()], X)
+
+
 @pytest.mark.parametrize("acq,tol", [("ws", 0.05), ("cheb", 0.05), ("hvlcb", 0.05),
                                      ("hvei", 0.05), ("hvpoi", 0.2)])
 def test_direct_and_indirect_approaches_converge_to_pareto_set(acq, tol):
