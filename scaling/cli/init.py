@@ -12,6 +12,7 @@ from hypate.scaling.workflow.shipped import resolve, shipped
 from hypate.scaling.workflow.study import load_study
 from hypate.solvers.config import did_you_mean
 from hypate.solvers.errors import InputError
+from hypate.solvers.numerics.files import write_text
 
 CASE_LINE = re.compile(r'^(case\s*=\s*)"([^"]+)"', re.M)
 
@@ -56,9 +57,11 @@ def run(args: argparse.Namespace) -> int:
     if not out.parent.is_dir():
         raise InputError("path", f"folder {out.parent} does not exist")
     text = study_text(args.source)
-    tmp = out.with_name(out.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    load_study(tmp)  # what is written validates (a shipped study always does)
-    tmp.replace(out)
+    write_text(out, text)  # never through a link; whole or not at all
+    try:
+        load_study(out)  # what is written validates (a shipped study always does)
+    except BaseException:
+        out.unlink()
+        raise
     print(f"{out}: written from {args.source}; next: hypate validate {out}")
     return 0

@@ -39,6 +39,7 @@ from hypate.scaling.engine.robust import RobustBayesianOptimizer
 from hypate.scaling.engine.settings import OptimizerSettings
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
 from hypate.scaling.workflow.campaign import preflight, record_campaign, run_lock
+from hypate.scaling.workflow.integrity import record_outputs
 from hypate.scaling.workflow.problem import ScalingProblem, evaluate_rows, response_errors
 from hypate.scaling.workflow.run import (
     RunOutcome,
@@ -59,6 +60,7 @@ from hypate.scaling.workflow.rundir import (
     design_point_index,
     finite,
     finite_or_none,
+    write_csv,
     write_json,
 )
 from hypate.scaling.workflow.study import Study
@@ -192,13 +194,16 @@ def run_robust_study(study: Study, out: str | Path, *, resume: bool = False, wor
             executor, close = make_executor(workers, scheduler, lost_after=lost_after)
         except ExecutorError as exc:
             raise InputError(exc.field, exc.message) from None
+        ended = False  # an interrupt or error: the evaluations in flight are abandoned
         try:
             result, point = _robust_campaign(study, nominal, store, executor, run_seed,
                                              callback, scatter("robust"), out)
+            ended = True
         finally:
-            close()
+            close(abandon=not ended)
         if on_written is not None:
             on_written(out)
+        record_outputs(store, out)  # complete: every output written
     return RunOutcome(directory=out, result=result, design_point=point, problem=problem)
 
 
@@ -256,9 +261,7 @@ def _evaluations_frame(study: Study, optimizer: RobustBayesianOptimizer,
 
 
 def _write_csv(df: pd.DataFrame, path: Path) -> None:
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    df.to_csv(tmp, index=False)
-    tmp.replace(path)
+    write_csv(path, df)
 
 
 def write_robust_outputs(study: Study, problem: ScalingProblem,

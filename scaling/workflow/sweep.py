@@ -39,6 +39,7 @@ from hypate.scaling.workflow.rundir import (
     SWEEP_CSV,
     SWEEP_JSON,
     rank_designs,
+    write_csv,
     write_json,
 )
 from hypate.scaling.workflow.study import Study
@@ -163,9 +164,7 @@ def write_sweep_summary(study: Study, out: Path, records: Sequence[dict[str, Any
         row["evaluations"] = r.get("evaluations")
         row["active_constraints"] = ";".join(r.get("active_constraints") or [])
         rows.append(row)
-    tmp = out / (SWEEP_CSV + ".tmp")
-    pd.DataFrame(rows).to_csv(tmp, index=False)
-    tmp.replace(out / SWEEP_CSV)
+    write_csv(out / SWEEP_CSV, pd.DataFrame(rows))
 
 
 def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: int = 1,
