@@ -64,7 +64,7 @@ def _best_designs(store_path: Path, k: int) -> np.ndarray:
     max over objectives, the design-point criterion)."""
     if k <= 0 or not store_path.exists():
         return np.zeros((0, 0))
-    with EvaluationStore(store_path) as store:
+    with EvaluationStore(store_path, read_only=True) as store:  # a reader
         recs = [r for r in store.load() if r.ok and np.all(np.asarray(r.G) <= 0.0)
                 and np.all(np.isfinite(r.F))]
     if not recs:
