@@ -7,8 +7,9 @@ code   meaning
 1      the campaign finished without one successful evaluation
 2      bad input or a refused resume (one line ``hypate: error: KEY: ...``, nothing written)
 3      the cluster or worker pool was lost
-4      an output could not be written (a full disk, a file-size limit, an I/O error, or the
-       report failed): the finished evaluations are stored, a resume writes the rest
+4      the machine ran out of room or an output could not be written (a full disk, a
+       file-size limit, an I/O error, memory, or the report failed): the finished
+       evaluations are stored, a resume continues
 130    Ctrl-C (128 + SIGINT)
 143    SIGTERM (128 + SIGTERM), handled as Ctrl-C
 =====  ===================================================================================

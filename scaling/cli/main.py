@@ -168,6 +168,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except FileNotFoundError as exc:
         print(f"hypate: error: file not found: {exc.filename}", file=sys.stderr)
         return EXIT_USAGE
+    except MemoryError:
+        print(f"hypate: error: out of memory ({command}); use a coarser [simulation] mesh or "
+              "fewer workers", file=sys.stderr)
+        return EXIT_OUTPUT
     except OSError as exc:
         if is_write_failure(exc):
             what, todo = write_failure(exc)

@@ -36,6 +36,7 @@ from hypate.scaling.engine.store import EvaluationStore, StoreError
 from hypate.scaling.report.html import write_report, write_report_safely
 from hypate.scaling.workflow.campaign import preflight
 from hypate.scaling.workflow.integrity import missing_outputs
+from hypate.scaling.workflow.resources import local_workers, study_estimate
 from hypate.scaling.workflow.robust import robust_budget, run_robust_study
 from hypate.scaling.workflow.run import run_study
 from hypate.scaling.workflow.rundir import (
@@ -58,6 +59,8 @@ from tqdm import tqdm
 
 #: Reference point of the progress-bar hypervolume (relative errors of 100 %).
 PROGRESS_REF = np.array([1.0, 1.0])
+#: Seconds between progress lines when stderr is not a terminal (a log file, CI, nohup).
+LOG_EVERY = 10.0
 
 
 class ReportFailed(Exception):
@@ -75,8 +78,6 @@ def write_run_report(run_dir: Path) -> Path:
         raise
     except (ValueError, KeyError, RuntimeError, InputError) as exc:
         raise ReportFailed(f"{run_dir / REPORT_HTML} not written: {exc}") from exc
-#: Seconds between progress lines when stderr is not a terminal (a log file, CI, nohup).
-LOG_EVERY = 10.0
 
 
 def default_run_dir(name: str, resume: bool, root: Path = Path("runs")) -> Path:
@@ -127,6 +128,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="seed the initial sample with the 10 best designs of an earlier run "
                    "(repeatable; e.g. Case 1 for the Case 2 strategy); variables it lacks "
                    "take the model template's values")
+    p.add_argument("--force", action="store_true", help="run even when the estimated memory "
+                   "of the simulations exceeds what this machine has available (the estimate "
+                   "and the refusal happen before the first simulation)")
     p.set_defaults(func=run, field_flags={"out": "--out", "resume": "--resume",
                                           "workers": "--workers", "scheduler": "--scheduler",
                                           "seed": "--seed", "seed_runs": "--seed-from",
@@ -422,7 +426,9 @@ def _run_one(args: argparse.Namespace, study, out: Path, t0: float, say) -> int:
     """One optimization run of a (non-sweep) study into ``out``."""
     # refuse a bad setting or another campaign before anything is simulated or written
     preflight(study, out, resume=args.resume, seed=args.seed, workers=args.workers,
-              scheduler=args.scheduler)
+              scheduler=args.scheduler, force=args.force)
+    if local_workers(args.workers, args.scheduler) is not None:
+        say(study_estimate(study, args.workers).summary())
     robust = study.uncertainty is not None and study.uncertainty.optimize
     if robust and args.seed_from:
         raise InputError("--seed-from", "not available for a robust study ([robust]: its "
@@ -463,7 +469,7 @@ def _run_one(args: argparse.Namespace, study, out: Path, t0: float, say) -> int:
                     study, out, resume=args.resume, workers=args.workers,
                     scheduler=args.scheduler, seed=args.seed, progress=bar,
                     on_written=write_run_report, lost_after=args.cluster_timeout,
-                    on_scatter=lambda which, done, total: on_scatter(
+                    force=args.force, on_scatter=lambda which, done, total: on_scatter(
                         done, total, f"the {which} design", last=which == "robust"))
             else:
                 outcome = run_study(study, out, resume=args.resume, workers=args.workers,
@@ -471,7 +477,7 @@ def _run_one(args: argparse.Namespace, study, out: Path, t0: float, say) -> int:
                                     seed_runs=args.seed_from, on_written=write_run_report,
                                     lost_after=args.cluster_timeout,
                                     on_warnings=print_warnings if args.verbose else None,
-                                    on_scatter=on_scatter)
+                                    on_scatter=on_scatter, force=args.force)
     except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM
         bar.close()
         return interrupted(args, out, exc)
@@ -481,6 +487,11 @@ def _run_one(args: argparse.Namespace, study, out: Path, t0: float, say) -> int:
     except ReportFailed as exc:
         bar.close()
         return output_failed(args, out, str(exc), "fix that")
+    except MemoryError:
+        bar.close()
+        return output_failed(args, out, "out of memory in a simulation (--force ran a "
+                             "study beyond the estimate, or other work took the memory)",
+                             "use a coarser [simulation] mesh or fewer --workers")
     except OSError as exc:
         if not is_write_failure(exc):
             raise
@@ -552,8 +563,9 @@ def infrastructure_lost(args: argparse.Namespace, out: Path, exc: Infrastructure
 
 
 def output_failed(args: argparse.Namespace, out: Path, what: str, todo: str) -> int:
-    """An output could not be written (a full disk, the report): one line with what and how
-    to continue; exit 4 (the evaluations are stored, the store is consistent)."""
+    """The machine ran out of room or an output could not be written (a full disk, memory,
+    the report): one line with what and how to continue; exit 4 (the evaluations are
+    stored, the store is consistent)."""
     print(f"hypate: error: {what}; {todo} and continue with `{resume_command(args, out)}`",
           file=sys.stderr)
     return EXIT_OUTPUT
@@ -593,7 +605,7 @@ def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
             outcome = run_sweep(study, out, resume=args.resume, workers=args.workers,
                                 scheduler=args.scheduler, seed=args.seed, progress=progress,
                                 on_point=on_point, on_written=write_run_report,
-                                lost_after=args.cluster_timeout)
+                                lost_after=args.cluster_timeout, force=args.force)
     except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM
         for bar in bars:
             bar.close()

@@ -35,6 +35,8 @@ chained over the old rows' content, so an edit of an old row made after that is 
 """
 from __future__ import annotations
 
+import contextlib
+import errno
 import hashlib
 import json
 import logging
@@ -42,6 +44,7 @@ import shutil
 import sqlite3
 import tempfile
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -59,6 +62,8 @@ CHAIN_META = "chain"
 CHAIN_VERSION = 1
 #: The logger of the warning about a store without digests.
 LOG = logging.getLogger("hypate.store")
+#: SQLite's primary result codes of a write that found no room or failed at the disk.
+_SQLITE_FULL, _SQLITE_IOERR = 13, 10
 #: Files SQLite keeps beside a database (never followed through a link).
 _COMPANIONS = ("", "-wal", "-shm", "-journal")
 #: The stored columns a row's digest covers, in order.
@@ -350,6 +355,23 @@ class EvaluationStore:
             shutil.copyfile(wal, copy.with_name(copy.name + "-wal"))
         return sqlite3.connect(copy)
 
+    @contextlib.contextmanager
+    def _writing(self) -> Iterator[None]:
+        """A failed write as the ``OSError`` it is: SQLite's "database or disk is full" as
+        ``ENOSPC``, its I/O errors (a file-size limit, a failing disk) as ``EIO``, naming
+        the store, so that a caller tells a full disk from a corrupt store. The transaction
+        is rolled back: the store keeps every row committed before."""
+        try:
+            yield
+        except sqlite3.OperationalError as exc:
+            code = getattr(exc, "sqlite_errorcode", None)
+            if code is None or code & 0xFF not in (_SQLITE_FULL, _SQLITE_IOERR):
+                raise
+            full = code & 0xFF == _SQLITE_FULL
+            raise OSError(errno.ENOSPC if full else errno.EIO,
+                          f"{exc} ({getattr(exc, 'sqlite_errorname', code)})",
+                          self.path) from exc
+
     @property
     def head(self) -> str:
         """The last row's digest (the chain's anchor while the store is empty)."""
@@ -367,7 +389,7 @@ class EvaluationStore:
             raise StoreError(f"{self.path} is open read-only")
         if self._rows == 0:  # the campaign's fingerprint is recorded after the store opens
             self._head = anchor_digest(self.get_meta("fingerprint"))
-        with self._con:  # commits, or rolls back on any exception (KeyboardInterrupt too)
+        with self._writing(), self._con:  # commits, or rolls back on any exception
             cur = self._con.execute(
                 f"INSERT INTO evaluations ({', '.join(_ROW_COLUMNS)}) VALUES "
                 "(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
@@ -409,15 +431,16 @@ class EvaluationStore:
         (``replace``: a pointer such as the study file's path, which may move)."""
         text = json.dumps(value, sort_keys=True)
         if replace:
-            self._con.execute("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)",
-                              (key, text))
-            self._con.commit()
+            with self._writing(), self._con:
+                self._con.execute("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)",
+                                  (key, text))
             return
         old = self.get_meta(key)
         if old is not None and json.dumps(old, sort_keys=True) != text:
             raise ValueError(f"store {self.path!r} holds a run with {key}={old!r}, not {value!r}")
-        self._con.execute("INSERT OR IGNORE INTO meta (key, value) VALUES (?, ?)", (key, text))
-        self._con.commit()
+        with self._writing(), self._con:
+            self._con.execute("INSERT OR IGNORE INTO meta (key, value) VALUES (?, ?)",
+                              (key, text))
 
     def get_meta(self, key: str) -> object | None:
         row = self._con.execute("SELECT value FROM meta WHERE key = ?", (key,)).fetchone()

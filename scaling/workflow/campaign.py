@@ -28,6 +28,7 @@ from hypate.scaling.engine.executors import check_scheduler_address
 from hypate.scaling.engine.store import EvaluationStore, StoreError
 from hypate.scaling.workflow.derived import study_data
 from hypate.scaling.workflow.integrity import check_run_directory
+from hypate.scaling.workflow.resources import check_resources, local_workers
 from hypate.scaling.workflow.rundir import LOCK_FILE, STORE
 from hypate.scaling.workflow.study import MAX_SEED, Study
 from hypate.solvers.aero.factory import ROM_PREFIX, check_fluid_model
@@ -277,7 +278,7 @@ def check_out(out: Path, resume: bool) -> None:
 
 
 def preflight(study: Study, out: Path, *, resume: bool, seed: int | None, workers: int,
-              scheduler: str | None) -> tuple[dict[str, Any], int]:
+              scheduler: str | None, force: bool = False) -> tuple[dict[str, Any], int]:
     """Every check of a run that needs no simulation, before anything is written.
 
     Returns the campaign identity and the run's seed (``seed``, else the stored one on
@@ -287,11 +288,16 @@ def preflight(study: Study, out: Path, *, resume: bool, seed: int | None, worker
     ------
     InputError
         Naming the setting: ``out``, ``resume``, ``seed``, ``workers``, ``scheduler``,
-        ``simulation.aero`` (a ``rom:`` file that is missing or does not load).
+        ``simulation.aero`` (a ``rom:`` file that is missing or does not load),
+        ``simulation.mesh`` (the simulations would need more memory than this machine has
+        available, :func:`~.resources.check_resources`; not with ``force``).
     """
     check_run_settings(out, seed=seed, workers=workers, scheduler=scheduler)
     check_out(out, resume)
     check_fluid_model(study.spec.prototype.simulation.aero)  # a rom: file exists and loads
+    here = local_workers(workers, scheduler)
+    if here is not None:  # a remote cluster's memory is not this machine's to judge
+        check_resources(study, here, force=force)
     if seed is None and resume:
         seed = stored_seed(out / STORE)
     run_seed = study.optimizer.seed if seed is None else int(seed)

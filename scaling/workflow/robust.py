@@ -148,7 +148,7 @@ def run_robust_study(study: Study, out: str | Path, *, resume: bool = False, wor
                      progress: Callable[[int, int, Any], None] | None = None,
                      on_scatter: Callable[[str, int, int], None] | None = None,
                      on_written: Callable[[Path], object] | None = None,
-                     lost_after: float = LOST_AFTER) -> RunOutcome:
+                     lost_after: float = LOST_AFTER, force: bool = False) -> RunOutcome:
     """Run (or resume) a robust study into ``out`` (module docstring).
 
     ``progress(done, budget, evaluation)`` counts both campaigns' evaluations;
@@ -160,7 +160,7 @@ def run_robust_study(study: Study, out: str | Path, *, resume: bool = False, wor
     if unc is None or not unc.optimize:
         raise InputError("robust", "a robust run needs [uncertainty] and [robust]")
     identity, run_seed = preflight(study, out, resume=resume, seed=seed, workers=workers,
-                                   scheduler=scheduler)
+                                   scheduler=scheduler, force=force)
     own = robust_budget(study) - study.budget  # the robust search's evaluations
     total, count = [study.budget + own], [0]
 
@@ -185,6 +185,7 @@ def run_robust_study(study: Study, out: str | Path, *, resume: bool = False, wor
         record_campaign(store, identity, study)
         nominal = run_study(nominal_study(study), nominal_dir, workers=workers,
                             scheduler=scheduler, seed=run_seed, lost_after=lost_after,
+                            force=force,
                             resume=resume and (nominal_dir / STORE).is_file(),
                             progress=nominal_progress,
                             on_scatter=scatter("nominal"))

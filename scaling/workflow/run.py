@@ -332,8 +332,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
               on_written: Callable[[Path], object] | None = None,
               lost_after: float = LOST_AFTER,
               on_warnings: Callable[[str, tuple[str, ...]], None] | None = None,
-              on_scatter: Callable[[int, int], None] | None = None
-              ) -> RunOutcome:
+              on_scatter: Callable[[int, int], None] | None = None,
+              force: bool = False) -> RunOutcome:
     """Run (or resume) a study into ``out``.
 
     ``on_written(out)`` is called once the outputs are written: the CLI and ``hypate.run_study``
@@ -380,13 +380,16 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
     on_scatter : callable, optional
         ``on_scatter(done, total)`` while a study with ``[uncertainty]`` propagates its
         scatter at the design point (:func:`design_point_scatter`).
+    force : bool
+        Run even when the simulations' estimated memory exceeds what this machine has
+        available (:func:`~hypate.scaling.workflow.resources.check_resources`).
     """
     out = Path(out)
     store_path = out / STORE
     opt = study.optimizer
     # every check that needs no simulation, before anything is written
     identity, run_seed = preflight(study, out, resume=resume, seed=seed, workers=workers,
-                                   scheduler=scheduler)
+                                   scheduler=scheduler, force=force)
     problem = ScalingProblem(study.spec, prototype_response=prototype_response)
     levels = fidelity_problem(study, problem)  # None: a single-fidelity study
     coordinates = surrogate_coordinates(study, problem)
