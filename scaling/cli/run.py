@@ -434,9 +434,10 @@ def _run_one(args: argparse.Namespace, study, out: Path, t0: float, say) -> int:
         raise InputError("--seed-from", "not available for a robust study ([robust]: its "
                          "search starts from its nominal campaign)")
     before = stored_evaluations(out) if args.resume else 0
-    budget = robust_budget(study) - study.budget if robust else study.budget
-    if args.resume and before >= budget:
-        missing = missing_outputs(out)  # complete: every output there, matching the store
+    if args.resume:
+        # complete: the campaign ended (its budget spent or its stopping rule met) and every
+        # output it wrote is there, matching the store
+        missing = missing_outputs(out)
         if not missing:
             point = json.loads((out / DESIGN_POINT_JSON).read_text())
             summary = _summary(out, point, before, 0.0)
@@ -447,8 +448,10 @@ def _run_one(args: argparse.Namespace, study, out: Path, t0: float, say) -> int:
                 if summary["report"]:
                     print(f"report: {summary['report']}")
             return 0
-        say(f"{out}: the {before} evaluations are stored; writing what is missing: "
-            f"{', '.join(missing)}")
+        budget = robust_budget(study) - study.budget if robust else study.budget
+        if before >= budget:  # the evaluations are done: only outputs are left to write
+            say(f"{out}: the {before} evaluations are stored; writing what is missing: "
+                f"{', '.join(missing)}")
     say("simulating the prototype ...")
     bar = Progress(quiet=args.quiet, verbose=args.verbose, first_id=before)
     steps: list[StepProgress] = []  # made when the scatter starts: its clock starts there
