@@ -57,7 +57,6 @@ COMMAND_MODULES: tuple[ModuleType, ...] = (run, studies, reproduce, init, valida
                                            thermal, simulate, flutter, rom, bench)
 
 
-
 class DefaultsHelpFormatter(argparse.HelpFormatter):
     """Every option's help ends with its default, unless it already states one."""
 

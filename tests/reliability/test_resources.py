@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 import resource
 import shutil
+import sqlite3
 import subprocess
 import sys
 import time
@@ -104,6 +105,20 @@ def test_a_full_disk_while_evaluations_are_stored_is_one_line_and_resumes(
     assert _campaign(out) == whole
 
 
+def _rows(store: Path) -> int:
+    """Rows in a store, read through a connection that is closed at once (an open file on
+    the tmpfs would keep it from being unmounted)."""
+    if not store.exists():
+        return 0
+    con = sqlite3.connect(f"file:{store}?mode=ro", uri=True, timeout=1.0)
+    try:
+        return int(con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0])
+    except sqlite3.Error:
+        return 0
+    finally:
+        con.close()
+
+
 def _mount_tmpfs(where: Path, size: str) -> bool:
     if os.geteuid() != 0 or shutil.which("mount") is None:
         return False
@@ -119,12 +134,13 @@ def test_a_really_full_disk_says_disk_full(tmp_path: Path,
     disk = tmp_path / "disk"
     if not _mount_tmpfs(disk, "4m"):
         pytest.skip("cannot mount a tmpfs here (needs root and mount permission)")
+    proc = None
     try:
         out = disk / "run"
         store = out / "evaluations.sqlite"
         proc = subprocess.Popen(_cli(str(study), "--out", str(out), "-q"),
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-        while stored_evaluations(store) < 5 and proc.poll() is None:
+        while _rows(store) < 5 and proc.poll() is None:
             time.sleep(0.01)
         assert proc.poll() is None, "the run ended before the disk filled"
         filler = disk / "filler"
@@ -147,5 +163,10 @@ def test_a_really_full_disk_says_disk_full(tmp_path: Path,
                               capture_output=True, text=True, timeout=600)
         assert done.returncode == 0, done.stderr
         assert _campaign(out) == whole
+        assert _rows(store) == len(whole)
     finally:
-        subprocess.run(["umount", str(disk)], capture_output=True)
+        if proc is not None and proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        if subprocess.run(["umount", str(disk)], capture_output=True).returncode != 0:
+            subprocess.run(["umount", "-l", str(disk)], check=True)  # detached once unused

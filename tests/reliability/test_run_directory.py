@@ -10,6 +10,7 @@ once per module and copied (links kept, as a tar keeps them) by each test.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
 import os
 import shutil
@@ -26,6 +27,7 @@ import pytest
 from conftest import PREDICTION_RUN, kill_after, tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.store import EvaluationStore
+from hypate.scaling.workflow.study import load_study
 from hypate.solvers.coupling.response import Response
 
 #: 3 initial + 1 iteration + the classical seed: 5 evaluations of 20 steps.
@@ -399,3 +401,31 @@ def test_wall_seconds_sum_every_process_of_a_resumed_run(tmp_path: Path) -> None
     spans = (created[first - 1] - created[0]) + (created[-1] - created[first])
     wall = json.loads((out / "design_point.json").read_text())["statistics"]["wall_seconds"]
     assert wall >= spans
+
+
+@dataclasses.dataclass(frozen=True)
+class _Tiny:
+    """A stand-in for studies.scripts.ch9_runs.Optimization: a name and its study."""
+
+    name: str
+    path: Path
+
+    def study(self):
+        return load_study(self.path)
+
+
+def test_reproduce_reads_a_finished_sweep_without_writing_into_it(tmp_path: Path) -> None:
+    """``hypate reproduce``'s runner (studies/scripts/ch9_runs.run_directory) on a finished
+    sweep: it is verified and read, not resumed (which rewrote sweep.json and sweep.csv)."""
+    from hypate.studies.scripts.ch9_runs import run_directory
+
+    study = tmp_path / "tiny_sweep.toml"
+    study.write_text(tiny_study_text(name="tiny_sweep", xi=2.0, steps=4, initial=3,
+                                     iterations=0, tail="[sweep]\nxi = [2, 4]\nrecycle = 2\n"
+                                     "initial_samples = 1\niterations = 0\n"))
+    opt = _Tiny("tiny_sweep", study)
+    root = tmp_path / "runs"
+    assert run_directory(opt, root) == root / "tiny_sweep"
+    before = _snapshot(root)
+    assert run_directory(opt, root) == root / "tiny_sweep"
+    assert _snapshot(root) == before
