@@ -429,3 +429,16 @@ def test_reproduce_reads_a_finished_sweep_without_writing_into_it(tmp_path: Path
     before = _snapshot(root)
     assert run_directory(opt, root) == root / "tiny_sweep"
     assert _snapshot(root) == before
+    assert main(["laws", str(root / "tiny_sweep")]) == 0  # two points: a fit, only read
+    assert _snapshot(root) == before
+
+
+def test_reproduce_reads_a_finished_run_without_writing_into_it(
+        finished: tuple[Path, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    """The same runner on a finished single-study run: verified and read in place."""
+    from hypate.studies.scripts.ch9_runs import run_directory
+
+    study, ref = finished
+    before = _snapshot(ref)
+    assert run_directory(_Tiny(ref.name, study), ref.parent, seed=3) == ref  # its seed
+    assert _snapshot(ref) == before
