@@ -13,6 +13,7 @@ from hypate.scaling.workflow.shipped import resolve, shipped
 from hypate.scaling.workflow.study import load_study
 from hypate.solvers.config import did_you_mean
 from hypate.solvers.errors import InputError
+from hypate.solvers.numerics.files import write_text
 
 CASE_LINE = re.compile(r'^(case\s*=\s*)"([^"]+)"', re.M)
 #: The ``[study]`` table's ``name`` line (the first ``name =`` after ``[study]``).
@@ -61,10 +62,12 @@ def run(args: argparse.Namespace) -> int:
     # the new study is named after its file: its runs go to runs/<stem>, not the source's
     text = NAME_LINE.sub(lambda m: m.group(1) + json.dumps(out.stem), study_text(args.source),
                          count=1)
-    tmp = out.with_name(out.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    load_study(tmp)  # what is written validates (a shipped study always does)
-    tmp.replace(out)
+    write_text(out, text)  # never through a link; whole or not at all
+    try:
+        load_study(out)  # what is written validates (a shipped study always does)
+    except BaseException:
+        out.unlink()
+        raise
     print(f"{out}: written from {args.source} as study {out.stem!r} (runs/{out.stem}); "
           f"next: hypate validate {out}")
     return 0

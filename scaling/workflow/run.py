@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import time
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -65,6 +64,7 @@ from hypate.scaling.workflow.fidelity import (
     fidelity_problem,
     top_level,
 )
+from hypate.scaling.workflow.integrity import record_outputs
 from hypate.scaling.workflow.problem import MATERIAL, ScalingProblem
 from hypate.scaling.workflow.rundir import (
     CLASSICAL_JSON,
@@ -80,8 +80,10 @@ from hypate.scaling.workflow.rundir import (
     finite,
     finite_or_none,
     rank_designs,
+    write_csv,
     write_json,
 )
+from hypate.scaling.workflow.sessions import begin_session, end_session, sessions_wall_seconds
 from hypate.scaling.workflow.study import Study
 from hypate.scaling.workflow.uncertainty import propagate_or_failure
 from hypate.scaling.workflow.variables import schedule_point, variable_unit
@@ -378,8 +380,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
               on_written: Callable[[Path], object] | None = None,
               lost_after: float = LOST_AFTER,
               on_warnings: Callable[[str, tuple[str, ...]], None] | None = None,
-              on_scatter: Callable[[int, int], None] | None = None
-              ) -> RunOutcome:
+              on_scatter: Callable[[int, int], None] | None = None,
+              force: bool = False) -> RunOutcome:
     """Run (or resume) a study into ``out``.
 
     ``on_written(out)`` is called once the outputs are written: the CLI and ``hypate.run_study``
@@ -426,13 +428,16 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
     on_scatter : callable, optional
         ``on_scatter(done, total)`` while a study with ``[uncertainty]`` propagates its
         scatter at the design point (:func:`design_point_scatter`).
+    force : bool
+        Run even when the simulations' estimated memory exceeds what this machine has
+        available (:func:`~hypate.scaling.workflow.resources.check_resources`).
     """
     out = Path(out)
     store_path = out / STORE
     opt = study.optimizer
     # every check that needs no simulation, before anything is written
     identity, run_seed = preflight(study, out, resume=resume, seed=seed, workers=workers,
-                                   scheduler=scheduler)
+                                   scheduler=scheduler, force=force)
     problem = ScalingProblem(study.spec, prototype_response=prototype_response)
     levels = fidelity_problem(study, problem)  # None: a single-fidelity study
     coordinates = surrogate_coordinates(study, problem)
@@ -443,6 +448,7 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
         executor, close = make_executor(workers, scheduler, lost_after=lost_after)
     except ExecutorError as exc:
         raise InputError(exc.field, exc.message) from None
+    ended = False  # an interrupt or error: the workers' evaluations in flight are abandoned
     try:
         with recorded_warnings() as caught:  # attributed to the prototype, not printed
             proto = problem.prototype_response  # simulated once, before any worker starts
@@ -453,6 +459,7 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
             on_warnings("prototype", prototype_warnings)
         with run_lock(out), EvaluationStore(store_path) as store:
             record_campaign(store, identity, study)
+            session = begin_session(store)
             if prototype_response is None:  # this run simulated it
                 store.set_meta(PROTOTYPE_WARNINGS, list(prototype_warnings), replace=True)
             proto.save(out / PROTOTYPE_NPZ)
@@ -484,17 +491,19 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
                 exploit_last=opt.exploit_last,
                 **{k: getattr(opt, k) for k in ("p_feasible", "p_success", "p_exploit")
                    if getattr(opt, k) is not None})
-            t0 = time.perf_counter()
             optimizer = (BayesianOptimizer(problem, settings) if levels is None
                          else fidelity_optimizer(study, levels, settings))
             result = optimizer.run()
-            wall = time.perf_counter() - t0
-            point = write_outputs(study, problem, result, out, wall_seconds=wall,
+            end_session(store, session)
+            point = write_outputs(study, problem, result, out,
+                                  wall_seconds=sessions_wall_seconds(store),
                                   optimizer=optimizer, store=store, on_scatter=on_scatter)
             if on_written is not None:
                 on_written(out)
+            record_outputs(store, out)  # complete: every output written
+        ended = True
     finally:
-        close()
+        close(abandon=not ended)
     return RunOutcome(directory=out, result=result, design_point=point, problem=problem,
                       prototype_warnings=prototype_warnings)
 
@@ -665,18 +674,14 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     adm, vio = evaluation_admissibility(problem, result)
     table = evaluations_table(study, full, admissible=(rows, adm),
                               constraint_names=problem.constraint_names)
-    tmp = out / "evaluations.csv.tmp"
-    table.to_csv(tmp, index=False)
-    tmp.replace(out / EVALUATIONS_CSV)
+    write_csv(out / EVALUATIONS_CSV, table)
     mask = result.pareto_mask() if len(rows) else np.zeros(0, bool)
     top_table = table.iloc[rows]
     # one order for every Pareto table: by the first objective (result.pareto_indices)
     front = result.pareto_indices() if len(rows) else np.zeros(0, int)
     pareto = top_table.iloc[front] if len(study.spec.objectives) > 1 else \
         top_table[result.feasible].nsmallest(10, study.spec.objectives[0])
-    tmp = out / "pareto.csv.tmp"
-    pareto.to_csv(tmp, index=False)
-    tmp.replace(out / PARETO_CSV)
+    write_csv(out / PARETO_CSV, pareto)
     opt = study.optimizer
     row, is_admissible = choose_admissible_point(result, adm, vio, opt.design_point,
                                                  opt.weights)
