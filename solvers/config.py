@@ -38,7 +38,7 @@ from hypate.solvers.aero.factory import AERO_NAMES, is_aero_name
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.panel import Layer, PanelSpec
-from hypate.solvers.settings import DEFAULTS, SimulationSettings
+from hypate.solvers.settings import DEFAULTS, MAX_STEPS, SimulationSettings
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 from pydantic.fields import FieldInfo
 
@@ -187,6 +187,9 @@ class SimulationConfig(InputModel):
                              f"got {self.aero!r}")
         if self.duration < self.time_step:
             raise ValueError("duration: must be at least one time_step")
+        if self.duration / self.time_step > MAX_STEPS + 0.5:  # inf too: never an int
+            raise ValueError(f"duration: duration / time_step = "
+                             f"{self.duration / self.time_step:.6g} steps; at most {MAX_STEPS}")
         return self
 
 
@@ -296,12 +299,15 @@ def _allowed_range(metadata: list[Any]) -> str:
              if type(m).__name__ in ("Gt", "Ge", "Lt", "Le")}  # annotated_types bounds
     low = ("(", bound["Gt"]) if "Gt" in bound else ("[", bound["Ge"]) if "Ge" in bound else None
     high = (")", bound["Lt"]) if "Lt" in bound else ("]", bound["Le"]) if "Le" in bound else None
+    def text(v: float) -> str:  # an integer bound exactly (a seed's 2**63 - 1)
+        return str(v) if isinstance(v, int) else f"{v:g}"
+
     if low and high:
-        return f"in {low[0]}{low[1]:g}, {high[1]:g}{high[0]}"
+        return f"in {low[0]}{text(low[1])}, {text(high[1])}{high[0]}"
     if low:
-        return f"{'>' if low[0] == '(' else '>='} {low[1]:g}"
+        return f"{'>' if low[0] == '(' else '>='} {text(low[1])}"
     if high:
-        return f"{'<' if high[0] == ')' else '<='} {high[1]:g}"
+        return f"{'<' if high[0] == ')' else '<='} {text(high[1])}"
     return ""
 
 
@@ -449,22 +455,48 @@ def build_flow(cfg: FlowConfig) -> FlowCondition:
         raise InputError(f"flow.{exc.field}", exc.message) from None
 
 
+#: Deepest nesting of tables and arrays accepted in a TOML file (a study needs 4).
+MAX_TOML_DEPTH = 32
+
+
+def toml_depth(value: Any) -> int:
+    """Nesting depth of parsed TOML data: 0 for a scalar, 1 for a table or array of
+    scalars, ... (iterative: any depth is measured without recursion)."""
+    deepest, stack = 0, [(value, 0)]
+    while stack:
+        item, depth = stack.pop()
+        children = (item.values() if isinstance(item, dict) else
+                    item if isinstance(item, list) else None)
+        if children is None:
+            deepest = max(deepest, depth)
+            continue
+        deepest = max(deepest, depth + 1)
+        stack.extend((child, depth + 1) for child in children)
+    return deepest
+
+
 def read_toml(path: str | Path) -> dict[str, Any]:
-    """Parse a TOML file; syntax errors, missing or unreadable files and directories become
-    :class:`InputError`."""
+    """Parse a TOML file; syntax errors, missing or unreadable files, directories and
+    nesting deeper than :data:`MAX_TOML_DEPTH` become :class:`InputError`."""
     path = Path(path)
     if path.is_dir():
         raise InputError(str(path), "is a directory, not a TOML file")
     if not path.is_file():
         raise InputError(str(path), "file not found")
+    too_deep = f"tables and arrays nested more than {MAX_TOML_DEPTH} levels deep"
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except RecursionError:  # the parser recurses once per level
+        raise InputError(str(path), too_deep) from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(str(path), f"TOML syntax error: {exc}") from None
     except UnicodeDecodeError:
         raise InputError(str(path), "not a UTF-8 text file") from None
     except OSError as exc:  # no permission, a device ...
         raise InputError(str(path), f"cannot be read ({exc.strerror or exc})") from None
+    if toml_depth(data) > MAX_TOML_DEPTH:
+        raise InputError(str(path), too_deep)
+    return data
 
 
 def parse_case(data: dict[str, Any], source: str = "<memory>") -> Case:

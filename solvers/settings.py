@@ -8,6 +8,8 @@ from hypate.solvers.aero.factory import AERO_NAMES, is_aero_name
 from hypate.solvers.errors import InputError
 from hypate.solvers.thermal.schedule import check_schedule
 
+#: Most time steps of one simulation (a study's ``steps`` has the same bound).
+MAX_STEPS = 100_000
 #: Coupled schemes: tightly coupled quasi-steady, loosely coupled S1 and S2.
 SCHEMES: tuple[str, ...] = ("tc", "s1", "s2")
 HEATINGS: tuple[str, ...] = ("eckert", "none")
@@ -120,8 +122,12 @@ class SimulationSettings:
             raise InputError("simulation.rho_bar", f"must be in [0, 1]; got {self.rho_bar:g}")
         if not (self.time_step > 0 and math.isfinite(self.time_step)):
             raise InputError("simulation.time_step", "must be > 0 (s)")
-        if not (self.duration >= self.time_step):
-            raise InputError("simulation.duration", "must be at least one time_step")
+        if not (self.duration >= self.time_step and math.isfinite(self.duration)):
+            raise InputError("simulation.duration", "must be finite and at least one "
+                             f"time_step (s); got {self.duration:g}")
+        if self.duration / self.time_step > MAX_STEPS + 0.5:
+            raise InputError("simulation.duration", f"duration / time_step = "
+                             f"{self.duration / self.time_step:.6g} steps; at most {MAX_STEPS}")
         if self.unstable_steps < 1:
             raise InputError("simulation.unstable_steps", "must be >= 1")
         if self.passes < 1:
@@ -143,4 +149,5 @@ class SimulationSettings:
 #: The defaults, for the file schemas that offer these settings as keys.
 DEFAULTS = SimulationSettings()
 
-__all__ = ["BOUNDARY_LAYERS", "DEFAULTS", "HEATINGS", "SCHEMES", "SimulationSettings"]
+__all__ = ["BOUNDARY_LAYERS", "DEFAULTS", "HEATINGS", "MAX_STEPS", "SCHEMES",
+           "SimulationSettings"]

@@ -5,6 +5,7 @@ the shipped name so the file works from any folder, and a header saying where it
 from __future__ import annotations
 
 import argparse
+import json
 import re
 from pathlib import Path
 
@@ -12,8 +13,11 @@ from hypate.scaling.workflow.shipped import resolve, shipped
 from hypate.scaling.workflow.study import load_study
 from hypate.solvers.config import did_you_mean
 from hypate.solvers.errors import InputError
+from hypate.solvers.numerics.files import write_text
 
 CASE_LINE = re.compile(r'^(case\s*=\s*)"([^"]+)"', re.M)
+#: The ``[study]`` table's ``name`` line (the first ``name =`` after ``[study]``).
+NAME_LINE = re.compile(r'(^\[study\][^\[]*?^name\s*=\s*)"[^"]*"', re.M | re.S)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -55,10 +59,15 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("path", f"{out} exists; choose a new file name")
     if not out.parent.is_dir():
         raise InputError("path", f"folder {out.parent} does not exist")
-    text = study_text(args.source)
-    tmp = out.with_name(out.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    load_study(tmp)  # what is written validates (a shipped study always does)
-    tmp.replace(out)
-    print(f"{out}: written from {args.source}; next: hypate validate {out}")
+    # the new study is named after its file: its runs go to runs/<stem>, not the source's
+    text = NAME_LINE.sub(lambda m: m.group(1) + json.dumps(out.stem), study_text(args.source),
+                         count=1)
+    write_text(out, text)  # never through a link; whole or not at all
+    try:
+        load_study(out)  # what is written validates (a shipped study always does)
+    except BaseException:
+        out.unlink()
+        raise
+    print(f"{out}: written from {args.source} as study {out.stem!r} (runs/{out.stem}); "
+          f"next: hypate validate {out}")
     return 0

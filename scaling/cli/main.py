@@ -2,15 +2,20 @@
 
 Subcommands live in the modules of :mod:`hypate.scaling.cli`; each registers its own parser. Errors in user
 input (``hypate.solvers.errors.InputError``) and malformed files end with a one-line message
-naming the field and exit code 2 -- never a traceback.
+naming the field and exit code 2 -- never a traceback. So do a link where a command would
+write, a run directory it may not write, a full disk (exit 4), Ctrl-C (130) and SIGTERM
+(143; :mod:`.failures`). The logged warnings of the package (a store without digests) are
+printed once each, as ``hypate: warning: ...``.
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import difflib
+import logging
 import re
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from types import ModuleType
 
 from hypate.scaling.cli import (
@@ -31,17 +36,25 @@ from hypate.scaling.cli import (
     validate,
     whatif,
 )
+from hypate.scaling.cli.failures import (
+    EXIT_OUTPUT,
+    EXIT_USAGE,
+    interrupt_code,
+    interrupt_word,
+    is_write_failure,
+    sigterm_as_interrupt,
+    write_failure,
+)
+from hypate.scaling.engine.store import StoreError
 from hypate.scaling.workflow.campaign import package_version
 from hypate.solvers.errors import InputError
+from hypate.solvers.numerics.files import LinkRefused
 
 #: The command registry: modules providing subcommands (each has ``register(subparsers)``),
 #: in ``--help`` order.
 COMMAND_MODULES: tuple[ModuleType, ...] = (run, studies, reproduce, init, validate, report,
                                            whatif, laws, predict, condition, structure,
                                            thermal, simulate, flutter, rom, bench)
-
-EXIT_USAGE = 2
-EXIT_INTERRUPTED = 130
 
 
 class DefaultsHelpFormatter(argparse.HelpFormatter):
@@ -97,25 +110,76 @@ def command_line_field(args: argparse.Namespace, field: str) -> str:
     return flags[head] + sep + tail if head in flags else field
 
 
+class _Once(logging.Filter):
+    """Each distinct message once (a store is opened several times by one command)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.seen: set[str] = set()
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        text = record.getMessage()
+        if text in self.seen:
+            return False
+        self.seen.add(text)
+        return True
+
+
+@contextlib.contextmanager
+def package_warnings() -> Iterator[None]:
+    """The package's logged warnings (logger ``hypate``) as ``hypate: warning: ...`` lines
+    on stderr, each once, while a command runs."""
+    logger = logging.getLogger("hypate")
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("hypate: warning: %(message)s"))
+    handler.addFilter(_Once())
+    handler.setLevel(logging.WARNING)
+    logger.addHandler(handler)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``hypate`` console script; returns the exit code."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if getattr(args, "func", None) is None:
-        parser.print_help()
-        return EXIT_USAGE
+    command = "start-up"
     try:
-        return int(args.func(args) or 0)
-    except InputError as exc:
-        print(f"hypate: error: {command_line_field(args, exc.field)}: {exc.message}",
-              file=sys.stderr)
+        with sigterm_as_interrupt(), package_warnings():
+            parser = build_parser()
+            args = parser.parse_args(argv)
+            command = args.command or command
+            if getattr(args, "func", None) is None:
+                parser.print_help()
+                return EXIT_USAGE
+            try:
+                return int(args.func(args) or 0)
+            except InputError as exc:
+                print(f"hypate: error: {command_line_field(args, exc.field)}: {exc.message}",
+                      file=sys.stderr)
+                return EXIT_USAGE
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (failures.Terminated)
+        print(f"hypate: {interrupt_word(exc)} ({command})", file=sys.stderr)
+        return interrupt_code(exc)
+    except (LinkRefused, StoreError) as exc:
+        print(f"hypate: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except FileNotFoundError as exc:
         print(f"hypate: error: file not found: {exc.filename}", file=sys.stderr)
         return EXIT_USAGE
-    except KeyboardInterrupt:
-        print(f"hypate: interrupted ({args.command})", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    except MemoryError:
+        print(f"hypate: error: out of memory ({command}); use a coarser [simulation] mesh or "
+              "fewer workers", file=sys.stderr)
+        return EXIT_OUTPUT
+    except OSError as exc:
+        if is_write_failure(exc):
+            what, todo = write_failure(exc)
+            print(f"hypate: error: {what}; {todo} and run the command again",
+                  file=sys.stderr)
+            return EXIT_OUTPUT
+        print(f"hypate: error: {exc.filename or ''}{': ' if exc.filename else ''}"
+              f"{exc.strerror or exc}", file=sys.stderr)
+        return EXIT_USAGE
 
 
 if __name__ == "__main__":  # pragma: no cover

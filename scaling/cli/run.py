@@ -5,6 +5,7 @@ import argparse
 import contextlib
 import json
 import math
+import shlex
 import sys
 import time
 import warnings
@@ -15,14 +16,27 @@ from typing import Any
 
 import numpy as np
 from hypate.scaling.cli import jsonout
+from hypate.scaling.cli.failures import (
+    EXIT_INFRASTRUCTURE,
+    EXIT_INTERRUPTED,
+    EXIT_NO_RESULT,
+    EXIT_OUTPUT,
+    EXIT_TERMINATED,
+    interrupt_code,
+    interrupt_word,
+    is_write_failure,
+    write_failure,
+)
 from hypate.scaling.cli.progress import StepProgress
 from hypate.scaling.engine.executors import LOST_AFTER, auto_workers
 from hypate.scaling.engine.faults import InfrastructureError
 from hypate.scaling.engine.pareto import hypervolume
 from hypate.scaling.engine.problem import summarize_warnings, tally_warnings
 from hypate.scaling.engine.store import EvaluationStore, StoreError
-from hypate.scaling.report.html import write_report_safely
+from hypate.scaling.report.html import write_report, write_report_safely
 from hypate.scaling.workflow.campaign import preflight
+from hypate.scaling.workflow.integrity import missing_outputs
+from hypate.scaling.workflow.resources import local_workers, study_estimate
 from hypate.scaling.workflow.robust import robust_budget, run_robust_study
 from hypate.scaling.workflow.run import run_study
 from hypate.scaling.workflow.rundir import (
@@ -31,6 +45,7 @@ from hypate.scaling.workflow.rundir import (
     SEEDS_CSV,
     STORE,
     SWEEP_CSV,
+    SWEEP_JSON,
     describe_occurrences,
     worst_objective,
 )
@@ -44,13 +59,25 @@ from tqdm import tqdm
 
 #: Reference point of the progress-bar hypervolume (relative errors of 100 %).
 PROGRESS_REF = np.array([1.0, 1.0])
-#: Exit codes beyond 0 and 2 (README, "What a run guarantees"): a finished campaign without
-#: a single successful evaluation; the pool or cluster lost; Ctrl-C (128 + SIGINT).
-EXIT_NO_RESULT = 1
-EXIT_INFRASTRUCTURE = 3
-EXIT_INTERRUPTED = 130
 #: Seconds between progress lines when stderr is not a terminal (a log file, CI, nohup).
 LOG_EVERY = 10.0
+
+
+class ReportFailed(Exception):
+    """The report of a finished campaign could not be written (its cause chained)."""
+
+
+def write_run_report(run_dir: Path) -> Path:
+    """``report.html`` and ``figures/`` of a run that just wrote its outputs; a failure
+    (other than a failed write, handled as such) raises :class:`ReportFailed`, so that the
+    run ends with one line and a resume writes the report (the run is not complete
+    without it)."""
+    try:
+        return write_report(run_dir)
+    except OSError:
+        raise
+    except (ValueError, KeyError, RuntimeError, InputError) as exc:
+        raise ReportFailed(f"{run_dir / REPORT_HTML} not written: {exc}") from exc
 
 
 def default_run_dir(name: str, resume: bool, root: Path = Path("runs")) -> Path:
@@ -101,6 +128,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="seed the initial sample with the 10 best designs of an earlier run "
                    "(repeatable; e.g. Case 1 for the Case 2 strategy); variables it lacks "
                    "take the model template's values")
+    p.add_argument("--force", action="store_true", help="run even when the estimated memory "
+                   "of the simulations exceeds what this machine has available (the estimate "
+                   "and the refusal happen before the first simulation)")
     p.set_defaults(func=run, field_flags={"out": "--out", "resume": "--resume",
                                           "workers": "--workers", "scheduler": "--scheduler",
                                           "seed": "--seed", "seed_runs": "--seed-from",
@@ -250,13 +280,20 @@ def failure_reasons(run_dir: Path, limit: int = 5) -> list[str]:
 
 
 def resume_command(args: argparse.Namespace, out: Path) -> str:
-    """The command that continues an interrupted run (of every seed, for ``--seeds``)."""
-    study = f" {args.study}" if args.study else ""
+    """The command that continues an interrupted run (of every seed, for ``--seeds``),
+    quoted for a POSIX shell; without ``--resume`` when nothing was stored yet (a run
+    stopped before its store existed starts again)."""
+    study = [args.study] if args.study else []
     seeds = getattr(args, "seeds_run", None)
     if seeds is not None:  # one seed of a --seeds run: continue them all
         first, n, parent = seeds
-        return f"hypate run{study} --seeds {n} --seed {first} --out {parent} --resume"
-    return f"hypate run{study} --out {out} --resume"
+        words = ["hypate", "run", *study, "--seeds", str(n), "--seed", str(first),
+                 "--out", str(parent)]
+        started = Path(parent).is_dir()
+    else:
+        words = ["hypate", "run", *study, "--out", str(out)]
+        started = (out / STORE).is_file() or (out / SWEEP_JSON).is_file()
+    return shlex.join(words + ["--resume"] * started)
 
 
 def _summary(out: Path, point: dict[str, Any], before: int, seconds: float) -> dict[str, Any]:
@@ -267,12 +304,14 @@ def _summary(out: Path, point: dict[str, Any], before: int, seconds: float) -> d
             "evaluations": n, "new_evaluations": n - before, "seconds": seconds,
             "failed": int(stats.get("failed", 0)), "admissible_evaluations":
                 stats.get("admissible"),
+            "failed_iterations": stats.get("failed_iterations"),
+            "iteration_evaluations": stats.get("iteration_evaluations"),
             "design_point": {k: point.get(k) for k in ("design", "objectives",
                                                        "active_constraints", "scatter",
                                                        "robust", "robust_search",
                                                        "nominal", "chosen", "admissible",
                                                        "binding", "message",
-                                                       "prototype_admissibility")
+                                                       "prototype_admissibility", "stopping")
                              if k in ("design", "objectives", "active_constraints")
                              or k in point}}
 
@@ -312,12 +351,23 @@ def _print_summary(summary: dict[str, Any], before: int) -> None:
     note = prototype_note(point.get("prototype_admissibility") or [])
     if note:
         print(note)
+    for line in point.get("binding") or []:
+        if line.startswith("data ") and "VIOLATED" in line:  # clamped property tables
+            print(f"hypate: error: the design point's model leaves its material's property "
+                  f"data ({line}); its results rest on clamped tables", file=sys.stderr)
     if point.get("design") and point.get("admissible") is False:
         print(f"hypate: error: {point.get('message') or 'the design point is not admissible'}"
               "; see the report's admissibility table", file=sys.stderr)
     print(f"failed evaluations: {summary['failed']} of {n}"
+          + (f" ({summary['failed_iterations']} of the {summary['iteration_evaluations']} "
+             "after the initial design)" if summary.get("iteration_evaluations") else "")
           + (f"; admissible: {summary['admissible_evaluations']}"
              if summary.get("admissible_evaluations") is not None else ""))
+    stopping = point.get("stopping")
+    if stopping:
+        why = ("converged before iteration " + str(stopping["iteration"])
+               if stopping["reason"] == "converged" else "spent its iteration cap")
+        print(f"the run {why} (stopping rule of iterations = \"auto\")")
     if summary["report"]:
         print(f"report: {summary['report']}")
 
@@ -376,23 +426,32 @@ def _run_one(args: argparse.Namespace, study, out: Path, t0: float, say) -> int:
     """One optimization run of a (non-sweep) study into ``out``."""
     # refuse a bad setting or another campaign before anything is simulated or written
     preflight(study, out, resume=args.resume, seed=args.seed, workers=args.workers,
-              scheduler=args.scheduler)
+              scheduler=args.scheduler, force=args.force)
+    if local_workers(args.workers, args.scheduler) is not None:
+        say(study_estimate(study, args.workers).summary())
     robust = study.uncertainty is not None and study.uncertainty.optimize
     if robust and args.seed_from:
         raise InputError("--seed-from", "not available for a robust study ([robust]: its "
                          "search starts from its nominal campaign)")
     before = stored_evaluations(out) if args.resume else 0
-    budget = robust_budget(study) - study.budget if robust else study.budget
-    if args.resume and (out / DESIGN_POINT_JSON).is_file() and before >= budget:
-        point = json.loads((out / DESIGN_POINT_JSON).read_text())
-        summary = _summary(out, point, before, 0.0)
-        if args.json:
-            print(jsonout.dumps(summary, indent=2))
-        else:
-            print(f"{out}: already complete ({before} evaluations); nothing to do")
-            if summary["report"]:
-                print(f"report: {summary['report']}")
-        return 0
+    if args.resume:
+        # complete: the campaign ended (its budget spent or its stopping rule met) and every
+        # output it wrote is there, matching the store
+        missing = missing_outputs(out)
+        if not missing:
+            point = json.loads((out / DESIGN_POINT_JSON).read_text())
+            summary = _summary(out, point, before, 0.0)
+            if args.json:
+                print(jsonout.dumps(summary, indent=2))
+            else:
+                print(f"{out}: already complete ({before} evaluations); nothing to do")
+                if summary["report"]:
+                    print(f"report: {summary['report']}")
+            return 0
+        budget = robust_budget(study) - study.budget if robust else study.budget
+        if before >= budget:  # the evaluations are done: only outputs are left to write
+            say(f"{out}: the {before} evaluations are stored; writing what is missing: "
+                f"{', '.join(missing)}")
     say("simulating the prototype ...")
     bar = Progress(quiet=args.quiet, verbose=args.verbose, first_id=before)
     steps: list[StepProgress] = []  # made when the scatter starts: its clock starts there
@@ -412,22 +471,35 @@ def _run_one(args: argparse.Namespace, study, out: Path, t0: float, say) -> int:
                 outcome = run_robust_study(
                     study, out, resume=args.resume, workers=args.workers,
                     scheduler=args.scheduler, seed=args.seed, progress=bar,
-                    on_written=write_report_safely, lost_after=args.cluster_timeout,
-                    on_scatter=lambda which, done, total: on_scatter(
+                    on_written=write_run_report, lost_after=args.cluster_timeout,
+                    force=args.force, on_scatter=lambda which, done, total: on_scatter(
                         done, total, f"the {which} design", last=which == "robust"))
             else:
                 outcome = run_study(study, out, resume=args.resume, workers=args.workers,
                                     scheduler=args.scheduler, seed=args.seed, progress=bar,
-                                    seed_runs=args.seed_from, on_written=write_report_safely,
+                                    seed_runs=args.seed_from, on_written=write_run_report,
                                     lost_after=args.cluster_timeout,
                                     on_warnings=print_warnings if args.verbose else None,
-                                    on_scatter=on_scatter)
-    except KeyboardInterrupt:
+                                    on_scatter=on_scatter, force=args.force)
+    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM
         bar.close()
-        return interrupted(args, out)
+        return interrupted(args, out, exc)
     except InfrastructureError as exc:
         bar.close()
         return infrastructure_lost(args, out, exc)
+    except ReportFailed as exc:
+        bar.close()
+        return output_failed(args, out, str(exc), "fix that")
+    except MemoryError:
+        bar.close()
+        return output_failed(args, out, "out of memory in a simulation (--force ran a "
+                             "study beyond the estimate, or other work took the memory)",
+                             "use a coarser [simulation] mesh or fewer --workers")
+    except OSError as exc:
+        if not is_write_failure(exc):
+            raise
+        bar.close()
+        return output_failed(args, out, *write_failure(exc))
     finally:
         bar.close()
         for step in steps:
@@ -469,7 +541,7 @@ def _run_seeds(args: argparse.Namespace, study, out: Path, say) -> int:
                                     "seeds_run": (first, len(seeds), out)})
         code = _run_one(one, study, sub, time.perf_counter(), say)
         write_seeds_summary(study, out, seeds)
-        if code in (EXIT_INTERRUPTED, EXIT_INFRASTRUCTURE):
+        if code in (EXIT_INTERRUPTED, EXIT_TERMINATED, EXIT_INFRASTRUCTURE, EXIT_OUTPUT):
             return code
         failed += code != 0
     for seed in seeds:  # every report shows the spread over all seeds
@@ -493,13 +565,23 @@ def infrastructure_lost(args: argparse.Namespace, out: Path, exc: Infrastructure
     return EXIT_INFRASTRUCTURE
 
 
-def interrupted(args: argparse.Namespace, out: Path) -> int:
-    """Ctrl-C: one line with what is stored and how to continue; exit 130."""
+def output_failed(args: argparse.Namespace, out: Path, what: str, todo: str) -> int:
+    """The machine ran out of room or an output could not be written (a full disk, memory,
+    the report): one line with what and how to continue; exit 4 (the evaluations are
+    stored, the store is consistent)."""
+    print(f"hypate: error: {what}; {todo} and continue with `{resume_command(args, out)}`",
+          file=sys.stderr)
+    return EXIT_OUTPUT
+
+
+def interrupted(args: argparse.Namespace, out: Path, exc: BaseException) -> int:
+    """Ctrl-C or SIGTERM: one line with what is stored and how to continue; exit 130 or
+    143."""
     stores = [out / STORE, *out.glob(f"*/{STORE}")] if out.is_dir() else []
     n = sum(stored_evaluations(s.parent) for s in stores)
-    print(f"hypate: interrupted after {n} evaluations; continue with "
+    print(f"hypate: {interrupt_word(exc)} after {n} evaluations; continue with "
           f"`{resume_command(args, out)}`", file=sys.stderr)
-    return EXIT_INTERRUPTED
+    return interrupt_code(exc)
 
 
 def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
@@ -525,12 +607,22 @@ def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
         with collected_warnings(args.verbose) as caught:
             outcome = run_sweep(study, out, resume=args.resume, workers=args.workers,
                                 scheduler=args.scheduler, seed=args.seed, progress=progress,
-                                on_point=on_point, on_written=write_report_safely,
-                                lost_after=args.cluster_timeout)
-    except KeyboardInterrupt:
+                                on_point=on_point, on_written=write_run_report,
+                                lost_after=args.cluster_timeout, force=args.force)
+    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM
         for bar in bars:
             bar.close()
-        return interrupted(args, out)
+        return interrupted(args, out, exc)
+    except ReportFailed as exc:
+        for bar in bars:
+            bar.close()
+        return output_failed(args, out, str(exc), "fix that")
+    except OSError as exc:
+        if not is_write_failure(exc):
+            raise
+        for bar in bars:
+            bar.close()
+        return output_failed(args, out, *write_failure(exc))
     except InfrastructureError as exc:
         for bar in bars:
             bar.close()

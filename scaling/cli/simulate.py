@@ -10,6 +10,7 @@ from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.config import load_case
 from hypate.solvers.coupling.run import simulate
 from hypate.solvers.errors import InputError
+from hypate.solvers.numerics.files import ensure_directory, write_text
 from tqdm import tqdm
 
 
@@ -41,9 +42,9 @@ def run(args: argparse.Namespace) -> int:
     bar.close()
     summary = {**resp.summary(), "status": resp.status, "message": resp.message}
     if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
+        ensure_directory(out)
         resp.save(out / "response.npz")
-        (out / "summary.json").write_text(dumps(
+        write_text(out / "summary.json", dumps(
             {**summary, "wall_seconds": resp.wall_seconds, "timing": resp.timing}, indent=2))
     if args.json:
         print(dumps(summary))

@@ -18,7 +18,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "budget and measured duration.")
     p.add_argument("--json", action="store_true", help="print a JSON list of "
                    '{"name", "description", "kind", "evaluations", "sweep_points", '
-                   '"duration", "path"}')
+                   '"duration", "classical_baseline", "path"}')
     p.set_defaults(func=run)
 
 
@@ -33,6 +33,8 @@ def catalog() -> list[dict[str, object]]:
         out.append({"name": name, "description": study.description,
                     "kind": study.raw.study.kind, "evaluations": budget * points,
                     "sweep_points": points, "duration": study.raw.study.duration or None,
+                    # the classical GP design, evaluated first and stored beside the budget
+                    "classical_baseline": bool(study.raw.optimizer.classical_seed),
                     "path": str(path)})
     return out
 
@@ -46,6 +48,7 @@ def run(args: argparse.Namespace) -> int:
     for r in rows:
         sweep = f", {r['sweep_points']} points" if r["sweep_points"] != 1 else ""
         print(f"{r['name']:<{width}}  {r['description']}")
-        print(f"{'':<{width}}  {r['evaluations']} evaluations{sweep}; "
+        extra = " (+1: the classical baseline)" if r["classical_baseline"] else ""
+        print(f"{'':<{width}}  {r['evaluations']} evaluations{extra}{sweep}; "
               f"{r['duration'] or 'duration not measured'}")
     return 0

@@ -103,8 +103,6 @@ def _child(fn: Callable[[], Any], write_end: int, parent: int) -> None:
     code = _CHILD_FAILED
     try:
         die_with_parent(parent)
-        with contextlib.suppress(ValueError, OSError):  # the parent may have a handler
-            signal.signal(signal.SIGTERM, signal.SIG_DFL)
         with warnings.catch_warnings(record=True) as caught:  # the inherited filters apply
             value = fn()
         records = [_Warning(str(w.message), w.category if _picklable(w.category)
@@ -150,10 +148,21 @@ def _run_child_once(fn: Callable[[], T], limit: float) -> tuple[bool, Any]:
     parent = os.getpid()
     _flush_std_streams()  # or the child would write the parent's buffered output again
     read_end, write_end = os.pipe()
-    pid = os.fork()
+    # Forked with SIGINT and SIGTERM blocked: until the child has set its own dispositions,
+    # the parent's Python handlers (Ctrl-C, the CLI's SIGTERM) would raise in the child's
+    # copy of the parent's stack and run the parent's code on in the child.
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, _GROUP_SIGNALS)
+    try:
+        pid = os.fork()
+    except BaseException:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        raise
     if pid == 0:  # the child
+        _child_dispositions()
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         os.close(read_end)
         _child(fn, write_end, parent)
+    signal.pthread_sigmask(signal.SIG_SETMASK, mask)
     os.close(write_end)
     buf, status, eof = bytearray(), None, False
     try:
@@ -195,6 +204,19 @@ def _run_child_once(fn: Callable[[], T], limit: float) -> tuple[bool, Any]:
                                    registry=_REISSUED)
         return True, value
     return False, _describe_death(status)
+
+
+#: The signals a terminal or ``kill -- -PGID`` sends to a whole process group.
+_GROUP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+
+def _child_dispositions() -> None:
+    """In a fresh evaluation child: SIGTERM ends it (its time limit, its parent's clean-up),
+    SIGINT is ignored (a Ctrl-C reaches the whole group; the parent handles it and ends
+    the child)."""
+    for sig, action in ((signal.SIGTERM, signal.SIG_DFL), (signal.SIGINT, signal.SIG_IGN)):
+        with contextlib.suppress(ValueError, OSError):
+            signal.signal(sig, action)
 
 
 def _reap(pid: int) -> None:

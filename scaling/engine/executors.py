@@ -71,8 +71,11 @@ class ResilientProcessPool(Executor):
     workers : int
         Number of worker processes.
     ignore_interrupt : bool, keyword-only
-        Workers ignore SIGINT (a Ctrl-C in the terminal reaches the whole process group):
-        for long jobs that the parent ends with :meth:`terminate` instead.
+        Workers ignore SIGINT and SIGTERM (a Ctrl-C in the terminal, or a ``kill`` of the
+        process group, reaches every process of the group): the parent alone handles them
+        and ends the workers (:meth:`terminate`, SIGKILL), so a Ctrl-C prints the parent's
+        one line and no worker's traceback. The workers are forked with both signals
+        blocked, so that one arriving before they ignore it is discarded, not delivered.
     """
 
     def __init__(self, workers: int, *, ignore_interrupt: bool = False) -> None:
@@ -95,16 +98,33 @@ class ResilientProcessPool(Executor):
             No new pool could be started (no processes can be made).
         """
         try:
-            return self._pool.submit(fn, *args, **kwargs)
+            with self._forking():
+                return self._pool.submit(fn, *args, **kwargs)
         except BrokenProcessPool:
             self._pool.shutdown(wait=False, cancel_futures=True)
             try:
                 self._pool = self._new_pool()
                 self.restarts += 1
-                return self._pool.submit(fn, *args, **kwargs)
+                with self._forking():
+                    return self._pool.submit(fn, *args, **kwargs)
             except (OSError, BrokenProcessPool) as exc:
                 raise InfrastructureError(f"the process pool: cannot restart it ({exc})"
                                           ) from None
+
+    @contextlib.contextmanager
+    def _forking(self) -> Iterator[None]:
+        """SIGINT and SIGTERM blocked in this thread while a submission may fork the
+        workers (the first one: ``concurrent.futures`` forks them all then): a worker
+        inherits the mask and ignores both before it unblocks them. A signal that arrives
+        meanwhile waits here and is delivered when the block ends."""
+        if not self.ignore_interrupt or not hasattr(signal, "pthread_sigmask"):
+            yield
+            return
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, _GROUP_SIGNALS)
+        try:
+            yield
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
     def wait_result(self, future: Any) -> Any:
         """The result of a future of this pool (the protocol of :func:`run_batch`)."""
@@ -117,8 +137,10 @@ class ResilientProcessPool(Executor):
         self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
 
     def terminate(self) -> None:
-        """End the pool now: queued work is cancelled, the workers are terminated (SIGTERM)
-        mid-job -- for jobs that store their own progress, such as whole optimizations."""
+        """End the pool now: queued work is cancelled, the workers are terminated mid-job
+        (SIGKILL when they ignore SIGTERM, else SIGTERM) -- for jobs whose results are
+        committed as they finish (evaluations, whole optimizations): what was in flight
+        is evaluated again by a resume."""
         # concurrent.futures has no public handle on its workers; shutdown(wait=False)
         # alone would let a running job go on until it ends, and the interpreter's exit
         # would wait for it
@@ -126,14 +148,22 @@ class ResilientProcessPool(Executor):
         self._pool.shutdown(wait=False, cancel_futures=True)
         for proc in procs:
             if proc.is_alive():
-                proc.terminate()
+                proc.kill() if self.ignore_interrupt else proc.terminate()
         for proc in procs:
             proc.join(timeout=5.0)
 
 
+#: The signals a terminal or ``kill -- -PGID`` sends to a whole process group.
+_GROUP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+
 def _worker_ignoring_interrupt(parent: int) -> None:
-    """Pool initializer: :func:`die_with_parent`, and SIGINT ignored."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    """Pool initializer: :func:`die_with_parent`, SIGINT and SIGTERM ignored, then unblocked
+    (the parent forked with them blocked: one sent meanwhile is discarded)."""
+    for sig in _GROUP_SIGNALS:
+        signal.signal(sig, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _GROUP_SIGNALS)
     die_with_parent(parent)
 
 
@@ -364,8 +394,10 @@ def make_executor(workers: int, scheduler: str | None, *, lost_after: float = LO
     executor : ResilientProcessPool, DaskExecutor or None
         ``None``: evaluate in-process.
     close : callable
-        ``close()`` releases the pool or cluster. It never raises and prints nothing, also
-        after the scheduler died.
+        ``close(abandon=False)`` releases the pool or cluster. It never raises and prints
+        nothing, also after the scheduler died. ``abandon=True`` (the run ends on an
+        interrupt or an error) ends local workers mid-evaluation instead of waiting for
+        them: their evaluations were not stored and a resume runs them again.
 
     Raises
     ------
@@ -374,9 +406,18 @@ def make_executor(workers: int, scheduler: str | None, *, lost_after: float = LO
     """
     if not scheduler:
         if workers > 1:
-            pool = ResilientProcessPool(workers)
-            return pool, lambda: pool.shutdown(cancel_futures=True)
-        return None, lambda: None
+            # the workers ignore the terminal's Ctrl-C and a kill of the process group:
+            # the run handles them, and its closer ends the workers
+            pool = ResilientProcessPool(workers, ignore_interrupt=True)
+
+            def close_pool(abandon: bool = False) -> None:
+                if abandon:
+                    pool.terminate()
+                else:
+                    pool.shutdown(cancel_futures=True)
+
+            return pool, close_pool
+        return None, lambda abandon=False: None
     address = check_scheduler_address(scheduler)
     if not lost_after > 0:
         raise ExecutorError("lost_after", f"must be > 0 s; got {lost_after}")
@@ -399,7 +440,7 @@ def make_executor(workers: int, scheduler: str | None, *, lost_after: float = LO
         client = Client(cluster)
         executor = DaskExecutor(client, lost_after=lost_after,
                                 address=cluster.scheduler_address)
-        return executor, lambda: _close_quietly(client, cluster)
+        return executor, lambda abandon=False: _close_quietly(client, cluster)
     _probe(address, min(REACH_TIMEOUT, lost_after))
     try:
         # the client's own reconnection window is a little longer than lost_after, so that
@@ -415,7 +456,7 @@ def make_executor(workers: int, scheduler: str | None, *, lost_after: float = LO
                             "distributed.comm.tls.client.cert/key in Dask's configuration)"
                             ) from None
     executor = DaskExecutor(client, lost_after=lost_after, address=address)
-    return executor, lambda: _close_quietly(client)
+    return executor, lambda abandon=False: _close_quietly(client)
 
 
 # ------------------------------------------------------------------------ batches

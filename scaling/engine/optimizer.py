@@ -60,6 +60,7 @@ import numpy as np
 from hypate.scaling.engine.acquisition import (
     ACQUISITIONS,
     MinMaxEI,
+    MinMaxLCB,
     MULTI_OBJECTIVE_ACQUISITIONS,
     SINGLE_OBJECTIVE_ACQUISITIONS,
     Acquisition,
@@ -364,9 +365,22 @@ class BayesianOptimizer:
         ctx = AcquisitionContext(best_f, front, ref, ideal, scale, rng,
                                  v=self.exploration_weight(iteration),
                                  weights=self.weights, g=self.settings.g)
+        if self.exploiting(iteration) and self.n_obj > 1:
+            # the last iterations: the surrogates' best design point, no exploration
+            return MinMaxLCB.from_context(model, dataclasses.replace(ctx, v=0.0))
         if callable(self.acquisition):
             return self.acquisition(model, ctx)
         return ACQUISITIONS[self.acquisition].from_context(model, ctx)
+
+    def exploiting(self, iteration: int) -> bool:
+        """Whether iteration ``t`` is one of the last ``settings.exploit_last``: it proposes
+        the design the surrogates predict best by the design-point criterion (the mean of
+        ``max_j J_j``, :class:`~hypate.scaling.engine.acquisition.MinMaxLCB` at ``v = 0``),
+        with every enforced constraint and the success of its simulation required at
+        probability ``settings.p_exploit``: the design a test engineer would build, checked
+        on the simulator."""
+        s = self.settings
+        return s.exploit_last > 0 and iteration > s.n_iter - s.exploit_last
 
     # ------------------------------------------------------------ proposal
     def propose(self, records: list[Evaluation], iteration: int) -> np.ndarray:
@@ -393,21 +407,20 @@ class BayesianOptimizer:
             return U if st.categorical is None else st.categorical.snap(U)
         # objectives (or their histories), expensive constraints, failure indicator:
         # fitted together
-        histories = self._histories(records, ok)
-        data = [(X[ok], F[ok] if histories is None else histories[1], {})]
+        objectives, histories = self.objective_data(records, X, F, ok)
+        data = [objectives]
         if self.n_constr:
             data.append((X[ok], G[ok], {}))
-        model, *others = self.surrogates(data, rng)
-        if histories is not None:
-            basis, A = histories
-            model = HistoriesModel(model, basis, self.composition, st.output_transform,
-                                   normal_samples(SAMPLES, A.shape[1],
-                                                  int(rng.integers(2**31))), X[ok], A)
+        fitted, *others = self.surrogates(data, rng)
+        model = self.objective_model(fitted, histories, X[ok], rng)
         model_constraints: list[Any] = []
+        safe = self.exploiting(iteration)
         if self.n_constr:
-            model_constraints.append(ProbabilisticConstraint(others.pop(0), p_min=st.p_feasible))
+            model_constraints.append(ProbabilisticConstraint(
+                others.pop(0), p_min=max(st.p_feasible, st.p_exploit) if safe else st.p_feasible))
         if not np.all(ok):  # the failed evaluations' region: a calibrated classifier
-            model_constraints.append(self.success_model(X, ok, rng))
+            model_constraints.append(self.success_model(
+                X, ok, rng, max(st.p_success, st.p_exploit) if safe else st.p_success))
         if st.stopping is not None and self.n_obj > 1 and self._stops(model, records, X, F, ok,
                                                                       feas, iteration):
             return np.zeros((0, self.n_var))  # converged: no more designs
@@ -493,17 +506,39 @@ class BayesianOptimizer:
                                  evidence, dataclasses.asdict(rule))
         return stop
 
-    def success_model(self, X: np.ndarray, ok: np.ndarray, rng: np.random.Generator
-                      ) -> SuccessModel:
+    def success_model(self, X: np.ndarray, ok: np.ndarray, rng: np.random.Generator,
+                      p_min: float | None = None) -> SuccessModel:
         """The probability of success of a proposal (:class:`SuccessModel`, a Gaussian-
         process classifier on the surrogates' input coordinates), required to reach
-        ``settings.p_success``."""
+        ``p_min`` (default ``settings.p_success``)."""
         s, coords = self.settings, self.settings.coordinates
         if s.categorical is not None:
             coords = MixedCoordinates(s.categorical, self.n_var, coords)
         return SuccessModel(X, ok, self.bounds, transform=coords,
                             box=None if coords is None else coords.box(self.bounds),
-                            p_min=s.p_success, rng=int(rng.integers(2**31)))
+                            p_min=s.p_success if p_min is None else p_min,
+                            rng=int(rng.integers(2**31)))
+
+    def objective_data(self, records: Sequence[Evaluation], X: np.ndarray, F: np.ndarray,
+                       ok: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray, dict],
+                                                tuple[HistoryBasis, np.ndarray] | None]:
+        """What the objective surrogate is fitted to: ``(X_ok, Y, options)`` -- the
+        objectives (model space) or, with ``surrogate = "histories"``, the POD coefficients of
+        the histories -- and the histories' basis and coefficients (None: objectives)."""
+        histories = self._histories(list(records), ok)
+        return (X[ok], F[ok] if histories is None else histories[1], {}), histories
+
+    def objective_model(self, fitted: Any, histories: tuple[HistoryBasis, np.ndarray] | None,
+                        X_ok: np.ndarray, rng: np.random.Generator) -> Any:
+        """The objective model from the fitted surrogate of :meth:`objective_data`: itself,
+        or the :class:`HistoriesModel` composing J from the coefficients' surrogate (its base
+        samples drawn from ``rng``)."""
+        if histories is None:
+            return fitted
+        basis, A = histories
+        return HistoriesModel(fitted, basis, self.composition, self.settings.output_transform,
+                              normal_samples(SAMPLES, A.shape[1], int(rng.integers(2**31))),
+                              X_ok, A)
 
     def _histories(self, records: list[Evaluation], ok: np.ndarray
                    ) -> tuple[HistoryBasis, np.ndarray] | None:

@@ -21,6 +21,7 @@ __all__ = [
     "dominates",
     "non_dominated_mask",
     "pareto_front",
+    "pareto_order",
     "hypervolume",
     "hypervolume_2d",
     "nondominated_boxes",
@@ -81,6 +82,27 @@ def pareto_front(F: np.ndarray, *, unique: bool = True) -> np.ndarray:
     if unique and len(P):
         P = np.unique(P, axis=0)
     return P[np.lexsort(P.T[::-1])] if len(P) else P
+
+
+def pareto_order(F: np.ndarray) -> np.ndarray:
+    """Indices of the non-dominated rows of ``F`` in the order of every Pareto table of
+    hypate: by the first objective, ties by the next objectives, then by row (stable).
+
+    Unlike :func:`pareto_front` no duplicate is dropped, so ``X[idx]`` and ``F[idx]`` stay
+    row-aligned: the design of row ``i`` has the objectives of row ``i``.
+
+    Parameters
+    ----------
+    F : ndarray of shape (n, m)
+
+    Returns
+    -------
+    ndarray of int, shape (k,)
+    """
+    F = np.atleast_2d(np.asarray(F, dtype=float))
+    idx = np.flatnonzero(non_dominated_mask(F)) if F.shape[0] else np.zeros(0, int)
+    # np.lexsort sorts by its last key first, and is stable
+    return idx[np.lexsort(F[idx].T[::-1])] if len(idx) else idx
 
 
 def _front_below(F: np.ndarray, ref_point: np.ndarray) -> np.ndarray:

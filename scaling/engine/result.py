@@ -1,12 +1,18 @@
 """The result of a run: every evaluation, with Pareto, hypervolume and best-design helpers."""
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
 from hypate.scaling.engine.criteria import weighted_metric
-from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
+from hypate.scaling.engine.pareto import (
+    hypervolume,
+    non_dominated_mask,
+    pareto_front,
+    pareto_order,
+)
 from hypate.scaling.engine.problem import STATUS_OK
 
 __all__ = ["OptimizationResult"]
@@ -70,13 +76,69 @@ class OptimizationResult:
         mask[idx[non_dominated_mask(self.F[idx])]] = True
         return mask
 
+    def pareto_indices(self) -> np.ndarray:
+        """Rows of :attr:`data` in the Pareto set, in THE order of every Pareto table:
+        by the first objective, ties by the next ones, then by evaluation order
+        (:func:`~hypate.scaling.engine.pareto.pareto_order`).
+
+        Returns
+        -------
+        ndarray of int, shape (k,)
+            ``pareto_set()[i]`` is ``X[idx[i]]`` and ``pareto_front()[i]`` is ``F[idx[i]]``.
+        """
+        idx = np.flatnonzero(self.feasible)
+        return idx[pareto_order(self.F[idx])]
+
     def pareto_set(self) -> np.ndarray:
-        """Designs of the Pareto set, shape (k, d)."""
-        return self.X[self.pareto_mask()]
+        """Designs of the Pareto set, shape (k, d), row-aligned with :meth:`pareto_front`
+        (row ``i`` has the objectives ``pareto_front()[i]``; :meth:`pareto_indices`)."""
+        return self.X[self.pareto_indices()]
 
     def pareto_front(self) -> np.ndarray:
-        """Objectives of the Pareto set, shape (k, m), sorted by the first objective."""
-        return pareto_front(self.F[self.pareto_mask()])
+        """Objectives of the Pareto set, shape (k, m), sorted by the first objective and
+        row-aligned with :meth:`pareto_set` (designs with equal objectives each keep their
+        row)."""
+        return self.F[self.pareto_indices()]
+
+    def named_data(self, variables: Sequence[str] | None = None,
+                   objectives: Sequence[str] | None = None,
+                   constraints: Sequence[str] | None = None) -> pd.DataFrame:
+        """:attr:`data` with the columns ``x0..``, ``f0..``, ``g0..`` renamed.
+
+        Parameters
+        ----------
+        variables, objectives, constraints : sequence of str, optional
+            One distinct name per column of the kind (``None``: keep ``x0..`` etc.).
+
+        Returns
+        -------
+        pandas.DataFrame
+            A copy; the other columns (status, message, iteration, ...) unchanged.
+
+        Raises
+        ------
+        ValueError
+            A name list of the wrong length, with a repeated name, or a name another
+            column already has.
+        """
+        G_cols = [c for c in self.data.columns if c.startswith("g") and c[1:].isdigit()]
+        rename: dict[str, str] = {}
+        for arg, names, cols in (("variables", variables, [f"x{i}" for i in range(self.n_var)]),
+                                 ("objectives", objectives,
+                                  [f"f{i}" for i in range(self.n_obj)]),
+                                 ("constraints", constraints, G_cols)):
+            if names is None:
+                continue
+            names = [str(n) for n in names]
+            if len(names) != len(cols) or len(set(names)) != len(names):
+                raise ValueError(f"{arg}: need {len(cols)} distinct names; got {names!r}")
+            rename.update(zip(cols, names))
+        taken = set(self.data.columns) - set(rename)
+        clash = sorted(set(rename.values()) & taken)
+        if clash or len(set(rename.values())) != len(rename):
+            raise ValueError(f"names: {clash or sorted(rename.values())} would repeat a "
+                             "column name")
+        return self.data.rename(columns=rename)
 
     def hypervolume_history(self, ref_point: np.ndarray | None = None) -> np.ndarray:
         """Hypervolume of the feasible archive after each evaluation, shape (n,)."""

@@ -227,8 +227,10 @@ class RobustBayesianOptimizer(BayesianOptimizer):
     def fit(self, records: Sequence[Evaluation], rng: np.random.Generator):
         """The joint objective model and the failure model (None if nothing failed) on the
         prior and the given evaluations."""
-        X, F, _, ok, _ = self._arrays(self.prior + list(records))
-        model = self.surrogate(X[ok], self._model_space(F[ok]), rng)
+        every = self.prior + list(records)
+        X, F, _, ok, _ = self._arrays(every)
+        data, histories = self.objective_data(every, X, self._model_space(F), ok)
+        model = self.objective_model(self.surrogates([data], rng)[0], histories, X[ok], rng)
         failure = None
         if not np.all(ok):
             failure = self.surrogate(X, (~ok).astype(float)[:, None], rng, nugget=FAILURE_NUGGET,

@@ -37,12 +37,13 @@ SURROGATES: tuple[str, ...] = ("objectives", "histories")
 #: Integer fields: smallest allowed value (``None`` allowed where the field is optional).
 _INT_MIN = {"n_init": 0, "n_iter": 0, "batch_size": 1, "n_restarts": 0, "n_raw": 1,
             "n_starts": 1, "seed": 0, "max_evaluations": 0, "convergence_window": 0,
-            "blas_threads": 1, "polish": 0}
+            "blas_threads": 1, "polish": 0, "exploit_last": 0}
 #: Real fields: (low, high, low inclusive, high inclusive).
 _REAL_RANGE = {"v": (0.0, math.inf, True, False), "v_final": (0.0, math.inf, True, False),
                "g": (1.0, math.inf, True, True),
                "p_feasible": (0.0, 1.0, False, False),
                "p_success": (0.0, 1.0, False, False),
+               "p_exploit": (0.0, 1.0, False, False),
                "min_distance": (0.0, math.inf, True, False),
                "resolution": (0.0, 1.0, True, False),
                "timeout": (0.0, math.inf, False, False),
@@ -207,6 +208,12 @@ class OptimizerSettings:
         ``n_iter + 1`` and replayed on resume.
     polish_step : float in (0, 0.5]
         Initial simplex edge, as a fraction of each coordinate's range.
+    exploit_last : int >= 0
+        The last iterations that propose the surrogates' best design point (the mean of
+        ``max_j J_j`` over the objectives' samples, two or more objectives) instead of the
+        acquisition's, each enforced constraint and the simulation's success required with
+        probability ``p_exploit``.
+    p_exploit : float in (0, 1)
     stopping : StoppingRule or None
         The stopping rule of ``iterations = "auto"`` (:mod:`hypate.scaling.engine.stopping`):
         ``n_iter`` is then the hard cap, and the run stops before an iteration when its
@@ -266,6 +273,8 @@ class OptimizerSettings:
     categorical: Categorical | None = None
     surrogate: Literal["objectives", "histories"] = "objectives"
     stopping: StoppingRule | None = None
+    exploit_last: int = 0
+    p_exploit: float = 0.95
 
     def __post_init__(self) -> None:
         def put(name: str, value: Any) -> None:

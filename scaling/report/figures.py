@@ -40,6 +40,7 @@ from hypate.scaling.report.rundata import RunData  # noqa: E402
 from hypate.scaling.workflow.predict import Prediction  # noqa: E402
 from hypate.scaling.workflow.variables import schedule_point, variable_unit  # noqa: E402
 from hypate.solvers.coupling.response import Response  # noqa: E402
+from hypate.solvers.numerics.files import atomic_file, write_bytes  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.ticker import FuncFormatter, LogLocator  # noqa: E402
 
@@ -141,7 +142,7 @@ def figure_html(fig: Figure, run: RunData, name: str, caption: str) -> str:
     """
     path = run.figure_path(name)
     data = png_bytes(fig)
-    path.write_bytes(data)
+    write_bytes(path, data)
     return (f'<figure>{embed_png(data, caption)}<figcaption>{html.escape(caption)}'
             f"</figcaption></figure>")
 
@@ -505,7 +506,8 @@ def plot_sweep(rows: Sequence[dict[str, Any]], name: str, path: str | Path,
     ax.legend(fontsize=8)
     ax.set_title(title or f"What-if sweep of {name}")
     fit_labels(fig)
-    fig.savefig(path, format="png", dpi=110)
+    with atomic_file(path) as handle:
+        fig.savefig(handle, format="png", dpi=110)
     plt.close(fig)
     return path
 

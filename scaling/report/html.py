@@ -55,8 +55,10 @@ from pathlib import Path
 from hypate.scaling.report.figures import close_figures
 from hypate.scaling.report.rundata import RunData, load_run
 from hypate.scaling.report.sections import BUILTIN_SECTIONS, Section
+from hypate.scaling.workflow.integrity import check_run_directory
 from hypate.scaling.workflow.rundir import REPORT_HTML as REPORT_NAME
 from hypate.solvers.errors import InputError
+from hypate.solvers.numerics.files import write_text
 
 __all__ = ["SectionProvider", "register_section", "unregister_section", "render_html",
            "write_report", "write_report_safely", "REPORT_NAME"]
@@ -118,14 +120,20 @@ def _slug(title: str, used: set[str]) -> str:
     return slug
 
 
-def render_html(run: RunData, sections: Sequence[Section]) -> str:
-    """The report page of ``sections`` (self-contained HTML5)."""
+#: How the page states when it was made (``render_html``), and the pattern that finds it.
+STAMP_FORMAT = "%Y-%m-%d %H:%M UTC"
+_STAMP = re.compile(r"generated \d{4}-\d\d-\d\d \d\d:\d\d UTC")
+
+
+def render_html(run: RunData, sections: Sequence[Section], stamp: str | None = None) -> str:
+    """The report page of ``sections`` (self-contained HTML5), stating ``stamp`` as the
+    time it was generated (default: now, :data:`STAMP_FORMAT`)."""
     name = run.study.name if run.study is not None else str((run.point or {}).get("study")
                                                             or run.directory.name)
     title = f"hypate scaling report: {name}"
     used: set[str] = set()
     slugs = [_slug(s.title, used) for s in sections]
-    stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    stamp = stamp or datetime.now(timezone.utc).strftime(STAMP_FORMAT)
     state = "interrupted run (partial results)" if run.interrupted else "finished run"
     out = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
            '<meta name="viewport" content="width=device-width, initial-scale=1">',
@@ -170,8 +178,11 @@ def write_report(run_dir: str | Path, *, study_path: str | Path | None = None,
     Raises
     ------
     InputError
-        ``run_dir`` is not a run directory, or ``study_path`` does not fit the run.
+        ``run_dir`` is not a run directory, ``study_path`` does not fit the run, its store
+        does not match its digests, or a symbolic link stands where the report writes
+        (nothing is written then).
     """
+    check_run_directory(run_dir, field="DIR")  # no planted link where the report writes
     run = load_run(run_dir, study_path=study_path, simulate=simulate)
     sections: list[Section] = []
     with warnings.catch_warnings():
@@ -195,10 +206,19 @@ def write_report(run_dir: str | Path, *, study_path: str | Path | None = None,
         sections.append(Section(str(title), str(body)))
     page = render_html(run, sections)
     path = run.directory / REPORT_NAME
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(page, encoding="utf-8")
-    tmp.replace(path)
-    return path
+    if _unchanged(path, page):  # only its time stamp would change: keep the file as it is
+        return path
+    return write_text(path, page)
+
+
+def _unchanged(path: Path, page: str) -> bool:
+    """Whether the report at ``path`` says what ``page`` says, apart from when it was made
+    (so that ``hypate report`` of a finished run leaves its directory as it was)."""
+    try:
+        old = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return False
+    return _STAMP.sub("generated", old) == _STAMP.sub("generated", page)
 
 
 def write_report_safely(run_dir: Path) -> Path | None:

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from hypate.scaling.engine.problem import tally_warnings
-from hypate.scaling.engine.store import EvaluationStore, warnings_from_text
+from hypate.scaling.engine.store import EvaluationStore, StoreTampered, warnings_from_text
 from hypate.scaling.workflow.campaign import ENVIRONMENTS
 from hypate.scaling.workflow.fidelity import FIDELITY, FIDELITY_NAME
 from hypate.scaling.workflow.problem import ScalingProblem
@@ -40,6 +40,7 @@ from hypate.scaling.workflow.shipped import shipped
 from hypate.scaling.workflow.study import load_study
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
+from hypate.solvers.numerics.files import ensure_directory
 
 __all__ = ["RunData", "load_run", "FIGURES_DIR"]
 
@@ -164,9 +165,7 @@ class RunData:
 
     def figure_path(self, name: str) -> Path:
         """``figures/<name>.png`` in the run directory (folder created)."""
-        folder = self.directory / FIGURES_DIR
-        folder.mkdir(parents=True, exist_ok=True)
-        return folder / f"{name}.png"
+        return ensure_directory(self.directory / FIGURES_DIR) / f"{name}.png"
 
 
 # -- loading a run directory ----------------------------------------------------------------
@@ -196,8 +195,9 @@ ADMISSIBLE = "admissible"
 
 
 def _store_frame(path: Path) -> tuple[pd.DataFrame, dict[str, Any]]:
-
-    with EvaluationStore(path) as store:
+    """The store's evaluations and metadata, read from a snapshot (the run directory is
+    not touched; its digest chain verified)."""
+    with EvaluationStore(path, read_only=True) as store:
         df = store.to_dataframe()
         meta = {k: store.get_meta(k) for k in ("n_var", "n_obj", "study_path", "study",
                                                "seed", ENVIRONMENTS, PROTOTYPE_WARNINGS)}
@@ -317,6 +317,8 @@ def _read_evaluations(store: Path, csv: Path, notes: list[str]
     if store.is_file():
         try:
             df, meta = _store_frame(store)
+        except StoreTampered as exc:  # never fall back to a file beside an edited store
+            raise InputError("DIR", str(exc)) from None
         except Exception as exc:  # noqa: BLE001 - sqlite3.DatabaseError and friends
             if not csv.is_file():
                 raise InputError("DIR", f"{store} is not a readable evaluation store "

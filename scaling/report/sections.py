@@ -480,6 +480,27 @@ def _statistics_section(run: RunData) -> Section:
     failed = df[df["status"] != "ok"] if n else df
     items = [("evaluations", _fmt(n)), ("successful", _fmt(n - len(failed))),
              ("failed", _fmt(len(failed)))]
+    if n and "iteration" in df and len(failed):
+        it_f = failed["iteration"].to_numpy()
+        after = int((df["iteration"].to_numpy() >= 1).sum())
+        items.append(("failed in the initial design / after it",
+                      f"{int((it_f <= 0).sum())} / {int((it_f >= 1).sum())} of {after} "
+                      "(after it, the classifier of failures steers the proposals)"))
+    stopping = (run.point or {}).get("stopping")
+    if stopping:
+        ev = stopping.get("evidence") or {}
+        rule = stopping.get("rule") or {}
+        if stopping.get("reason") == "converged":
+            why = (f"converged before iteration {stopping.get('iteration')}: the design point "
+                   f"improved by {100 * (ev.get('improvement') or 0.0):.2g} % over the last "
+                   f"{rule.get('patience')} iterations, its leave-one-out z = "
+                   + ", ".join(f"{z:+.2g}" for z in ev.get("z") or [])
+                   + f", the largest predicted improvement {100 * (ev.get('predicted_gain') or 0.0):.2g} %")
+        else:
+            why = ("the iteration cap was reached before the stopping rule held (last check: "
+                   + ", ".join(f"{k} {'yes' if ev.get(k) else 'no'}" for k in
+                               ("stalled", "surrogate_knows_it", "no_promise_left")) + ")")
+        items.append(("why the run stopped", html.escape(why)))
     if n:
         sec = df["seconds"].to_numpy(float)
         items.append(("median time per evaluation", f"{np.median(sec):.3g} s"))

@@ -27,11 +27,14 @@ from typing import IO, Any
 from hypate.scaling.engine.executors import check_scheduler_address
 from hypate.scaling.engine.store import EvaluationStore, StoreError
 from hypate.scaling.workflow.derived import study_data
+from hypate.scaling.workflow.integrity import check_run_directory
+from hypate.scaling.workflow.resources import check_resources, local_workers
 from hypate.scaling.workflow.rundir import LOCK_FILE, STORE
-from hypate.scaling.workflow.study import Study
+from hypate.scaling.workflow.study import MAX_SEED, Study
 from hypate.solvers.aero.factory import ROM_PREFIX, check_fluid_model
 from hypate.solvers.config import read_toml
 from hypate.solvers.errors import InputError
+from hypate.solvers.numerics.files import LinkRefused, ensure_directory
 from threadpoolctl import threadpool_info
 
 try:  # numpy's runtime record of the SIMD extensions it dispatches to (numpy.show_runtime)
@@ -44,8 +47,6 @@ __all__ = ["ENVIRONMENTS", "MAX_SEED", "campaign_identity", "changed_keys", "che
            "record_campaign", "refuse_changes", "run_lock", "runtime_environment",
            "stored_seed", "sweep_changes", "sweep_identity"]
 
-#: Largest accepted seed: the store keeps it as a signed 64-bit SQLite integer.
-MAX_SEED = 2**63 - 1
 #: Changed keys named in a refused resume before "... and N more".
 SHOWN_CHANGES = 6
 #: Store ``meta`` key: the numerical environments the campaign ran in (one entry per
@@ -156,7 +157,8 @@ def changed_keys(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
 
 
 def _read_record(store_path: Path) -> tuple[dict[str, Any] | None, int | None]:
-    """The stored campaign identity and seed, read without writing to the directory."""
+    """The stored campaign identity and seed, read without writing to the directory (and
+    the store's digest chain verified: an edited store is refused here, exit 2)."""
     try:
         with EvaluationStore(store_path, read_only=True) as store:
             record, seed = store.get_meta("campaign"), store.get_meta("seed")
@@ -164,6 +166,20 @@ def _read_record(store_path: Path) -> tuple[dict[str, Any] | None, int | None]:
         raise InputError("resume", str(exc)) from None
     return (record if isinstance(record, dict) else None,
             seed if isinstance(seed, int) else None)
+
+
+def holds_run(out: Path) -> bool:
+    """Whether ``out`` holds a run: a store with a campaign record or an evaluation. A store
+    without either (a run stopped between creating its store and recording its campaign)
+    holds nothing to continue: a new run, or a resume, starts afresh there."""
+    store = out / STORE
+    if not store.is_file():
+        return False
+    try:
+        with EvaluationStore(store, read_only=True) as st:
+            return st.get_meta("campaign") is not None or len(st) > 0
+    except StoreError:
+        return True  # something is there: never overwrite it
 
 
 def stored_seed(store_path: Path) -> int | None:
@@ -184,6 +200,8 @@ def check_resume(store_path: Path, identity: dict[str, Any]) -> None:
     """
     record, _ = _read_record(store_path)
     where = store_path.parent
+    if record is None and not holds_run(where):
+        return  # an empty store without a campaign: the run starts afresh
     if record is None:
         raise InputError("resume", f"{where} holds no hypate campaign record (not a run "
                          "directory of this version); start a new run with another --out")
@@ -231,7 +249,8 @@ def check_seed(seed: int | None) -> None:
 def check_run_settings(out: Path, *, seed: int | None, workers: int,
                        scheduler: str | None) -> None:
     """The command-line settings of a run (single or sweep): seed range, worker count,
-    executor address form, and an ``out`` that is (or can become) a directory."""
+    executor address form, and an ``out`` that is (or can become) a directory without a
+    symbolic link where the run writes (:func:`~.integrity.check_run_directory`)."""
     check_seed(seed)
     if workers < 1:
         raise InputError("workers", "must be >= 1")
@@ -240,6 +259,7 @@ def check_run_settings(out: Path, *, seed: int | None, workers: int,
             check_scheduler_address(scheduler)
         except ValueError as exc:
             raise InputError("scheduler", getattr(exc, "message", str(exc))) from None
+    check_run_directory(out)  # no planted link where the run writes (before out.exists())
     if out.exists() and not out.is_dir():
         raise InputError("out", f"{out} exists and is not a directory")
     parent = next((p for p in (out, *out.parents) if p.exists()), Path("."))
@@ -250,7 +270,7 @@ def check_run_settings(out: Path, *, seed: int | None, workers: int,
 def check_out(out: Path, resume: bool) -> None:
     """The run directory can hold this run: not another run, or the run to resume."""
     store = out / STORE
-    if store.exists() and not resume:
+    if store.exists() and not resume and holds_run(out):
         raise InputError("out", f"{out} already holds a run; use --resume to continue it "
                          "or choose another directory")
     if resume and not store.is_file():
@@ -258,7 +278,7 @@ def check_out(out: Path, resume: bool) -> None:
 
 
 def preflight(study: Study, out: Path, *, resume: bool, seed: int | None, workers: int,
-              scheduler: str | None) -> tuple[dict[str, Any], int]:
+              scheduler: str | None, force: bool = False) -> tuple[dict[str, Any], int]:
     """Every check of a run that needs no simulation, before anything is written.
 
     Returns the campaign identity and the run's seed (``seed``, else the stored one on
@@ -268,11 +288,16 @@ def preflight(study: Study, out: Path, *, resume: bool, seed: int | None, worker
     ------
     InputError
         Naming the setting: ``out``, ``resume``, ``seed``, ``workers``, ``scheduler``,
-        ``simulation.aero`` (a ``rom:`` file that is missing or does not load).
+        ``simulation.aero`` (a ``rom:`` file that is missing or does not load),
+        ``simulation.mesh`` (the simulations would need more memory than this machine has
+        available, :func:`~.resources.check_resources`; not with ``force``).
     """
     check_run_settings(out, seed=seed, workers=workers, scheduler=scheduler)
     check_out(out, resume)
     check_fluid_model(study.spec.prototype.simulation.aero)  # a rom: file exists and loads
+    here = local_workers(workers, scheduler)
+    if here is not None:  # a remote cluster's memory is not this machine's to judge
+        check_resources(study, here, force=force)
     if seed is None and resume:
         seed = stored_seed(out / STORE)
     run_seed = study.optimizer.seed if seed is None else int(seed)
@@ -300,8 +325,16 @@ def run_lock(out: Path) -> Iterator[None]:
     InputError
         ``out``: another process holds the directory (its pid named).
     """
-    out.mkdir(parents=True, exist_ok=True)
-    with open(out / LOCK_FILE, "a+", encoding="ascii") as handle:
+    ensure_directory(out)
+    try:  # never through a planted link (a received directory may hold one)
+        fd = os.open(out / LOCK_FILE, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_CLOEXEC,
+                     0o644)
+    except OSError as exc:
+        if exc.errno != errno.ELOOP:
+            raise
+        raise InputError("out", str(LinkRefused(out / LOCK_FILE, os.readlink(out / LOCK_FILE)))
+                         ) from None
+    with open(fd, "r+", encoding="ascii") as handle:
         try:
             fcntl.lockf(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as exc:

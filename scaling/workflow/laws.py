@@ -57,6 +57,7 @@ import cvxpy as cp
 import numpy as np
 from hypate.scaling.engine.problem import project_cheap
 from hypate.scaling.workflow.derived import study_at, study_data
+from hypate.scaling.workflow.integrity import verify_run
 from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem
 from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON, SWEEP_JSON
 from hypate.scaling.workflow.similarity import (
@@ -400,7 +401,8 @@ def load_sweep(run_dir: str | Path) -> SweepRun:
     Raises
     ------
     InputError
-        No ``sweep.json`` in ``run_dir``.
+        No ``sweep.json`` in ``run_dir``, or a finished point whose store or outputs were
+        changed after the run wrote them (:func:`~.integrity.verify_run`).
     """
 
     run_dir = Path(run_dir)
@@ -410,6 +412,9 @@ def load_sweep(run_dir: str | Path) -> SweepRun:
                          "with a [sweep] table first")
     data = json.loads(path.read_text())
     records = list(data.get("points", []))
+    for rec in records:  # each finished point's store and outputs, before they are read
+        if rec.get("status") == "done" and isinstance(rec.get("directory"), str):
+            verify_run(run_dir / rec["directory"])
     points = [p for rec in records if rec.get("status") == "done"
               and (p := point_from_record(rec)) is not None]
     return SweepRun(directory=run_dir, study_data=data["study_data"], points=points,
@@ -439,6 +444,7 @@ def load_runs(run_dirs: Sequence[str | Path]) -> SweepRun:
     records: list[dict[str, Any]] = []
     reference: dict[str, Any] | None = None
     for d in dirs:
+        verify_run(d)  # its store matches its digests, its outputs the store
         path = d / DESIGN_POINT_JSON
         if not path.is_file():
             raise InputError("RUN_DIR", f"{d} holds neither a sweep ({SWEEP_JSON}) nor a "

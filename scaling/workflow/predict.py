@@ -99,6 +99,7 @@ prototype is the sweep's.
 """
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import math
@@ -112,6 +113,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from hypate.scaling.engine.store import EvaluationStore, StoreError
+from hypate.scaling.workflow.integrity import verify_run
 from hypate.scaling.workflow.laws import load_sweep, predict as law_design
 from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem, relative_rms
 from hypate.scaling.workflow.rundir import (
@@ -128,6 +130,12 @@ from hypate.scaling.workflow.rundir import (
 from hypate.scaling.workflow.study import load_study
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
+from hypate.solvers.numerics.files import (
+    atomic_file,
+    ensure_directory,
+    refuse_link,
+    same_content,
+)
 
 __all__ = ["ACCEPTED", "COLUMNS", "COVERAGE", "HISTORIES", "UNITS", "BandParts", "Basis",
            "Measured", "PredictedHistory", "Prediction", "Scaling", "band_parts",
@@ -458,9 +466,11 @@ def design_point_basis(run_dir: str | Path) -> Basis:
     InputError
         Field ``RUN_DIR``: no finished design point (``design_point.json`` with a design
         and ``model_time_step``, ``design_point.npz``, ``prototype.npz``), a sweep directory,
-        or responses whose clocks do not match the recorded time steps.
+        responses whose clocks do not match the recorded time steps, or a store or output
+        changed after the run wrote it (:func:`~.integrity.verify_run`).
     """
     run_dir = Path(run_dir)
+    verify_run(run_dir)  # its store matches its digests, its outputs the store
     path = run_dir / DESIGN_POINT_JSON
     if not path.is_file():
         hint = (" (a sweep: give one point's directory, or --xi X)"
@@ -782,7 +792,8 @@ def prediction_summary(pred: Prediction, files: Mapping[str, str | Path] | None 
 def write_prediction(pred: Prediction, out: str | Path,
                      files: Mapping[str, bytes] | None = None) -> dict[str, Any]:
     """Write ``prediction.csv``, ``prediction.json`` and ``files`` (name -> bytes, e.g. the
-    figure and the page) into ``out``: every file goes to ``NAME.tmp`` first and all are
+    figure and the page) into ``out``: every file goes to a temporary beside it first (never
+    through a link, :func:`~hypate.solvers.numerics.files.atomic_file`) and all are
     renamed once all are written, so an error leaves no half-written file. Returns the
     summary."""
     out = Path(out)
@@ -794,19 +805,13 @@ def write_prediction(pred: Prediction, out: str | Path,
                PREDICTION_JSON: json.dumps(summary, indent=2, default=json_default,
                                            allow_nan=False).encode(), **(files or {})}
     for name in payload:
+        refuse_link(out / name)
         if (out / name).is_dir():
             raise InputError("out", f"{out / name} is a directory")
-    out.mkdir(parents=True, exist_ok=True)
-    written: list[tuple[Path, Path]] = []
-    try:
+    ensure_directory(out)
+    # every changed file to its temporary first; the renames follow once all are written
+    with contextlib.ExitStack() as stack:
         for name, data in payload.items():
-            tmp = out / (name + ".tmp")
-            tmp.write_bytes(data)
-            written.append((tmp, out / name))
-    except OSError:
-        for tmp, _ in written:
-            tmp.unlink(missing_ok=True)
-        raise
-    for tmp, final in written:
-        tmp.replace(final)
+            if not same_content(out / name, data):
+                stack.enter_context(atomic_file(out / name)).write(data)
     return summary

@@ -39,6 +39,7 @@ from hypate.scaling.engine.robust import RobustBayesianOptimizer
 from hypate.scaling.engine.settings import OptimizerSettings
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
 from hypate.scaling.workflow.campaign import preflight, record_campaign, run_lock
+from hypate.scaling.workflow.integrity import record_outputs
 from hypate.scaling.workflow.problem import ScalingProblem, evaluate_rows, response_errors
 from hypate.scaling.workflow.run import (
     RunOutcome,
@@ -59,6 +60,7 @@ from hypate.scaling.workflow.rundir import (
     design_point_index,
     finite,
     finite_or_none,
+    write_csv,
     write_json,
 )
 from hypate.scaling.workflow.study import Study
@@ -89,6 +91,11 @@ class JointProblem(Problem):
         super().__init__(n_var=problem.n_var + len(unc.inputs), n_obj=problem.n_obj,
                          n_ieq_constr=0, xl=np.r_[problem.xl, support[:, 0]],
                          xu=np.r_[problem.xu, support[:, 1]])
+
+    def composition(self) -> Any:
+        """J as a composition of the histories (the scaled model's are compared with the
+        nominal prototype's): the study's own (:meth:`ScalingProblem.composition`)."""
+        return self.scaling.composition()
 
     def _evaluate(self, X: np.ndarray, out: dict[str, Any], *args: Any, **kwargs: Any) -> None:
         p, n = self.scaling, self.scaling.n_var
@@ -130,9 +137,10 @@ def _prior(nominal: RunOutcome, n_inputs: int) -> list[Evaluation]:
     """The nominal campaign's evaluations as (design, inputs = 1) evaluations."""
     data = nominal.result
     ones = np.ones(n_inputs)
+    aux = data.data["aux"] if "aux" in data.data.columns else [{}] * len(data.data)
     return [Evaluation(x=np.r_[x, ones], F=np.asarray(F, float), G=np.zeros(0),
-                       status="ok" if ok else "error")
-            for x, F, ok in zip(data.X, data.F, data.ok)]
+                       status="ok" if ok else "error", aux=a if isinstance(a, dict) else {})
+            for x, F, ok, a in zip(data.X, data.F, data.ok, aux)]
 
 
 def run_robust_study(study: Study, out: str | Path, *, resume: bool = False, workers: int = 1,
@@ -140,7 +148,7 @@ def run_robust_study(study: Study, out: str | Path, *, resume: bool = False, wor
                      progress: Callable[[int, int, Any], None] | None = None,
                      on_scatter: Callable[[str, int, int], None] | None = None,
                      on_written: Callable[[Path], object] | None = None,
-                     lost_after: float = LOST_AFTER) -> RunOutcome:
+                     lost_after: float = LOST_AFTER, force: bool = False) -> RunOutcome:
     """Run (or resume) a robust study into ``out`` (module docstring).
 
     ``progress(done, budget, evaluation)`` counts both campaigns' evaluations;
@@ -152,7 +160,7 @@ def run_robust_study(study: Study, out: str | Path, *, resume: bool = False, wor
     if unc is None or not unc.optimize:
         raise InputError("robust", "a robust run needs [uncertainty] and [robust]")
     identity, run_seed = preflight(study, out, resume=resume, seed=seed, workers=workers,
-                                   scheduler=scheduler)
+                                   scheduler=scheduler, force=force)
     own = robust_budget(study) - study.budget  # the robust search's evaluations
     total, count = [study.budget + own], [0]
 
@@ -177,6 +185,7 @@ def run_robust_study(study: Study, out: str | Path, *, resume: bool = False, wor
         record_campaign(store, identity, study)
         nominal = run_study(nominal_study(study), nominal_dir, workers=workers,
                             scheduler=scheduler, seed=run_seed, lost_after=lost_after,
+                            force=force,
                             resume=resume and (nominal_dir / STORE).is_file(),
                             progress=nominal_progress,
                             on_scatter=scatter("nominal"))
@@ -186,13 +195,16 @@ def run_robust_study(study: Study, out: str | Path, *, resume: bool = False, wor
             executor, close = make_executor(workers, scheduler, lost_after=lost_after)
         except ExecutorError as exc:
             raise InputError(exc.field, exc.message) from None
+        ended = False  # an interrupt or error: the evaluations in flight are abandoned
         try:
             result, point = _robust_campaign(study, nominal, store, executor, run_seed,
                                              callback, scatter("robust"), out)
+            ended = True
         finally:
-            close()
+            close(abandon=not ended)
         if on_written is not None:
             on_written(out)
+        record_outputs(store, out)  # complete: every output written
     return RunOutcome(directory=out, result=result, design_point=point, problem=problem)
 
 
@@ -210,7 +222,7 @@ def _robust_campaign(study: Study, nominal: RunOutcome, store: EvaluationStore,
         v=opt.v, v_final=opt.v_final, weights=opt.weights,
         cheap_constraints=problem.cheap_constraints(),
         executor=executor, timeout=opt.timeout, store=store, seed=run_seed,
-        callback=callback, output_transform=opt.transform,
+        callback=callback, output_transform=opt.transform, surrogate=opt.surrogate,
         coordinates=joint_coordinates(study, problem, n_inputs))
     optimizer = RobustBayesianOptimizer(
         joint, settings, n_design=problem.n_var,
@@ -250,9 +262,7 @@ def _evaluations_frame(study: Study, optimizer: RobustBayesianOptimizer,
 
 
 def _write_csv(df: pd.DataFrame, path: Path) -> None:
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    df.to_csv(tmp, index=False)
-    tmp.replace(path)
+    write_csv(path, df)
 
 
 def write_robust_outputs(study: Study, problem: ScalingProblem,

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import time
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -65,6 +64,7 @@ from hypate.scaling.workflow.fidelity import (
     fidelity_problem,
     top_level,
 )
+from hypate.scaling.workflow.integrity import record_outputs
 from hypate.scaling.workflow.problem import MATERIAL, ScalingProblem
 from hypate.scaling.workflow.rundir import (
     CLASSICAL_JSON,
@@ -80,11 +80,13 @@ from hypate.scaling.workflow.rundir import (
     finite,
     finite_or_none,
     rank_designs,
+    write_csv,
     write_json,
 )
+from hypate.scaling.workflow.sessions import begin_session, end_session, sessions_wall_seconds
 from hypate.scaling.workflow.study import Study
 from hypate.scaling.workflow.uncertainty import propagate_or_failure
-from hypate.scaling.workflow.variables import schedule_point
+from hypate.scaling.workflow.variables import schedule_point, variable_unit
 from hypate.scaling.workflow.verdict import (
     choose_admissible_point,
     evaluation_admissibility,
@@ -95,6 +97,8 @@ from hypate.solvers.errors import InputError
 
 #: evaluations.csv column naming a categorical material's level (after its number).
 MATERIAL_NAME = "material_name"
+#: Text columns of evaluations.csv (an empty cell reads back as "").
+TEXT_COLUMNS = ("status", "message", "warnings")
 #: Store metadata key of the design point's propagated scatter (:func:`design_point_scatter`).
 SCATTER_META = "design_point_scatter"
 #: Parameters matched by the classical baseline (Eqs. 9.1, 6.3), per study kind.
@@ -116,6 +120,52 @@ class RunOutcome:
     design_point: dict[str, Any]
     problem: ScalingProblem
     prototype_warnings: tuple[str, ...] = ()
+
+    @property
+    def evaluations(self) -> pd.DataFrame:
+        """Every evaluation of the run, as ``evaluations.csv`` holds it.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per evaluation in the store order: ``id`` (the evaluation number the
+            report cites), the design variables by name (``M``, ``p0``, ``T0``, ``L_le``,
+            ``h``, ...), the objectives by name (``J_u``, ``J_T``), then ``status``,
+            ``message``, ``warnings``, ``seconds``, ``iteration`` and the admissibility
+            columns. ``attrs["units"]`` maps each variable and objective column to its SI
+            unit (``"-"``: dimensionless).
+        """
+        return run_table(self.directory / EVALUATIONS_CSV, self.problem.spec.names,
+                         self.problem.spec.objectives)
+
+    @property
+    def pareto(self) -> pd.DataFrame:
+        """The run's Pareto set, as ``pareto.csv`` holds it.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The feasible non-dominated evaluations sorted by the first objective (for one
+            objective: the ten best), with the columns of :attr:`evaluations`; each row is
+            its evaluation's row there (the same ``id``, design and objectives).
+        """
+        return run_table(self.directory / PARETO_CSV, self.problem.spec.names,
+                         self.problem.spec.objectives)
+
+
+def run_table(path: Path, variables: Sequence[str], objectives: Sequence[str]
+              ) -> pd.DataFrame:
+    """``evaluations.csv`` or ``pareto.csv`` of a run directory as a DataFrame: empty text
+    cells (``message``, ``warnings``) as ``""``; ``attrs["units"]`` the unit of each of the
+    ``variables`` (:func:`~hypate.scaling.workflow.variables.variable_unit`) and
+    ``objectives`` (``"-"``: the similarity errors are nondimensional)."""
+    df = pd.read_csv(path)
+    for col in TEXT_COLUMNS:
+        if col in df.columns:
+            df[col] = ["" if pd.isna(v) else str(v) for v in df[col]]
+    df.attrs["units"] = {**{n: variable_unit(n) for n in variables},
+                         **{o: "-" for o in objectives}}
+    return df
 
 
 def classical_design(study: Study, template: Configuration, names: Sequence[str],
@@ -330,8 +380,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
               on_written: Callable[[Path], object] | None = None,
               lost_after: float = LOST_AFTER,
               on_warnings: Callable[[str, tuple[str, ...]], None] | None = None,
-              on_scatter: Callable[[int, int], None] | None = None
-              ) -> RunOutcome:
+              on_scatter: Callable[[int, int], None] | None = None,
+              force: bool = False) -> RunOutcome:
     """Run (or resume) a study into ``out``.
 
     ``on_written(out)`` is called once the outputs are written: the CLI and ``hypate.run_study``
@@ -378,13 +428,16 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
     on_scatter : callable, optional
         ``on_scatter(done, total)`` while a study with ``[uncertainty]`` propagates its
         scatter at the design point (:func:`design_point_scatter`).
+    force : bool
+        Run even when the simulations' estimated memory exceeds what this machine has
+        available (:func:`~hypate.scaling.workflow.resources.check_resources`).
     """
     out = Path(out)
     store_path = out / STORE
     opt = study.optimizer
     # every check that needs no simulation, before anything is written
     identity, run_seed = preflight(study, out, resume=resume, seed=seed, workers=workers,
-                                   scheduler=scheduler)
+                                   scheduler=scheduler, force=force)
     problem = ScalingProblem(study.spec, prototype_response=prototype_response)
     levels = fidelity_problem(study, problem)  # None: a single-fidelity study
     coordinates = surrogate_coordinates(study, problem)
@@ -395,6 +448,7 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
         executor, close = make_executor(workers, scheduler, lost_after=lost_after)
     except ExecutorError as exc:
         raise InputError(exc.field, exc.message) from None
+    ended = False  # an interrupt or error: the workers' evaluations in flight are abandoned
     try:
         with recorded_warnings() as caught:  # attributed to the prototype, not printed
             proto = problem.prototype_response  # simulated once, before any worker starts
@@ -405,6 +459,7 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
             on_warnings("prototype", prototype_warnings)
         with run_lock(out), EvaluationStore(store_path) as store:
             record_campaign(store, identity, study)
+            session = begin_session(store)
             if prototype_response is None:  # this run simulated it
                 store.set_meta(PROTOTYPE_WARNINGS, list(prototype_warnings), replace=True)
             proto.save(out / PROTOTYPE_NPZ)
@@ -432,18 +487,23 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
                 cheap_constraints=problem.cheap_constraints(), executor=executor,
                 timeout=opt.timeout, store=store, seed=run_seed, callback=callback,
                 output_transform=opt.transform, coordinates=coordinates, polish=opt.polish,
-                categorical=problem.categorical, surrogate=opt.surrogate)
-            t0 = time.perf_counter()
+                categorical=problem.categorical, surrogate=opt.surrogate,
+                exploit_last=opt.exploit_last,
+                **{k: getattr(opt, k) for k in ("p_feasible", "p_success", "p_exploit")
+                   if getattr(opt, k) is not None})
             optimizer = (BayesianOptimizer(problem, settings) if levels is None
                          else fidelity_optimizer(study, levels, settings))
             result = optimizer.run()
-            wall = time.perf_counter() - t0
-            point = write_outputs(study, problem, result, out, wall_seconds=wall,
+            end_session(store, session)
+            point = write_outputs(study, problem, result, out,
+                                  wall_seconds=sessions_wall_seconds(store),
                                   optimizer=optimizer, store=store, on_scatter=on_scatter)
             if on_written is not None:
                 on_written(out)
+            record_outputs(store, out)  # complete: every output written
+        ended = True
     finally:
-        close()
+        close(abandon=not ended)
     return RunOutcome(directory=out, result=result, design_point=point, problem=problem,
                       prototype_warnings=prototype_warnings)
 
@@ -614,16 +674,14 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     adm, vio = evaluation_admissibility(problem, result)
     table = evaluations_table(study, full, admissible=(rows, adm),
                               constraint_names=problem.constraint_names)
-    tmp = out / "evaluations.csv.tmp"
-    table.to_csv(tmp, index=False)
-    tmp.replace(out / EVALUATIONS_CSV)
+    write_csv(out / EVALUATIONS_CSV, table)
     mask = result.pareto_mask() if len(rows) else np.zeros(0, bool)
     top_table = table.iloc[rows]
-    pareto = top_table[mask] if study.spec.objectives and len(study.spec.objectives) > 1 else \
+    # one order for every Pareto table: by the first objective (result.pareto_indices)
+    front = result.pareto_indices() if len(rows) else np.zeros(0, int)
+    pareto = top_table.iloc[front] if len(study.spec.objectives) > 1 else \
         top_table[result.feasible].nsmallest(10, study.spec.objectives[0])
-    tmp = out / "pareto.csv.tmp"
-    pareto.to_csv(tmp, index=False)
-    tmp.replace(out / PARETO_CSV)
+    write_csv(out / PARETO_CSV, pareto)
     opt = study.optimizer
     row, is_admissible = choose_admissible_point(result, adm, vio, opt.design_point,
                                                  opt.weights)
@@ -656,7 +714,13 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     ok = int(full.ok.sum()) if n else 0
     if full.stopping is not None:
         point["stopping"] = finite(full.stopping)
+    it = table["iteration"].to_numpy() if n else np.zeros(0, int)
+    failed = (table["status"] != "ok").to_numpy() if n else np.zeros(0, bool)
     point["statistics"] = {"evaluations": n, "successful": ok, "failed": n - ok,
+                           # the classifier of failures acts after the initial design
+                           "failed_initial": int(np.sum(failed & (it <= 0))),
+                           "failed_iterations": int(np.sum(failed & (it >= 1))),
+                           "iteration_evaluations": int(np.sum(it >= 1)),
                            "admissible": int(adm.sum()),
                            "wall_seconds": finite_or_none(wall_seconds),
                            "median_seconds_per_evaluation":

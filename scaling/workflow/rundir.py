@@ -33,8 +33,10 @@ file                        content                                     written 
                             ``prediction.png``, ``prediction.html``
 ==========================  ==========================================  ======================
 
-Writers replace files atomically (write ``NAME.tmp``, then rename), so a killed run never
-leaves a half-written file behind.
+Writers replace files atomically and never through a link
+(:func:`hypate.solvers.numerics.files.atomic_file`: a fresh ``.NAME.*.tmp`` beside the file,
+then a rename), so a killed run never leaves a half-written file behind and a link planted in
+a received directory redirects nothing.
 
 The design point
 ----------------
@@ -52,6 +54,7 @@ from typing import Any
 
 import numpy as np
 from hypate.scaling.engine.pareto import non_dominated_mask
+from hypate.solvers.numerics.files import write_text
 
 STORE = "evaluations.sqlite"
 EVALUATIONS_CSV = "evaluations.csv"
@@ -113,9 +116,13 @@ def finite(obj: Any) -> Any:
 
 def write_json(path: Path, data: dict[str, Any]) -> None:
     """Write ``data`` to ``path`` atomically (no NaN: non-finite values must be None)."""
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=2, default=json_default, allow_nan=False))
-    tmp.replace(path)
+    write_text(path, json.dumps(data, indent=2, default=json_default, allow_nan=False))
+
+
+def write_csv(path: Path, table: Any) -> None:
+    """Write a pandas DataFrame to ``path`` atomically, without its index (an unchanged
+    file is left alone, :func:`~hypate.solvers.numerics.files.write_bytes`)."""
+    write_text(path, table.to_csv(index=False, lineterminator="\n"))
 
 
 def finite_or_none(x: float) -> float | None:

@@ -21,6 +21,7 @@ from hypate.scaling.workflow.rundir import (
     DESIGN_POINT_JSON,
     SEEDS_CSV,
     SEEDS_JSON,
+    write_csv,
     write_json,
 )
 from hypate.scaling.workflow.study import Study
@@ -114,9 +115,7 @@ def write_seeds_summary(study: Study, out: Path, seeds: Sequence[int]) -> dict[s
             row.update({f"{prefix}{k}": v for k, v in (r.get(group) or {}).items()})
         row.update({"evaluations": r.get("evaluations"), "wall_seconds": r.get("wall_seconds")})
         rows.append(row)
-    tmp = out / (SEEDS_CSV + ".tmp")
-    pd.DataFrame(rows).to_csv(tmp, index=False)
-    tmp.replace(out / SEEDS_CSV)
+    write_csv(out / SEEDS_CSV, pd.DataFrame(rows))
     return data
 
 

@@ -113,13 +113,16 @@ from hypate.solvers.config import (
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.panel import Layer, PanelSpec
-from hypate.solvers.settings import DEFAULTS, SimulationSettings
+from hypate.solvers.settings import DEFAULTS, MAX_STEPS, SimulationSettings
 from pydantic import Field, ValidationError, model_validator
 
 PosFloat = Annotated[float, Field(gt=0.0)]
+#: Largest seed: the store keeps it as a signed 64-bit SQLite integer (``[0, 2**63)``).
+MAX_SEED = 2**63 - 1
 
 
 class StudySection(InputModel):
+    #: A plain file name: the default run directory is ``runs/NAME``.
     name: str = "study"
     description: str = ""
     #: measured wall time of a whole run (free text, e.g. "4.5 min on 2 cores"), for
@@ -131,6 +134,16 @@ class StudySection(InputModel):
     xi: Annotated[float, Field(ge=1.0, le=100.0)] = 1.0
     time_scaling: Literal["fourier", "fourier_thickness", "structural"] = "fourier"
     projection: Literal["center", "modal", "fields"] = "center"
+
+    @model_validator(mode="after")
+    def _plain_name(self) -> StudySection:
+        # runs/NAME must stay in runs/: no separators, no . or .., nothing hidden or empty
+        name = self.name
+        if (not name or name in (".", "..") or name.startswith(".") or "\0" in name
+                or any(sep in name for sep in ("/", "\\"))):
+            raise ValueError(f"name: {name!r} must be a plain file name (the run directory "
+                             "runs/NAME): no /, \\, leading . or ..")
+        return self
 
 
 class PrototypeSection(InputModel):
@@ -214,7 +227,7 @@ class SimulationSection(InputModel):
     with its defaults, plus ``steps`` (of the prototype time step) and a ``mesh`` override."""
 
     time_step: PosFloat = DEFAULTS.time_step
-    steps: Annotated[int, Field(ge=1, le=100000)] = DEFAULTS.n_steps
+    steps: Annotated[int, Field(ge=1, le=MAX_STEPS)] = DEFAULTS.n_steps
     aero: str = DEFAULTS.aero
     heating: Literal["eckert", "none"] = DEFAULTS.heating
     boundary_layer: Literal["turbulent", "laminar"] = DEFAULTS.boundary_layer
@@ -224,6 +237,13 @@ class SimulationSection(InputModel):
     rho_bar: Annotated[float, Field(ge=0.0, le=1.0)] = DEFAULTS.rho_bar
     mesh: Annotated[list[Annotated[int, Field(ge=1, le=100)]], Field(min_length=2,
                                                                       max_length=2)] | None = None
+
+    @model_validator(mode="after")
+    def _finite_duration(self) -> SimulationSection:
+        if not math.isfinite(self.time_step * self.steps):  # 1e308 s passes gt=0
+            raise ValueError(f"time_step: {self.steps} steps of {self.time_step:g} s last "
+                             "longer than a float holds; a time step must be finite, in s")
+        return self
 
 
 class ModelSection(InputModel):
@@ -263,7 +283,8 @@ class OptimizerSection(InputModel):
     max_iterations: Annotated[int, Field(ge=1, le=100000)] = 40
     min_iterations: Annotated[int, Field(ge=1, le=100000)] = 8
     batch_size: Annotated[int, Field(ge=1, le=64)] = 1
-    seed: Annotated[int, Field(ge=0)] = 0
+    #: At most 2**63 - 1: the store keeps it as a signed 64-bit SQLite integer.
+    seed: Annotated[int, Field(ge=0, le=MAX_SEED)] = 0
     classical_seed: bool = True
     transform: Literal["none", "log"] = "none"
     coordinates: Literal["design", "log", "similarity"] = "design"
@@ -275,6 +296,15 @@ class OptimizerSection(InputModel):
     #: What the objective surrogates model: the objectives, or the nondimensional
     #: histories J is composed from (scaling.engine.histories).
     surrogate: Literal["objectives", "histories"] = "objectives"
+    #: Probability a proposal must have of holding every enforced admissibility check
+    #: (simulated ones: their surrogates) and of its simulation succeeding (the failure
+    #: classifier); engine defaults when unset.
+    p_feasible: Annotated[float, Field(gt=0.0, lt=1.0)] | None = None
+    p_success: Annotated[float, Field(gt=0.0, lt=1.0)] | None = None
+    #: The last iterations proposing the surrogates' best design point, every enforced
+    #: check and the simulation's success at probability ``p_exploit`` (engine default 0.95)
+    exploit_last: Annotated[int, Field(ge=0, le=1000)] = 0
+    p_exploit: Annotated[float, Field(gt=0.0, lt=1.0)] | None = None
 
 
 class StudyFile(InputModel):
@@ -314,6 +344,10 @@ class StudyFile(InputModel):
         if opt.iterations == "auto" and opt.min_iterations >= opt.max_iterations:
             raise ValueError(f"optimizer.min_iterations: must be below max_iterations "
                              f"({opt.max_iterations}); got {opt.min_iterations}")
+        if opt.surrogate == "histories" and self.fidelity:
+            raise ValueError("optimizer.surrogate: \"histories\" is not available for a "
+                             "multi-fidelity study (its levels' histories differ in length; "
+                             "the co-kriging models the objectives): use \"objectives\"")
         if opt.iterations == "auto" and (self.robust is not None or self.fidelity):
             raise ValueError("optimizer.iterations: \"auto\" stops a single-fidelity search "
                              "(not a [robust] or [[fidelity]] one); give a number")

@@ -32,6 +32,7 @@ from hypate.scaling.workflow.laws import (
     predicted_design,
 )
 from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.resources import check_resources, local_workers
 from hypate.scaling.workflow.run import run_study
 from hypate.scaling.workflow.rundir import (
     DESIGN_POINT_JSON,
@@ -39,6 +40,7 @@ from hypate.scaling.workflow.rundir import (
     SWEEP_CSV,
     SWEEP_JSON,
     rank_designs,
+    write_csv,
     write_json,
 )
 from hypate.scaling.workflow.study import Study
@@ -63,7 +65,7 @@ def _best_designs(store_path: Path, k: int) -> np.ndarray:
     max over objectives, the design-point criterion)."""
     if k <= 0 or not store_path.exists():
         return np.zeros((0, 0))
-    with EvaluationStore(store_path) as store:
+    with EvaluationStore(store_path, read_only=True) as store:  # a reader
         recs = [r for r in store.load() if r.ok and np.all(np.asarray(r.G) <= 0.0)
                 and np.all(np.isfinite(r.F))]
     if not recs:
@@ -163,9 +165,7 @@ def write_sweep_summary(study: Study, out: Path, records: Sequence[dict[str, Any
         row["evaluations"] = r.get("evaluations")
         row["active_constraints"] = ";".join(r.get("active_constraints") or [])
         rows.append(row)
-    tmp = out / (SWEEP_CSV + ".tmp")
-    pd.DataFrame(rows).to_csv(tmp, index=False)
-    tmp.replace(out / SWEEP_CSV)
+    write_csv(out / SWEEP_CSV, pd.DataFrame(rows))
 
 
 def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: int = 1,
@@ -173,7 +173,7 @@ def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: i
               progress: Callable[[int, int, Any], None] | None = None,
               on_point: Callable[[int, int, Any], None] | None = None,
               on_written: Callable[[Path], object] | None = None,
-              lost_after: float = LOST_AFTER) -> SweepOutcome:
+              lost_after: float = LOST_AFTER, force: bool = False) -> SweepOutcome:
     """Run (or resume) a sweep study: one optimization per sweep point (``on_written`` as in
     :func:`run_study`, called for each point and again for all once the sweep is done).
 
@@ -189,7 +189,7 @@ def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: i
     study : Study
         A study with a ``[sweep]`` table.
     out : path
-    resume, workers, scheduler, seed, progress, lost_after
+    resume, workers, scheduler, seed, progress, lost_after, force
         As :func:`run_study` (``progress`` restarts with each point).
     on_point : callable, optional
         ``on_point(index, n_points, point)`` before each point starts or is skipped.
@@ -200,6 +200,10 @@ def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: i
         raise InputError("sweep", "the study has no [sweep] table")
     out = Path(out)
     check_run_settings(out, seed=seed, workers=workers, scheduler=scheduler)
+    here = local_workers(workers, scheduler)
+    if here is not None:  # before the first point writes anything (each point's own size)
+        for i, p in enumerate(points):
+            check_resources(study_at(study, p, first=(i == 0)), here, force=force)
     if (out / SWEEP_JSON).exists() and not resume:
         raise InputError("out", f"{out} already holds a sweep; use --resume to continue it "
                          "or choose another directory")
@@ -239,7 +243,7 @@ def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: i
                             workers=workers, scheduler=scheduler, seed=seed,
                             progress=progress, seeds=seeds,
                             prototype_response=problem.prototype_response,
-                            on_written=on_written, lost_after=lost_after)
+                            on_written=on_written, lost_after=lost_after, force=force)
         prototypes[key] = outcome.problem.prototype_response
         records[i] = _point_record(point, sub, sub_dir, "done", outcome.design_point)
         write_sweep_summary(study, out, records)

@@ -126,7 +126,7 @@ def binding_limits(rows: Sequence[Mapping[str, Any]]) -> list[str]:
         if not (r["binding"] or r["ok"] is False):
             continue
         state = "binding" if r["ok"] else "VIOLATED"
-        value, limit = _number(r["value"], r["unit"]), _number(r["limit"], r["unit"])
+        value, limit = _cell(r["value"], r["unit"]), _cell(r["limit"], r["unit"])
         sign = "<=" if r["ok"] else ">"
         low = r["check"] == "data" and "below" in r.get("where", "")
         if low:
@@ -136,14 +136,6 @@ def binding_limits(rows: Sequence[Mapping[str, Any]]) -> list[str]:
         out.append(f"{r['check']} {value} {sign} {limit} {unit} ({state}{extra}"
                    + (f"; {r['where']}" if r.get("where") else "") + ")")
     return out
-
-
-def _number(value: float | None, unit: str) -> str:
-    if value is None or not math.isfinite(value):
-        return "-"
-    if unit == "Pa":
-        return f"{value / 1e6:.4g}"
-    return f"{value:.4g}"
 
 
 def _layers_limits(panel: PanelSpec) -> list[dict[str, Any]]:
@@ -223,6 +215,7 @@ def admissibility_lines(record: Mapping[str, Any]) -> list[str]:
 
 
 def _cell(value: float | None, unit: str) -> str:
+    """A value for the terminal: MPa for Pa, 0.1 K for kelvin, 4 digits otherwise."""
     if value is None or not math.isfinite(value):
         return "-"
     if unit == "Pa":

@@ -62,6 +62,7 @@ from hypate.scaling.workflow.variables import DESIGN_VARIABLES, HARD_LIMITS
 from hypate.scaling.workflow.verdict import verdict_fields
 from hypate.solvers.config import resolve_material
 from hypate.solvers.errors import InputError
+from hypate.solvers.numerics.files import atomic_file, ensure_directory
 
 #: ``plot(rows, name, path, bounds=..., title=...) -> Path`` draws a sweep's figure.
 SweepPlot = Callable[..., Path]
@@ -354,7 +355,7 @@ def sweep_whatif(study: Any, values: Mapping[str, float], name: str, low: float,
         WhatIf(study, {**values, name: low}, option="sweep")  # validates the name
     grid = np.linspace(low, high, n)
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    ensure_directory(out_dir)
     rows = []
     for value in grid:
         if name in w.spec.names:
@@ -377,7 +378,7 @@ def sweep_whatif(study: Any, values: Mapping[str, float], name: str, low: float,
     safe = re.sub(r"[^\w.-]+", "_", name)
     csv_path = out_dir / f"whatif_{safe}.csv"
     design_names = list(rows[0]["design"])
-    with csv_path.open("w", newline="") as fh:
+    with atomic_file(csv_path, "w", newline="") as fh:
         writer = csv.writer(fh)
         writer.writerow(design_names + ["J_u", "J_T", "J_s", "status", "message", "outside",
                                         "admissible", "violated", "seconds"])

@@ -15,6 +15,7 @@ sums them up over the run (SI units).
 """
 from __future__ import annotations
 
+import io
 import json
 import math
 from dataclasses import dataclass, field
@@ -27,6 +28,7 @@ from hypate.solvers.coupling.stability import StabilityResult
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.npz import float_member, read_npz, require_finite
+from hypate.solvers.numerics.files import write_bytes
 from hypate.solvers.panel import PanelSpec
 from numpy.typing import NDArray
 
@@ -269,9 +271,9 @@ class Response:
         for name in ("u", "T", "pressure", "heat_flux", "artificial_energy") + _LIMIT_ARRAYS:
             if getattr(self, name):
                 arrays[name] = np.asarray(getattr(self, name), dtype=float)
-        tmp = path.with_name(path.name + ".tmp.npz")
-        np.savez_compressed(tmp, **arrays)
-        tmp.replace(path)
+        buf = io.BytesIO()
+        np.savez_compressed(buf, **arrays)
+        write_bytes(path, buf.getvalue())  # never through a planted link; unchanged: kept
         return path
 
     @classmethod

@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import minimize
 from hypate.scaling.workflow.derived import study_data, sweep_points
+from hypate.scaling.workflow.integrity import missing_outputs, verify_run
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.run import run_study
 from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON, EVALUATIONS_CSV, STORE, SWEEP_JSON
@@ -80,23 +81,40 @@ def run_directory(opt: Optimization, root: str | Path, seed: int = 0,
                   progress: Callable[[int, int, Any], None] | None = None) -> Path:
     """The finished run directory ``root/<name>`` of ``opt`` at optimizer ``seed``.
 
-    A finished study directory (``design_point.json``) is read as it is; an interrupted one
-    is resumed (nothing finished is evaluated again; another study or seed there is refused
-    by the run's campaign check); otherwise the study runs
-    (:func:`hypate.scaling.workflow.run.run_study`). A ``[sweep]`` study always goes
-    through :func:`~hypate.scaling.workflow.sweep.run_sweep` with ``resume`` when it has
-    begun: a finished sweep evaluates nothing then, it re-reads its points and rewrites its
-    summary files (``sweep.json``, ``sweep.csv``).
+    A complete study directory (every output its run wrote, matching its store:
+    :func:`~hypate.scaling.workflow.integrity.missing_outputs`) is only read, after its store
+    and outputs are verified (:func:`~hypate.scaling.workflow.integrity.verify_run`); an
+    interrupted one is resumed (nothing finished is evaluated again; another study or seed
+    there is refused by the run's campaign check); otherwise the study runs
+    (:func:`hypate.scaling.workflow.run.run_study`). A ``[sweep]`` study whose every point is
+    complete is only read likewise; one that has begun is resumed through
+    :func:`~hypate.scaling.workflow.sweep.run_sweep`.
     """
     out = Path(root) / opt.name
     study = opt.study()
     if study.sweep is not None:
+        if _complete_sweep(out, len(sweep_points(study))):
+            return out
         run_sweep(study, out, resume=(out / SWEEP_JSON).exists(), seed=seed, progress=progress)
         return out
-    if (out / DESIGN_POINT_JSON).exists():
+    if (out / STORE).exists() and not missing_outputs(out):
+        verify_run(out)
         return out
     run_study(study, out, resume=(out / STORE).exists(), seed=seed, progress=progress)
     return out
+
+
+def _complete_sweep(out: Path, n_points: int) -> bool:
+    """Whether the sweep in ``out`` has every point done and complete (each verified)."""
+    if not (out / SWEEP_JSON).is_file():
+        return False
+    records = json.loads((out / SWEEP_JSON).read_text(encoding="utf-8")).get("points", [])
+    dirs = [out / str(r.get("directory")) for r in records if r.get("status") == "done"]
+    if len(dirs) != n_points or any(missing_outputs(d) for d in dirs):
+        return False
+    for d in dirs:
+        verify_run(d)
+    return True
 
 
 def design_point(run_dir: Path) -> dict:

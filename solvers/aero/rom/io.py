@@ -20,6 +20,7 @@ from hypate.solvers.aero.rom.pod import PodKriging
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.npz import read_npz, require_finite
+from hypate.solvers.numerics.files import atomic_file
 
 __all__ = ["FORMAT_VERSION", "load_rom", "save_rom"]
 
@@ -91,7 +92,7 @@ def save_rom(rom: RomFluid, path: str | Path) -> None:
     arrays.update(rom.heat_model.state("heat_flux"))
     arrays["digest"] = np.array(_digest(arrays))
     path = Path(path)
-    with open(path, "wb") as fh:
+    with atomic_file(path) as fh:
         np.savez_compressed(fh, **arrays)
 
 

@@ -19,6 +19,7 @@ import scipy.sparse as sp
 import scipy.sparse.csgraph as csgraph
 from hypate.solvers.aero.base import Array
 from hypate.solvers.errors import InputError
+from hypate.solvers.numerics.files import atomic_file
 from hypate.solvers.numerics.random import as_rng, latin_hypercube
 from sklearn.cluster import KMeans
 from sklearn.neighbors import kneighbors_graph
@@ -175,7 +176,7 @@ def write_plan_csv(path: str | Path, samples: Array, order: SmartOrder,
     if len(names) != X.shape[1]:
         raise InputError("names", f"need {X.shape[1]} input names")
     rows = sorted(range(X.shape[0]), key=lambda i: (order.group[i], order.position[i]))
-    with open(path, "w", newline="", encoding="utf-8") as fh:
+    with atomic_file(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["group", "position", "sample", "restart_from", "distance", *names])
         for i in rows:

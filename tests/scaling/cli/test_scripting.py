@@ -10,6 +10,7 @@ import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.cli.run import Progress
+from hypate.scaling.workflow.study import load_study
 
 
 def _json(capsys: pytest.CaptureFixture) -> object:
@@ -41,7 +42,9 @@ def test_studies_lists_every_shipped_study(capsys: pytest.CaptureFixture) -> Non
     assert main(["studies", "--json"]) == 0
     rows = {r["name"]: r for r in _json(capsys)}
     assert {"quickstart", "sec9_2_2_xi4", "sec9_1_xi2_equal_nu"} <= set(rows)
-    assert rows["quickstart"]["evaluations"] == 40 and rows["quickstart"]["duration"]
+    assert rows["quickstart"]["evaluations"] == 48 and rows["quickstart"]["duration"]
+    # the stored count is the budget + the classical baseline evaluated first
+    assert rows["quickstart"]["classical_baseline"] is True
     assert rows["sec9_2_4_envelope"]["sweep_points"] == 25  # Table 9.11's 25 conditions
 
 
@@ -51,6 +54,7 @@ def test_init_writes_a_study_that_validates_anywhere(source: str, tmp_path: Path
     path = tmp_path / "mine.toml"
     assert main(["init", str(path), "--from", source]) == 0
     assert path.read_text().startswith("# Study file written by `hypate init")
+    assert load_study(path).name == "mine"  # named after its file: runs/mine, not runs/<source>
     capsys.readouterr()
     assert main(["validate", str(path), "--json"]) == 0
     doc = _json(capsys)

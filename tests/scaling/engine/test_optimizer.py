@@ -251,6 +251,18 @@ class _TwoParabolas(Problem):
         out["F"] = np.c_[(X**2).sum(1), (X[:, 0] - 1) ** 2 + X[:, 1] ** 2]
 
 
+def test_pareto_set_and_front_are_row_aligned():
+    """Row i of pareto_set() has the objectives of row i of pareto_front() (issue 42: the
+    set came in evaluation order, the front sorted by f1)."""
+    problem = _TwoParabolas()
+    res = BayesianOptimizer(problem, acquisition="hvlcb", n_init=6, n_iter=6, seed=0).run()
+    X, P = res.pareto_set(), res.pareto_front()
+    assert len(X) == len(P) >= 3
+    np.testing.assert_array_equal(problem.evaluate(X), P)  # the same floats: exact
+    assert np.all(np.diff(P[:, 0]) >= 0)
+    np.testing.assert_array_equal(res.X[res.pareto_indices()], X)
+
+
 @pytest.mark.parametrize("acq,tol", [("ws", 0.05), ("cheb", 0.05), ("hvlcb", 0.05),
                                      ("hvei", 0.05), ("hvpoi", 0.2)])
 def test_direct_and_indirect_approaches_converge_to_pareto_set(acq, tol):
@@ -260,6 +272,23 @@ def test_direct_and_indirect_approaches_converge_to_pareto_set(acq, tol):
     # purely exploitative HVPoI (Sec. 6.3.2.1) converges more slowly, hence its looser bound
     assert np.median(np.abs(bo[-5:, 1])) < tol
     assert abs(res.best([0.5, 0.5], g=1.0)["x1"]) < tol
+
+
+def test_exploiting_iterations_propose_the_min_max_design():
+    """``exploit_last``: the last iterations propose the surrogates' minimum of max(f1, f2)
+    (closed form for _TwoParabolas: x = (0.5, 0), max f = 0.25); without it the same
+    iterations are still exploring (x0 = 0.75 at iteration 5, seed 1)."""
+    def late(exploit_last):
+        res = BayesianOptimizer(_TwoParabolas(), acquisition="hvlcb", n_init=8, n_iter=6,
+                                seed=1, exploit_last=exploit_last).run()
+        it = res.data["iteration"].to_numpy()
+        return res.X[it >= 5], res.F[it >= 5]
+
+    X, F = late(2)
+    assert np.abs(X - [0.5, 0.0]).max() < 0.02
+    assert F.max(axis=1).max() < 0.25 + 0.001
+    X, _ = late(0)
+    assert np.abs(X - [0.5, 0.0]).max() > 0.2
 
 
 # -------------------------------------------------------------- reproducibility/resume

@@ -9,6 +9,7 @@ from hypate.scaling.engine.pareto import (
     hypervolume_2d,
     hypervolume_improvement,
     non_dominated_mask,
+    pareto_order,
     nondominated_boxes,
     pareto_front,
 )
@@ -100,3 +101,15 @@ def test_empty_front_box_is_everything_below_reference():
     lower, upper = nondominated_boxes(np.zeros((0, 2)), np.array([1.0, 2.0]))
     assert np.all(np.isneginf(lower)) and np.array_equal(upper, [[1.0, 2.0]])
     assert hypervolume(np.zeros((0, 2)), [1.0, 2.0]) == 0.0
+
+
+def test_pareto_order_keeps_rows_and_sorts_by_the_objectives_in_turn():
+    # rows 0, 2, 3, 5 are non-dominated; 3 and 5 are duplicates, both kept, in row order
+    F = np.array([[3.0, 1.0], [3.0, 2.0], [1.0, 3.0], [2.0, 2.0], [4.0, 4.0], [2.0, 2.0]])
+    idx = pareto_order(F)
+    np.testing.assert_array_equal(idx, [2, 3, 5, 0])
+    np.testing.assert_array_equal(F[idx], pareto_front(F, unique=False))
+    # a tie in the first objective is broken by the second (three objectives)
+    np.testing.assert_array_equal(pareto_order(np.array([[1.0, 2.0, 1.0], [1.0, 1.0, 2.0]])),
+                                  [1, 0])
+    assert pareto_order(np.zeros((0, 2))).size == 0

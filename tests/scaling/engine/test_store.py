@@ -121,3 +121,35 @@ def test_the_csv_cell_of_the_warnings():
     assert warnings_text(()) == "" and warnings_from_text("") == ()
     assert warnings_from_text(float("nan")) == ()  # pandas' empty cell
     assert warnings_from_text(warnings_text(entries)) == entries
+
+
+#: One edit per stored column of a row: every one, the auxiliary outputs (``aux``: a
+#: simulation's extremes and histories) and the constraints (``G``: the admissibility
+#: columns) included, must break the digest chain.
+EDITS = {
+    "iteration": "5", "batch_index": "7", "x": "'[0.5, 0.5, 0.5]'", "F": "'[0.001, 0.002]'",
+    "G": "'[-2.0]'", "status": "'ok'", "message": "'edited'", "seconds": "9.0",
+    "seed": "8", "created": "created + 1", "warnings": "'[]'",
+    "aux": "'{\"extremes\": {\"max_temperature\": 300.0}}'",
+}
+
+
+@pytest.mark.parametrize("column", sorted(EDITS))
+def test_an_edit_to_any_stored_column_is_refused_naming_the_row(tmp_path, column):
+    path = tmp_path / "chain.sqlite"
+    evals = _evals()
+    evals[1].aux.update({"extremes": {"max_temperature": 912.5}, "history": [1.0, 2.0]})
+    with EvaluationStore(path) as store:
+        for e in evals:
+            store.append(e)
+    with EvaluationStore(path, read_only=True) as store:  # intact: verified and read
+        assert store.load()[1].aux["extremes"] == {"max_temperature": 912.5}
+    with sqlite3.connect(path) as con:
+        select = f"SELECT {column} FROM evaluations WHERE id = 2"
+        before = con.execute(select).fetchone()
+        con.execute(f"UPDATE evaluations SET {column} = {EDITS[column]} WHERE id = 2")
+        assert con.execute(select).fetchone() != before  # the edit changed the row
+    con.close()
+    for read_only in (True, False):
+        with pytest.raises(ValueError, match="evaluation 1 does not match its digest"):
+            EvaluationStore(path, read_only=read_only)

@@ -3,6 +3,7 @@ and their switching (scaling.workflow.admissibility, .verdict; issue 40)."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 
 import numpy as np
@@ -159,3 +160,35 @@ def test_verdict_fields_are_the_public_json_contract() -> None:
         for key in ("max_wall_temperature", "mean_temperature", "max_deflection_ratio",
                     "max_von_mises"):
             assert isinstance(rec[key], float) and rec[key] > 0.0
+
+
+def test_a_run_states_its_design_points_limits_and_failures(tiny_study, tmp_path,
+                                                            capsys) -> None:
+    """`hypate run`'s last lines: the design point's admissibility and binding limits, the
+    prototype's own stress once, the failed evaluations before and after the initial
+    design; no warning lines; the report's admissibility section; no absolute path in the
+    page (issue 40)."""
+    from hypate.scaling.cli.main import main
+
+    out = tmp_path / "run"
+    study = tiny_study(sections='[admissibility]\ntemperature = { margin = 5.0 }\n')
+    assert main(["run", str(study), "--out", str(out)]) == 0
+    cap = capsys.readouterr()
+    assert "Warning" not in cap.out + cap.err
+    lines = cap.out.splitlines()
+    assert any(ln.strip().startswith(("admissible; binding limits:",
+                                      "NOT admissible; binding limits:")) for ln in lines)
+    assert sum("the prototype's own elastic stress" in ln for ln in lines) == 1
+    point = json.loads((out / "design_point.json").read_text())
+    stats = point["statistics"]
+    assert lines[-2] == (f"failed evaluations: {stats['failed']} of {stats['evaluations']}"
+                         + (f" ({stats['failed_iterations']} of the "
+                            f"{stats['iteration_evaluations']} after the initial design)"
+                            if stats["iteration_evaluations"] else "")
+                         + f"; admissible: {stats['admissible']}")
+    temp = next(r for r in point["admissibility"] if r["check"] == "temperature")
+    assert temp["limit"] == pytest.approx(810.9 - 5.0)  # the tiny study's Ti 6242, margin 5 K
+    page = (out / "report.html").read_text()
+    assert "<h2>Admissibility</h2>" in page and "What the model and the prototype go through" \
+        in page and "Definitions." in page
+    assert str(tmp_path) not in page and "/root" not in page

@@ -20,6 +20,8 @@ import pandas as pd
 import pytest
 from conftest import REPO, tiny_study_text
 from hypate.scaling.cli.main import main
+from hypate.scaling.engine.store import EvaluationStore
+from hypate.scaling.workflow.integrity import record_outputs
 from hypate.scaling.workflow.predict import (
     COVERAGE,
     design_point_basis,
@@ -124,6 +126,10 @@ def _with_scatter(run_dir: Path, tmp_path: Path, block: dict) -> Path:
     point = json.loads((copy / "design_point.json").read_text())
     point.update(block)
     (copy / "design_point.json").write_text(json.dumps(point))
+    # a run that propagated that scatter itself: its outputs recorded as they are now
+    # (readers refuse a design_point.json changed after the run wrote it)
+    with EvaluationStore(copy / "evaluations.sqlite") as store:
+        record_outputs(store, copy)
     return copy
 
 
