@@ -12,9 +12,10 @@ as source (nothing is imported) under its installed name (``hypate.*``; the fold
 - no import cycles between modules (``TYPE_CHECKING`` imports included: a cycle that only
   type checking sees is still two modules that know each other);
 - no import inside a function or class except of an optional dependency (dask), and the
-  top-level package's one lazy import of its API (``hypate.__getattr__`` -> ``hypate._api``,
+  top-level package's lazy import of its API (``hypate.__getattr__`` -> ``hypate._api``,
   PEP 562: ``import hypate`` stays instant, so the ``hypate`` command can answer Ctrl-C while
-  it starts);
+  it starts) and the console script's of the command line (``--version`` and ``--help``
+  answered first);
 - no import by string name (``importlib.import_module``, ``__import__``);
 - no import of another module's private names (``from m import _x``), and no private module
   (``_name``) imported from outside its own package;
@@ -36,8 +37,11 @@ ROOTS = {"scaling/api": "hypate", "scaling": "hypate.scaling", "solvers": "hypat
          "studies": "hypate.studies"}
 #: Imports allowed inside functions: optional dependencies only.
 OPTIONAL = ("dask", "distributed")
-#: The one lazy import allowed inside a function: (importer, imported module).
-LAZY = {("hypate", "hypate._api")}
+#: The lazy imports allowed inside a function: (importer, imported module) -- the top-level
+#: package's API, and the console script's command line after --version / --help were
+#: answered without it (scaling/cli/commands.py).
+LAZY = {("hypate", "hypate._api"),
+        ("hypate.scaling.cli.entry", "hypate.scaling.cli.main")}
 
 
 @dataclass(frozen=True)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 from types import ModuleType
 
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli import (
     bench_ate,
     bench_best,
@@ -23,7 +24,7 @@ BENCH_MODULES: tuple[ModuleType, ...] = (bench_bo, bench_structure, bench_therma
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    parser = sub.add_parser("bench", help="run a benchmark and print medians and ratios",
+    parser = sub.add_parser("bench", help=HELP["bench"],
                             description="Benchmarks: medians and ratios, never pass/fail.")
     targets = parser.add_subparsers(dest="target", metavar="TARGET", parser_class=type(parser))
     for module in BENCH_MODULES:

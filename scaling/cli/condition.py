@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
@@ -21,7 +22,7 @@ _LABELS = (("mach", "Mach number", "-"), ("pressure", "static pressure", "Pa"),
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "condition", help="free-stream state from (M, altitude), (M, p0, T0) or (M, p, T)",
+        "condition", help=HELP["condition"],
         description="Free-stream state of a calorically perfect gas: flight at a geometric "
         "altitude (1976 standard atmosphere), tunnel stagnation conditions (isentropic), or "
         "static pressure and temperature.")

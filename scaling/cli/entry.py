@@ -24,11 +24,17 @@ def _during_start_up(signum: int, frame: FrameType | None) -> None:
 for _sig in (signal.SIGINT, signal.SIGTERM):
     signal.signal(_sig, _during_start_up)
 
-from hypate.scaling.cli.main import main as _main  # noqa: E402 - after the handlers
+from hypate.scaling.cli.commands import quick_answer  # noqa: E402 - after the handlers
 
 
 def main() -> int:
-    """Entry point of the ``hypate`` console script; returns the exit code."""
+    """Entry point of the ``hypate`` console script; returns the exit code. ``--version``
+    and ``--help`` are answered before any command is loaded (a fraction of a second)."""
+    quick = quick_answer(sys.argv[1:])
+    if quick is not None:
+        return quick
+    from hypate.scaling.cli.main import main as _main  # seconds: numpy, scipy, pandas, ...
+
     signal.signal(signal.SIGINT, signal.default_int_handler)
     return _main()  # its SIGTERM handler replaces the start-up one
 

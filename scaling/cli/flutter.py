@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.arguments import finite, integer_in, positive
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import resolve
@@ -19,7 +20,7 @@ MAX_LCO_PERIODS = 10_000.0
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "flutter", help="flutter boundary lambda_cr by a lambda sweep with LSA (Sec. 7.2.3)",
+        "flutter", help=HELP["flutter"],
         description="Sweep the nondimensional dynamic pressure lambda = gamma p M a^3 / D "
         "(Eq. 6.2a) with piston theory for the panel uniformly heated to R * T_cr and report "
         "the flutter onset and the divergence range (LSA, Eqs. 5.33-5.37).")

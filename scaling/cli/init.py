@@ -9,6 +9,7 @@ import json
 import re
 from pathlib import Path
 
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.workflow.shipped import resolve, shipped
 from hypate.scaling.workflow.study import load_study
 from hypate.solvers.config import did_you_mean
@@ -21,7 +22,7 @@ NAME_LINE = re.compile(r'(^\[study\][^\[]*?^name\s*=\s*)"[^"]*"', re.M | re.S)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("init", help="write a commented study file to start from",
+    p = sub.add_parser("init", help=HELP["init"],
                        description="Write PATH (a new study file) from a shipped study, "
                        "comments included; edit it, check it with `hypate validate PATH`, "
                        "run it with `hypate run PATH`.")

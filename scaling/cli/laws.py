@@ -12,6 +12,7 @@ import argparse
 import math
 from pathlib import Path
 
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.report.laws import laws_table
 from hypate.scaling.workflow.laws import (
@@ -25,7 +26,7 @@ from hypate.solvers.errors import InputError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("laws", help="refined scaling laws of a sweep run (fit, predict)",
+    p = sub.add_parser("laws", help=HELP["laws"],
                        description="Fit the design points of a sweep run against the "
                        "geometric scale xi as power laws c xi^k, next to the analytical "
                        "exponents; optionally predict (and evaluate) the design at a new xi.")

@@ -36,6 +36,7 @@ from hypate.scaling.cli import (
     validate,
     whatif,
 )
+from hypate.scaling.cli.commands import DESCRIPTION
 from hypate.scaling.cli.failures import (
     EXIT_OUTPUT,
     EXIT_USAGE,
@@ -90,8 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
     """Build the full parser with every registered subcommand."""
     parser = _Parser(
         prog="hypate",
-        description="Design aerothermoelastically scaled wind-tunnel models of hypersonic "
-        "skin panels.",
+        description=DESCRIPTION,
     )
     parser.add_argument("--version", action="version", version=f"hypate {package_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)

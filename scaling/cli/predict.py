@@ -7,6 +7,7 @@ import argparse
 import warnings
 from pathlib import Path
 
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.arguments import output_directory
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.report.figures import png_bytes, prediction_figure
@@ -28,7 +29,7 @@ from hypate.scaling.workflow.rundir import (
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "predict", help="predict the full-scale histories from a measured model test",
+        "predict", help=HELP["predict"],
         description="Map measured model histories (a CSV of the wind-tunnel test of the "
         "run's design point) onto the prototype through the design point's "
         "nondimensionalization (time by the run's time mapping, deflection by the thickness "

@@ -3,13 +3,14 @@ from __future__ import annotations
 
 import argparse
 
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.report.html import write_report
 from hypate.scaling.workflow.rundir import FIGURES_DIR
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("report", help="regenerate report.html of a run directory",
+    p = sub.add_parser("report", help=HELP["report"],
                        description="Write DIR/figures/*.png and the self-contained "
                        "DIR/report.html (images embedded, mailable) from a run directory of "
                        "`hypate run`, also of an interrupted run (design point rebuilt from "

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.arguments import integer_in, output_directory
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.progress import StepProgress
@@ -15,8 +16,7 @@ from hypate.studies.scripts.reproduce import run as run_reproductions
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("reproduce", help="run the dissertation reproductions and write "
-                       "reproduction.html",
+    p = sub.add_parser("reproduce", help=HELP["reproduce"],
                        description="Run the dissertation reproductions (Ch. 7 tables, Ch. 8 "
                        "trends, Ch. 9 studies) and write DIR/reproduction.html: every table "
                        "as quantity | dissertation | hypate (median and min-max over seeds) "

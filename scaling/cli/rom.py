@@ -16,6 +16,7 @@ import argparse
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.arguments import integer_in, output_file, positive
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.progress import StepProgress
@@ -32,7 +33,7 @@ MAX_WORKERS = 256
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    parser = sub.add_parser("rom", help="build, check and plan fluid ROMs (POD-kriging)",
+    parser = sub.add_parser("rom", help=HELP["rom"],
                             description="Fluid reduced-order models: POD-kriging with "
                             "correction and scaling (Sec. 2.4).")
     cmds = parser.add_subparsers(dest="rom_command", metavar="ACTION",

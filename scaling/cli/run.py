@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli import jsonout
 from hypate.scaling.cli.failures import (
     EXIT_INFRASTRUCTURE,
@@ -91,7 +92,7 @@ def default_run_dir(name: str, resume: bool, root: Path = Path("runs")) -> Path:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("run", help="run a scaling study (default: the quick-start study)",
+    p = sub.add_parser("run", help=HELP["run"],
                        description="Optimize a wind-tunnel model whose nondimensional "
                        "aerothermoelastic response matches the prototype's. Writes "
                        "evaluations.sqlite/.csv, pareto.csv and design_point.json to --out; "

@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.arguments import output_directory
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import resolve
@@ -15,7 +16,7 @@ from tqdm import tqdm
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("simulate", help="run a coupled aerothermoelastic case",
+    p = sub.add_parser("simulate", help=HELP["simulate"],
                        description="Run the case's [simulation] (scheme tc: tightly coupled "
                        "quasi-steady with LSA each step; s1/s2: loosely coupled transient).")
     p.add_argument("case", help="case TOML file with [panel], [flow] and [simulation]")

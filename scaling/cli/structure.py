@@ -17,6 +17,7 @@ import math
 import sys
 import warnings
 
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.config import load_panel
@@ -28,7 +29,7 @@ from hypate.solvers.structure.static import static
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``modes``, ``buckling`` and ``static`` subcommands."""
-    p = sub.add_parser("modes", help="natural frequencies of a panel (optionally heated)",
+    p = sub.add_parser("modes", help=HELP["modes"],
                        description="Natural frequencies (Hz, ascending) of the DCS9 shell model "
                        "about its equilibrium; with --delta-T about the heated (possibly "
                        "buckled) equilibrium under a uniform temperature rise.")
@@ -39,14 +40,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=run_modes)
 
-    p = sub.add_parser("buckling", help="critical uniform temperature rise (thermal buckling)",
+    p = sub.add_parser("buckling", help=HELP["buckling"],
                        description="Linear thermal buckling: the uniform temperature rise "
                        "(K) at which the panel first buckles.")
     p.add_argument("panel", help="panel TOML file")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=run_buckling)
 
-    p = sub.add_parser("static", help="nonlinear static deflection under pressure and heating",
+    p = sub.add_parser("static", help=HELP["static"],
                        description="Nonlinear (von Karman) static equilibrium under a uniform "
                        "pressure (Pa, positive towards +z) and a uniform temperature rise.")
     p.add_argument("panel", help="panel TOML file")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.derived import sweep_points
 from hypate.scaling.workflow.robust import robust_budget
@@ -12,7 +13,7 @@ from hypate.scaling.workflow.study import load_study
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("studies", help="list the shipped studies",
+    p = sub.add_parser("studies", help=HELP["studies"],
                        description="List the shipped studies (the quick-start and the "
                        "dissertation reproductions) with their description, evaluation "
                        "budget and measured duration.")

@@ -25,6 +25,7 @@ import math
 import sys
 import warnings
 
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.config import load_panel
@@ -38,7 +39,7 @@ MAX_STEPS = 1_000_000
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``heat`` subcommand."""
     p = sub.add_parser(
-        "heat", help="transient heat conduction under a uniform surface heat flux",
+        "heat", help=HELP["heat"],
         description="March the layer-wise thermal model (Crank-Nicolson) under a uniform heat "
         "flux on the upper surface with radiation to TR; print the area-averaged top/bottom "
         "and volume-mean temperatures (K) over time.")

@@ -7,6 +7,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.study import parse_study
@@ -21,7 +22,7 @@ SCHEMAS = ("study", "case", "rom")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("validate", help="validate a study, case or ROM build file",
+    p = sub.add_parser("validate", help=HELP["validate"],
                        description="Validate a study, case/panel or ROM build file (the "
                        "schema follows from its tables, or --schema). Exit 0 and a summary, "
                        "or exit 2 with a one-line error naming the key.")

@@ -8,6 +8,7 @@ import warnings
 from collections.abc import Sequence
 from typing import Any
 
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.arguments import output_directory
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.progress import StepProgress
@@ -28,7 +29,7 @@ from hypate.solvers.errors import InputError
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "whatif", help="evaluate one model design of a study (no optimization)",
+        "whatif", help=HELP["whatif"],
         description="Evaluate one wind-tunnel model design: J_u, J_T, the similarity table "
         "and the constraint activity. Values not given with --set take the midpoint of their "
         "bounds; values outside their bounds are evaluated and flagged. Example: hypate "

@@ -2,13 +2,17 @@
 mean", progress lines without a terminal, honest run summaries."""
 from __future__ import annotations
 
+import argparse
 import json
+import subprocess
+import sys
 from importlib.metadata import version
 from pathlib import Path
 
 import pytest
 from conftest import tiny_study_text
-from hypate.scaling.cli.main import main
+from hypate.scaling.cli.commands import quick_answer, top_level_parser
+from hypate.scaling.cli.main import build_parser, main
 from hypate.scaling.cli.run import Progress
 from hypate.scaling.workflow.study import load_study
 
@@ -21,6 +25,27 @@ def test_version(capsys: pytest.CaptureFixture) -> None:
     with pytest.raises(SystemExit) as exc:
         main(["--version"])
     assert exc.value.code == 0 and capsys.readouterr().out.strip() == f"hypate {version('hypate')}"
+
+
+def test_version_and_help_are_answered_without_loading_a_command(
+        capsys: pytest.CaptureFixture) -> None:
+    """The console script answers --version and --help from the light registry
+    (scaling/cli/commands.py), in a fresh interpreter without numpy; its listing is the
+    full parser's, command for command and help for help."""
+    code = ("import sys; from hypate.scaling.cli.commands import quick_answer; "
+            "c = quick_answer(sys.argv[1:]); assert 'numpy' not in sys.modules; sys.exit(c)")
+    for flag in ("--version", "--help"):
+        done = subprocess.run([sys.executable, "-c", code, flag], capture_output=True,
+                              text=True, timeout=120)
+        assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[0] == "usage: hypate [-h] [--version] COMMAND ..."
+    assert quick_answer(["run", "--help"]) is None  # a command's help loads the command
+    full = next(a for a in build_parser()._actions
+                if isinstance(a, argparse._SubParsersAction))
+    light = next(a for a in top_level_parser()._actions
+                 if isinstance(a, argparse._SubParsersAction))
+    assert [(a.dest, a.help) for a in full._choices_actions] == \
+        [(a.dest, a.help) for a in light._choices_actions]
 
 
 def test_a_mistyped_command_gets_a_suggestion(capsys: pytest.CaptureFixture) -> None:
