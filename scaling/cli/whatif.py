@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import warnings
+from pathlib import Path
 from collections.abc import Sequence
 from typing import Any
 
@@ -42,7 +43,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "whatif_NAME.png and whatif_NAME.csv to --out")
     p.add_argument("--base", metavar="RUN_DIR", help="unset variables take the design point "
                    "of this run directory (or design_point.json) instead of their midpoints")
-    p.add_argument("--out", help="output directory of --sweep (default: current directory)")
+    p.add_argument("--out", help="output directory of --sweep (default: runs/whatif-STUDY)")
     p.add_argument("--scatter", action="store_true", help="propagate the study's "
                    "[uncertainty] at the design (polynomial chaos on the simulator): "
                    "mean, std, quantiles and Sobol indices of J_u, J_T")
@@ -210,7 +211,9 @@ def run(args: argparse.Namespace) -> int:
     base = load_base(args.base) if args.base else None
     if args.out and not sweep:
         raise InputError("--out", "only used with --sweep")
-    out = output_directory(args.out or ".", "--out")
+    # like every command, under runs/ unless --out says otherwise
+    default = str(Path("runs") / f"whatif-{study.name}") if sweep else "."
+    out = output_directory(args.out or default, "--out")
     with warnings.catch_warnings():
         # numerical noise of a diverging what-if design; property tables left behind are
         # not warnings but the design's "data" admissibility row

@@ -67,6 +67,16 @@ def test_whatif_sweep_writes_png_and_csv(study: Path, tmp_path: Path, capsys) ->
     assert res["rows"][-1]["outside"]  # 0.012 > upper bound 0.01: flagged
 
 
+def test_a_sweep_without_out_writes_under_runs(study: Path, tmp_path: Path,
+                                               monkeypatch: pytest.MonkeyPatch, capsys) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main(["whatif", str(study), "--sweep", "h=0.002:0.004:2", "--json"]) == 0
+    res = _json(capsys)["sweep"]
+    name = load_study(study).name
+    assert Path(res["csv"]) == Path("runs") / f"whatif-{name}" / "whatif_h.csv"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["runs", "tiny.toml"]
+
+
 @pytest.mark.parametrize("argv, option", [
     (["--set", "wingspan=3"], "--set"),
     (["--set", "h"], "--set"),
