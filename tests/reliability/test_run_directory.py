@@ -270,12 +270,28 @@ def test_an_edited_output_is_not_complete(tmp_path: Path, finished: tuple[Path, 
 def test_a_signal_during_the_report_then_resume_gives_a_complete_run(
         tmp_path: Path, finished: tuple[Path, Path], sig: int) -> None:
     study, ref = finished
+    # the report made to take 5 s longer (a sitecustomize of the subprocess wraps
+    # write_report): the signal lands inside it on a busy machine too, where the figures
+    # alone can be done before the poll below notices design_point.json
+    site = tmp_path / "site"
+    site.mkdir()
+    (site / "sitecustomize.py").write_text(
+        "import time\n"
+        "import hypate.scaling.report.html as html\n"
+        "_write = html.write_report\n"
+        "def _slow(*args, **kwargs):\n"
+        "    time.sleep(5.0)\n"
+        "    return _write(*args, **kwargs)\n"
+        "html.write_report = _slow\n")
+    env = {**os.environ,
+           "PYTHONPATH": os.pathsep.join(filter(None, [str(site),
+                                                       os.environ.get("PYTHONPATH")]))}
     for attempt in range(3):
         out = tmp_path / f"run{attempt}"
         proc = subprocess.Popen(_cli("run", str(study), "--out", str(out), "-q"),
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                                text=True, start_new_session=True)
-        # design_point.json is the last output before the report (seconds of figures)
+                                text=True, start_new_session=True, env=env)
+        # design_point.json is the last output before the report
         while not (out / "design_point.json").exists() and proc.poll() is None:
             time.sleep(0.005)
         os.killpg(proc.pid, sig)
