@@ -91,14 +91,26 @@ def stored_evaluations(store: Path) -> int:
     """Rows in a run's SQLite store, read-only (0 while it does not exist or is locked):
     polled by the kill-and-resume tests while the run writes."""
     import sqlite3
+    from contextlib import closing
 
     if not store.exists():
         return 0
-    try:
-        with sqlite3.connect(f"file:{store}?mode=ro", uri=True, timeout=1.0) as con:
+    try:  # closing: sqlite3's own context manager commits but leaves the connection open
+        with closing(sqlite3.connect(f"file:{store}?mode=ro", uri=True, timeout=1.0)) as con:
             return int(con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0])
     except sqlite3.Error:
         return 0
+
+
+def foreground_sigint() -> None:
+    """``preexec_fn`` of a child that must take Ctrl-C: SIGINT at its default disposition
+    and unblocked, as in a terminal's foreground job. Both are inherited across exec, and a
+    pytest-xdist worker's children get SIGINT ignored (a background job's convention, which
+    hypate keeps): without this a SIGINT test passes serially and fails under -n."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
 def kill_after(proc, store: Path, rows: int, timeout: float = 300.0) -> None:

@@ -344,7 +344,7 @@ def strips(rom_path: str | Path | None = None, modes: Array | None = None,
                          np.interp(xf, c2.x - l_le, c2.temperature), xf))
     # the rows in the order of the faces: re-gather by the face mask
     order = np.concatenate([np.flatnonzero(row == j) for j in picked])
-    inv = np.argsort(order)
+    inv = np.argsort(order, kind="stable")
     p2a, q2a = np.concatenate(p2)[inv], np.concatenate(q2)[inv]
     out["strips_2d"] = dict(compare(sel2, p2a, q2a),
                             rows=[float(0.5 + (j + 0.5) * dy) for j in picked],

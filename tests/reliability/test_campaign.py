@@ -13,7 +13,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import PROTOTYPE_CASE, kill_after, stored_evaluations, tiny_study_text
+from conftest import (
+    PROTOTYPE_CASE,
+    foreground_sigint,
+    kill_after,
+    stored_evaluations,
+    tiny_study_text,
+)
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.workflow.campaign import changed_keys, run_lock
@@ -227,15 +233,6 @@ def test_a_second_process_on_a_run_directory_exits_2_naming_the_holder(
         pass
 
 
-def _foreground_sigint() -> None:
-    """The child's SIGINT as in a terminal's foreground job: default disposition, unblocked.
-    Late in the full suite (three CI runs) the children of this process got SIGINT ignored
-    or blocked -- both are inherited across exec -- and a run exited 0 with evaluations
-    missing; which earlier test leaves that state is not found yet."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
-
-
 def test_ctrl_c_exits_130_with_the_resume_command(tmp_path: Path,
                                                   reference: tuple[Path, list[tuple]]) -> None:
     study, whole = reference
@@ -243,7 +240,7 @@ def test_ctrl_c_exits_130_with_the_resume_command(tmp_path: Path,
         out = tmp_path / f"run{attempt}"
         proc = subprocess.Popen(_cli(str(study), "--out", str(out), "-q"),
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                                preexec_fn=_foreground_sigint)
+                                preexec_fn=foreground_sigint)
         deadline = time.monotonic() + 300
         while stored_evaluations(out / "evaluations.sqlite") < 4 and \
                 time.monotonic() < deadline and proc.poll() is None:

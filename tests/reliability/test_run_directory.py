@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from conftest import PREDICTION_RUN, kill_after, tiny_study_text
+from conftest import PREDICTION_RUN, foreground_sigint, kill_after, tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.workflow.study import load_study
@@ -290,7 +290,8 @@ def test_a_signal_during_the_report_then_resume_gives_a_complete_run(
         out = tmp_path / f"run{attempt}"
         proc = subprocess.Popen(_cli("run", str(study), "--out", str(out), "-q"),
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                                text=True, start_new_session=True, env=env)
+                                text=True, start_new_session=True, env=env,
+                                preexec_fn=foreground_sigint)
         # design_point.json is the last output before the report
         while not (out / "design_point.json").exists() and proc.poll() is None:
             time.sleep(0.005)
