@@ -127,10 +127,12 @@ def fit_labels(fig: Figure, min_chars: int = 12, passes: int = 3) -> Figure:
 def png_bytes(fig: Figure) -> bytes:
     """``fig`` as PNG bytes (labels wrapped to their axes by :func:`fit_labels`, 110 dpi,
     tight box); the figure is closed afterwards."""
-    fit_labels(fig)
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
-    plt.close(fig)
+    try:
+        fit_labels(fig)
+        fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+    finally:  # an interrupt or error while rendering leaves no figure open
+        plt.close(fig)
     return buf.getvalue()
 
 
@@ -140,9 +142,8 @@ def figure_html(fig: Figure, run: RunData, name: str, caption: str) -> str:
     Labels are wrapped to their axes first (:func:`fit_labels`). The figure is closed
     afterwards.
     """
-    path = run.figure_path(name)
-    data = png_bytes(fig)
-    write_bytes(path, data)
+    data = png_bytes(fig)  # first: the figure is closed whatever happens to its file
+    write_bytes(run.figure_path(name), data)
     return (f'<figure>{embed_png(data, caption)}<figcaption>{html.escape(caption)}'
             f"</figcaption></figure>")
 
@@ -506,9 +507,11 @@ def plot_sweep(rows: Sequence[dict[str, Any]], name: str, path: str | Path,
     ax.legend(fontsize=8)
     ax.set_title(title or f"What-if sweep of {name}")
     fit_labels(fig)
-    with atomic_file(path) as handle:
-        fig.savefig(handle, format="png", dpi=110)
-    plt.close(fig)
+    try:
+        with atomic_file(path) as handle:
+            fig.savefig(handle, format="png", dpi=110)
+    finally:  # a file that cannot be written leaves no figure open
+        plt.close(fig)
     return path
 
 

@@ -399,6 +399,11 @@ def test_report_into_a_read_only_directory_is_one_line(
     line = _one_error_line(capsys.readouterr().err)
     assert ("Read-only file system" in line or "Permission denied" in line), line
     assert not (recv / "report.html").exists()
+    # the figure whose file could not be written was closed (it leaked into later tests of
+    # the same process once: tests/scaling/report/test_figures.py counts open figures)
+    import matplotlib.pyplot as plt
+
+    assert not plt.get_fignums()
 
 
 def test_wall_seconds_sum_every_process_of_a_resumed_run(tmp_path: Path) -> None:
