@@ -102,6 +102,19 @@ def stored_evaluations(store: Path) -> int:
         return 0
 
 
+def stored_campaign(run_dir: Path) -> list[tuple]:
+    """A run's stored campaign: (iteration, batch_index, x, F, status) in slot order, NaN as
+    None (so that equal campaigns compare equal): what a resumed run must reproduce."""
+    from hypate.scaling.engine.store import EvaluationStore
+
+    def values(a: np.ndarray) -> tuple:
+        return tuple(float(v) if np.isfinite(v) else None for v in a)
+
+    with EvaluationStore(run_dir / "evaluations.sqlite", read_only=True) as store:
+        return sorted((r.iteration, r.batch_index, values(r.x), values(r.F), r.status)
+                      for r in store.load())
+
+
 def foreground_sigint() -> None:
     """``preexec_fn`` of a child that must take Ctrl-C: SIGINT at its default disposition
     and unblocked, as in a terminal's foreground job. Both are inherited across exec, and a

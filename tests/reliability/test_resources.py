@@ -19,11 +19,9 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import pytest
-from conftest import stored_evaluations, tiny_study_text
+from conftest import stored_campaign, stored_evaluations, tiny_study_text
 from hypate.scaling.cli.main import main
-from hypate.scaling.engine.store import EvaluationStore
 
 #: 7 + 12 evaluations of about 0.15 s (as tests/reliability/test_campaign.py).
 STUDY = tiny_study_text(name="disk", mesh=2, steps=4, initial=6, iterations=12, seed=5)
@@ -35,22 +33,13 @@ def _cli(*args: str) -> list[str]:
     return [sys.executable, "-m", "hypate.scaling.cli.main", "run", *args]
 
 
-def _campaign(run_dir: Path) -> list[tuple]:
-    def values(a: np.ndarray) -> tuple:
-        return tuple(float(v) if np.isfinite(v) else None for v in a)
-
-    with EvaluationStore(run_dir / "evaluations.sqlite", read_only=True) as store:
-        return sorted((r.iteration, r.batch_index, values(r.x), values(r.F), r.status)
-                      for r in store.load())
-
-
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[tuple]]:
     folder = tmp_path_factory.mktemp("disk")
     study = folder / "disk.toml"
     study.write_text(STUDY)
     assert main(["run", str(study), "--out", str(folder / "whole"), "-q"]) == 0
-    return study, _campaign(folder / "whole")
+    return study, stored_campaign(folder / "whole")
 
 
 def _one_line(err: str) -> str:
@@ -102,7 +91,7 @@ def test_a_full_disk_while_evaluations_are_stored_is_one_line_and_resumes(
     done = subprocess.run(_cli(str(study), "--out", str(out), "-q", "--resume"),
                           capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
-    assert _campaign(out) == whole
+    assert stored_campaign(out) == whole
 
 
 def _rows(store: Path) -> int:
@@ -162,7 +151,7 @@ def test_a_really_full_disk_says_disk_full(tmp_path: Path,
         done = subprocess.run(_cli(str(study), "--out", str(out), "-q", "--resume"),
                               capture_output=True, text=True, timeout=600)
         assert done.returncode == 0, done.stderr
-        assert _campaign(out) == whole
+        assert stored_campaign(out) == whole
         assert _rows(store) == len(whole)
     finally:
         if proc is not None and proc.poll() is None:

@@ -17,12 +17,10 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import pytest
-from conftest import stored_evaluations, tiny_study_text
+from conftest import stored_campaign, stored_evaluations, tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.cli.run import resume_command
-from hypate.scaling.engine.store import EvaluationStore
 
 #: 7 + 12 evaluations of about 0.15 s (as tests/reliability/test_campaign.py).
 STUDY = tiny_study_text(name="signals", mesh=2, steps=4, initial=6, iterations=12, seed=5)
@@ -32,24 +30,13 @@ def _cli(*args: str) -> list[str]:
     return [sys.executable, "-m", "hypate.scaling.cli.entry", "run", *args]
 
 
-def _campaign(run_dir: Path) -> list[tuple]:
-    """The stored campaign: (iteration, batch_index, x, F, status) in slot order, NaN as
-    None (so that equal campaigns compare equal)."""
-    def values(a: np.ndarray) -> tuple:
-        return tuple(float(v) if np.isfinite(v) else None for v in a)
-
-    with EvaluationStore(run_dir / "evaluations.sqlite", read_only=True) as store:
-        return sorted((r.iteration, r.batch_index, values(r.x), values(r.F), r.status)
-                      for r in store.load())
-
-
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[tuple]]:
     folder = tmp_path_factory.mktemp("signals")
     study = folder / "signals.toml"
     study.write_text(STUDY)
     assert main(["run", str(study), "--out", str(folder / "whole"), "-q"]) == 0
-    return study, _campaign(folder / "whole")
+    return study, stored_campaign(folder / "whole")
 
 
 def _group_is_gone(pgid: int) -> bool:
@@ -83,7 +70,7 @@ def test_a_signal_to_the_group_of_a_pool_run_is_one_line_and_resumes(
     assert _group_is_gone(proc.pid)  # the workers ended with the run
     subprocess.run(_cli(str(study), "--out", str(out), "-q", "--resume"), check=True,
                    capture_output=True, timeout=600)
-    assert _campaign(out) == whole
+    assert stored_campaign(out) == whole
 
 
 def _catches_sigterm(pid: int) -> bool:
