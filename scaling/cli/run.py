@@ -1,4 +1,9 @@
-"""``hypate run [STUDY.toml]``: run a scaling study (the main job)."""
+"""``hypate run [STUDY.toml]``: run a scaling study (the main job).
+
+Size: about 650 lines: the one command with every way a study runs (single, seeds,
+sweep, robust, cluster) and their terminal output; the runner split of issue 42 moves the
+choice of how a study runs into the workflow.
+"""
 from __future__ import annotations
 
 import argparse

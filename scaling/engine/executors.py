@@ -7,6 +7,9 @@ from an infrastructure fault (:mod:`hypate.scaling.engine.faults`): the evaluati
 cost are re-submitted, and when the pool or cluster is gone :class:`InfrastructureError`
 ends the run -- the evaluations already finished are committed, the unfinished ones are not
 stored, and a resume evaluates exactly those.
+
+Size: about 640 lines: three executors sharing one contract (submit, lost workers,
+timeouts, signals); kept together so that contract is read in one place.
 """
 from __future__ import annotations
 

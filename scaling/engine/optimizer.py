@@ -46,6 +46,10 @@ check (the leave-one-out check of the final surrogates).
 Reproducibility: the random numbers of iteration ``t`` come from
 ``numpy.random.default_rng([seed, t])`` and a proposal depends only on the evaluations of
 earlier iterations, so a resumed run proposes exactly what the uninterrupted run proposed.
+
+Size: about 720 lines: the loop, the proposal (one method with its batch and exploitation
+rules) and the surrogate plumbing; acquisitions, the inner search, histories, failures and
+stopping already live in their own modules.
 """
 from __future__ import annotations
 

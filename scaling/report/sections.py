@@ -18,6 +18,9 @@ laws, Fig. 9.12). :mod:`.html` renders them into the page.
 
 Every evaluation number printed is the evaluation id (``RunData.evaluations``' index, the
 ``id`` column of ``evaluations.csv``); every number goes through :mod:`.numbers`.
+
+Size: about 740 lines: one builder per report section, each short and independent; split
+by section family if another is added.
 """
 from __future__ import annotations
 

@@ -19,7 +19,7 @@ Outputs in the run directory (public names):
 A multi-fidelity study (``[[fidelity]]``, :mod:`hypate.scaling.workflow.fidelity`) adds the
 ``fidelity`` / ``fidelity_name`` columns; its front and design point are the top level's.
 
-Size: about 630 lines. One run's sequence (baseline, seeds, optimizer, outputs) reads top to
+Size: about 740 lines. One run's sequence (baseline, seeds, optimizer, outputs) reads top to
 bottom here; the seed helpers (``seeds_from_runs`` and the classical seeds) could move next.
 """
 from __future__ import annotations
