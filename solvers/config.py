@@ -23,7 +23,6 @@ Every error becomes :class:`~solvers.errors.InputError` naming the key path
 from __future__ import annotations
 
 import dataclasses
-
 import difflib
 import math
 import tomllib
@@ -31,7 +30,7 @@ import types
 import typing
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, cast
 
 from hypate.solvers import materials as mat
 from hypate.solvers.aero.factory import AERO_NAMES, is_aero_name
@@ -316,7 +315,7 @@ def _got(value: Any) -> str:
     return f"got {value!r}{kind}"
 
 
-def did_you_mean(name: str, choices: list[str]) -> str:
+def did_you_mean(name: str | int, choices: list[str]) -> str:
     """``"; did you mean 'x'?"`` for the closest of ``choices`` to ``name``, or ``""``."""
     close = difflib.get_close_matches(str(name), choices, n=1, cutoff=0.6)
     return f"; did you mean {close[0]!r}?" if close else ""
@@ -392,6 +391,9 @@ def _build_material(name: str, cfg: MaterialConfig, resolved: dict[str, mat.Mate
         for key in ("relative_density", "cell_size", "core_thickness"):
             if given.get(key) is None:
                 raise InputError(f"{field}.{key}", "required for a honeycomb core")
+        # given (not None) by the check above
+        assert cfg.relative_density is not None and cfg.cell_size is not None
+        assert cfg.core_thickness is not None
         return mat.honeycomb_core(base, cfg.relative_density, cfg.cell_size,
                                   cfg.core_thickness, cfg.wall_emissivity, name=name)
     return mat.homogenized_stiffener(base, cfg.t1 or 0.0, cfg.l1 or 0.0, cfg.t2 or 0.0,
@@ -432,7 +434,9 @@ def build_panel(cfg: PanelConfig, materials: dict[str, MaterialConfig] | None = 
     panel = PanelSpec(layers=tuple(layers), kind=cfg.kind, length=cfg.length,
                       width=cfg.width, boundary=cfg.boundary,
                       leading_edge_length=cfg.leading_edge_length,
-                      flow_angle=math.radians(cfg.flow_angle), mesh=tuple(cfg.mesh),
+                      flow_angle=math.radians(cfg.flow_angle),
+                      # a 2d strip's [nx]: PanelSpec completes it to (nx, 1)
+                      mesh=cast("tuple[int, int]", tuple(cfg.mesh)),
                       initial_temperature=cfg.initial_temperature, emissivity=cfg.emissivity,
                       damping=(cfg.damping[0], cfg.damping[1]), radius_x=cfg.radius_x,
                       radius_y=cfg.radius_y, name=name)
@@ -448,8 +452,11 @@ def build_flow(cfg: FlowConfig) -> FlowCondition:
     try:
         if cfg.altitude is not None:
             return FlowCondition.from_altitude(cfg.mach, cfg.altitude)
+        # FlowConfig's validator: exactly one state, each given in full
         if cfg.p0 is not None:
+            assert cfg.T0 is not None
             return FlowCondition.from_stagnation(cfg.mach, cfg.p0, cfg.T0)
+        assert cfg.pressure is not None and cfg.temperature is not None
         return FlowCondition.from_static(cfg.mach, cfg.pressure, cfg.temperature)
     except InputError as exc:
         raise InputError(f"flow.{exc.field}", exc.message) from None
@@ -530,7 +537,8 @@ def summary(case: Case) -> list[str]:
              f"layers (bottom to top): {len(p.layers)}"]
     for i, layer in enumerate(p.layers):
         lines.append(f"  [{i}] {layer.material.name}: {layer.thickness * 1e3:g} mm, "
-                     f"angle {math.degrees(layer.angle):g} deg, {layer.sublayers} thermal sub-layer(s)")
+                     f"angle {math.degrees(layer.angle):g} deg, "
+                     f"{layer.sublayers} thermal sub-layer(s)")
     lines.append(f"total thickness: {p.thickness * 1e3:g} mm")
     lines.append(f"mass per area: {p.mass_per_area():.4g} kg/m^2 at {p.initial_temperature:g} K")
     if case.flow is not None:

@@ -144,6 +144,7 @@ def _wsum(w: Array, X: Array, lead: int) -> Array:
         for b in range(w.shape[1]):  # far cheaper than a reduction over a middle axis
             term = X[head + (a, b)] * w[a, b]
             acc = term if acc is None else acc + term
+    assert acc is not None  # w has at least one point
     return acc
 
 

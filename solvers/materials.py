@@ -28,7 +28,7 @@ import dataclasses
 import math
 import tomllib
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache
 from importlib import resources
 from typing import Any
 
@@ -107,6 +107,9 @@ class Property:
             raise InputError(self.name, "table entries must be finite numbers")
         object.__setattr__(self, "T", T)
         object.__setattr__(self, "values", v)
+        # set below (frozen: through object); declared here, they are not dataclass fields
+        self._slopes: Array
+        self._lookup: tuple[Array, Array]
         # segment slopes, computed once (the Newton Jacobians ask for them every iteration)
         object.__setattr__(self, "_slopes",
                            np.diff(v) / np.diff(T) if T.size > 1 else np.zeros(0))
@@ -297,6 +300,7 @@ class Material:
             return E1, dE1, E2, dE2, nu, dnu, G, dG, G, dG, G, dG
         out = [E1, dE1, E2, dE2, nu, dnu]
         for prop in (self.G12, self.G13, self.G23):
+            assert prop is not None  # orthotropic: given (isotropic() alone leaves them None)
             out += [prop(T), prop.derivative(T)]
         return tuple(out)
 
@@ -343,6 +347,8 @@ class Material:
         if self.isotropic:
             G12 = G13 = G23 = E1 / (2.0 * (1.0 + nu))
         else:
+            # orthotropic: given (isotropic() alone leaves them None)
+            assert self.G12 is not None and self.G13 is not None and self.G23 is not None
             G12, G13, G23 = self.G12(T), self.G13(T), self.G23(T)
         safe_E1 = np.where(E1 > 0.0, E1, 1.0)
         prod = np.where(E1 > 0.0, nu * nu * E2 / safe_E1, 0.0)
@@ -466,7 +472,7 @@ def orthotropic(name: str, reference_temperature: float = 300.0, description: st
     missing = [k for k in ORTHOTROPIC_KEYS if k not in props]
     if missing:
         raise InputError(f"materials.{name}", f"orthotropic material needs {', '.join(missing)}")
-    p = {k: as_property(f"{name}.{k}", props[k]) for k in ORTHOTROPIC_KEYS}
+    p: dict[str, Any] = {k: as_property(f"{name}.{k}", props[k]) for k in ORTHOTROPIC_KEYS}
     for key in ("density", "specific_heat"):
         _require(p[key], lambda v: v > 0.0, "must be > 0")
     for key in ("E1", "E2", "G12", "G13", "G23", "k1", "k2", "k3"):
@@ -480,7 +486,7 @@ def _load_library_file(name: str) -> dict[str, Any]:
     return tomllib.loads(text)
 
 
-@lru_cache(maxsize=None)
+@cache
 def library_material(name: str) -> Material:
     """A library material by name (see :data:`LIBRARY`)."""
     if name not in LIBRARY:

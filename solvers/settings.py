@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 from hypate.solvers.aero.factory import AERO_NAMES, is_aero_name
 from hypate.solvers.errors import InputError
@@ -10,6 +11,10 @@ from hypate.solvers.thermal.schedule import check_schedule
 
 #: Most time steps of one simulation (a study's ``steps`` has the same bound).
 MAX_STEPS = 100_000
+#: The values of the string settings (for the type checker; checked at run time below).
+Scheme = Literal["tc", "s1", "s2"]
+Heating = Literal["eckert", "none"]
+BoundaryLayer = Literal["turbulent", "laminar"]
 #: Coupled schemes: tightly coupled quasi-steady, loosely coupled S1 and S2.
 SCHEMES: tuple[str, ...] = ("tc", "s1", "s2")
 HEATINGS: tuple[str, ...] = ("eckert", "none")
@@ -83,10 +88,10 @@ class SimulationSettings:
         the thickness (a perturbation that lets a flat heated panel leave the trivial state).
     """
 
-    scheme: str = "tc"
+    scheme: Scheme = "tc"
     aero: str = "pt-bl"
-    heating: str = "eckert"
-    boundary_layer: str = "turbulent"
+    heating: Heating = "eckert"
+    boundary_layer: BoundaryLayer = "turbulent"
     time_step: float = 1.0
     duration: float = 160.0
     radiation_temperature: float | None = None

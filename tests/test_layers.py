@@ -16,6 +16,9 @@ as source (nothing is imported) under its installed name (``hypate.*``; the fold
   PEP 562: ``import hypate`` stays instant, so the ``hypate`` command can answer Ctrl-C while
   it starts) and the console script's of the command line (``--version`` and ``--help``
   answered first);
+- how a study runs is decided by the runner (``hypate.scaling.workflow.execute``) only: the
+  CLI and the top-level API call it and import none of the ways it chooses between
+  (:data:`RUNNERS`);
 - no import by string name (``importlib.import_module``, ``__import__``);
 - no import of another module's private names (``from m import _x``), and no private module
   (``_name``) imported from outside its own package;
@@ -42,6 +45,11 @@ OPTIONAL = ("dask", "distributed")
 #: answered without it (scaling/cli/commands.py).
 LAZY = {("hypate", "hypate._api"),
         ("hypate.scaling.cli.entry", "hypate.scaling.cli.main")}
+#: The ways a study runs, which only the runner (``hypate.scaling.workflow.execute``) picks:
+#: (module, function) pairs the CLI and the top-level API may not import.
+RUNNERS = {("hypate.scaling.workflow.run", "run_study"),
+           ("hypate.scaling.workflow.sweep", "run_sweep"),
+           ("hypate.scaling.workflow.robust", "run_robust_study")}
 
 
 @dataclass(frozen=True)
@@ -190,6 +198,11 @@ def check_tree(root: Path) -> list[str]:
             why = _layer_violation(module, imp.target)
             if why:
                 problems.append(f"{where}: {module} imports {imp.target} ({why})")
+            chooses = [n for n in imp.names if (imp.target, n) in RUNNERS]
+            if chooses and (_is_under(module, "hypate.scaling.cli") or module == "hypate"
+                            or module.startswith("hypate._")):
+                problems.append(f"{where}: {module} imports {', '.join(chooses)} (only the "
+                                "runner decides how a study runs)")
             private = [n for n in imp.names if n.startswith("_") and n != "__future__"]
             if private and _is_under(imp.target, "hypate"):
                 problems.append(f"{where}: private name(s) {', '.join(private)} of {imp.target}")
@@ -246,6 +259,9 @@ BROKEN = {
     "scaling/workflow/run.py": "from hypate.scaling.report.html import write_report\n",
     "scaling/report/__init__.py": "",
     "scaling/report/html.py": "def write_report():\n    pass\n",
+    "scaling/cli/__init__.py": "",
+    "scaling/cli/run.py": "from hypate.scaling.workflow.sweep import run_sweep\n",
+    "scaling/workflow/sweep.py": "def run_sweep():\n    pass\n",
 }
 
 
@@ -262,5 +278,6 @@ def test_the_contract_catches_each_kind_of_violation(tmp_path: Path) -> None:
                      "private name(s) _front",
                      "inside a function or class",
                      "import by string name",
+                     "imports run_sweep (only the runner decides how a study runs)",
                      "import cycle: hypate.scaling.engine.pareto -> hypate.scaling.engine.store"):
         assert expected in problems, problems

@@ -22,9 +22,8 @@ from hypate.scaling.engine.problem import CheapConstraint
 from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.report.html import write_report_safely
-from hypate.scaling.workflow import run as _run
+from hypate.scaling.workflow.execute import Outcome, execute
 from hypate.scaling.workflow.run import RunOutcome
-from hypate.scaling.workflow.rundir import rank_designs
 from hypate.scaling.workflow.study import Study, load_study
 from pymoo.core.problem import Problem
 from scipy.optimize import OptimizeResult
@@ -33,17 +32,36 @@ __all__ = ["BayesianOptimizer", "CheapConstraint", "Optimizer", "RunOutcome", "S
            "load_study", "minimize", "run_study"]
 
 
-def run_study(study: Study, out: str | Path, *,
+def run_study(study: Study, out: str | Path | None = None, *,
               on_written: Callable[[Path], object] | None = write_report_safely,
-              **options: Any) -> RunOutcome:
-    """Run (or, with ``resume=True``, continue) ``study`` into the directory ``out`` and
-    write its report, exactly as ``hypate run STUDY --out OUT`` does.
+              **options: Any) -> Outcome | None:
+    """Run (or, with ``resume=True``, continue) ``study`` exactly as ``hypate run STUDY
+    --out OUT`` does: the same runner (:func:`hypate.scaling.workflow.execute.execute`)
+    decides between a single campaign, a robust one, one per seed and one per ``[sweep]``
+    point, and writes the same files (a sweep's ``sweep.json``, a ``seeds=N`` run's
+    ``seeds.json``).
 
-    ``options`` are those of :func:`hypate.scaling.workflow.run.run_study` (``resume``,
-    ``workers``, ``scheduler``, ``seed``, ``progress``, ``seed_runs``); ``on_written=None``
-    skips the report.
+    Parameters
+    ----------
+    study : Study
+    out : path, optional
+        The run directory; default ``runs/<study name>`` (``-2``, ``-3`` ... when it
+        exists; with ``resume=True`` the latest).
+    on_written : callable or None
+        Called with each finished run directory; default: write its report (``None``
+        skips it).
+    **options
+        Those of :func:`~hypate.scaling.workflow.execute.execute`: ``resume``,
+        ``workers``, ``scheduler``, ``seed``, ``seeds`` (a number of seeds), ``seed_runs``,
+        ``progress``, ``force``.
+
+    Returns
+    -------
+    RunOutcome, SweepOutcome or SeedsOutcome
+        A :class:`RunOutcome` for a single or robust study (``.evaluations``,
+        ``.pareto``, ``.design_point``).
     """
-    return _run.run_study(study, out, on_written=on_written, **options)
+    return execute(study, out, on_written=on_written, **options)
 
 
 def _scipy_result(result: OptimizationResult, evaluations: pd.DataFrame) -> OptimizeResult:
@@ -57,7 +75,7 @@ def _scipy_result(result: OptimizationResult, evaluations: pd.DataFrame) -> Opti
         return OptimizeResult(x=None, fun=None, nfev=len(evaluations), success=False,
                               message=why, evaluations=evaluations,
                               pareto_x=np.zeros((0, result.n_var)), pareto_fun=np.zeros((0, m)))
-    best = ok[rank_designs(result.F[ok])[0]]
+    best = result.design_point()
     x, f = result.X[best], result.F[best]
     return OptimizeResult(x=x, fun=float(f[0]) if m == 1 else f, nfev=len(evaluations),
                           success=True, message=f"{len(evaluations)} evaluations",
@@ -167,8 +185,8 @@ def minimize(fun: Callable[[np.ndarray], Any] | Problem,
     plan = plan_budget(d, m, n_evaluations, n_init, refine, acquisition)
     seed = 0 if seed is None else int(seed)
     with EvaluationStore(":memory:") as store:
-        common = {"n_init": plan.n_init, "seed": seed, "store": store,
-                  "cheap_constraints": cheap}
+        common: dict[str, Any] = {"n_init": plan.n_init, "seed": seed, "store": store,
+                                  "cheap_constraints": cheap}
         result = BayesianOptimizer(problem, acquisition=plan.acquisition, n_iter=plan.n_iter,
                                    **common).run()
         if plan.refine and result.feasible.any():

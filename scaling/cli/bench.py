@@ -7,7 +7,6 @@ from __future__ import annotations
 import argparse
 from types import ModuleType
 
-from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli import (
     bench_ate,
     bench_best,
@@ -17,6 +16,7 @@ from hypate.scaling.cli import (
     bench_study,
     bench_thermal,
 )
+from hypate.scaling.cli.commands import HELP
 
 #: Modules providing benchmark targets (each has ``register_bench(subparsers)``).
 BENCH_MODULES: tuple[ModuleType, ...] = (bench_bo, bench_structure, bench_thermal, bench_ate,

@@ -55,6 +55,8 @@ def reference_model(duration: float = 160.0, time_step: float = 1.0,
     prototype over ``duration`` (s) with the TC time step ``time_step`` (s)."""
     path = shipped("case")["sec9_2_prototype"]
     case = parse_case(read_toml(str(path)), source=str(path))
+    # the shipped prototype case has its [flow] and [simulation]
+    assert case.simulation is not None and case.flow is not None
     sim = case.simulation.model_copy(update={"time_step": time_step, "duration": duration,
                                             "aero": aero})
     settings = replace(settings_from_config(sim), keep_fields=False)

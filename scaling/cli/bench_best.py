@@ -20,7 +20,8 @@ import numpy as np
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.run import resolve_workers
 from hypate.scaling.workflow.best_known import best_known_search, candidate_designs
-from hypate.scaling.workflow.run import run_study
+from hypate.scaling.workflow.execute import execute
+from hypate.scaling.workflow.run import RunOutcome
 from hypate.scaling.workflow.seeds import seed_directory, seed_list
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.study import load_study
@@ -68,8 +69,10 @@ def run(args: argparse.Namespace) -> int:
                            args.seeds):
             d = seed_directory(out / "runs", s)
             print(f"bench best: {study.name}, seed {s} ...", file=sys.stderr, flush=True)
-            outcome = run_study(study, d, workers=workers, seed=s,
-                                resume=(d / "evaluations.sqlite").is_file())
+            outcome = execute(study, d, workers=workers, seed=s,
+                              resume=(d / "evaluations.sqlite").is_file())
+            # one campaign (no sweep, no seeds, no on_complete: never None)
+            assert isinstance(outcome, RunOutcome)
             spent += len(outcome.result.data)
             runs.append(d)
     starts = candidate_designs(study, runs, args.starts)

@@ -8,6 +8,7 @@ prints the issue's public JSON instead. ``--baseline nsga2|random`` runs pymoo's
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 import numpy as np
 from hypate.scaling.cli.jsonout import dumps
@@ -70,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
     v_final = _v_final(args.v_final)
 
     seconds = float("nan")
+    history: np.ndarray | list[float]  # each run's curve, then as floats
     if args.baseline == "nsga2":
         history = run_nsga2(bench, n_eval, args.seed)
     elif args.baseline == "random":
@@ -84,8 +86,9 @@ def run(args: argparse.Namespace) -> int:
         if len(res.seconds_per_iteration):
             seconds = float(np.median(res.seconds_per_iteration))
     history = [float(h) for h in history]
-    out: dict[str, object]
+    out: dict[str, Any]
     if bench.multi_objective:
+        assert bench.ref_point is not None  # every multi-objective benchmark has one
         out = {"hypervolume": history[-1] if history else 0.0,
                "reference_point": [float(r) for r in bench.ref_point], "history": history,
                "evaluations": len(history), "seconds_per_iteration_median": seconds}

@@ -1,9 +1,9 @@
 """``hypate bench rom``: NRMSE of the Sec. 7.1 ROM versus the number of training samples.
 
 Builds the shipped ``rom_2d_panel`` ROM (``studies/rom/rom_2d_panel.toml``, ROM/Avr set-up)
-from 50, 100, 200 and 400 OLH samples of the built-in shock-expansion source and prints the mean NRMSE (Eq. 7.7) of
-pressure and heat flux on 100 held-out samples -- the analogue of Fig. 7.3 -- with the build
-time of each ROM. A benchmark: it prints numbers, it never fails.
+from 50, 100, 200 and 400 OLH samples of the built-in shock-expansion source and prints the mean
+NRMSE (Eq. 7.7) of pressure and heat flux on 100 held-out samples -- the analogue of Fig. 7.3 --
+with the build time of each ROM. A benchmark: it prints numbers, it never fails.
 """
 from __future__ import annotations
 

@@ -58,10 +58,10 @@ def run(args: argparse.Namespace) -> int:
     except np.linalg.LinAlgError:
         pass
     for spec in PERMC_SPECS:
-        fact[f"splu_{spec}"] = median_seconds(lambda s=spec: solver.splu(K.data, s, False),
-                                       args.repeat)
-        fact[f"splu_{spec}_symmetric"] = median_seconds(lambda s=spec: solver.splu(K.data, s, True),
-                                                 args.repeat)
+        fact[f"splu_{spec}"] = median_seconds(
+            lambda s=spec: solver.splu(K.data, s, False), args.repeat)  # type: ignore[misc]  # mypy#15459: lambda default
+        fact[f"splu_{spec}_symmetric"] = median_seconds(
+            lambda s=spec: solver.splu(K.data, s, True), args.repeat)  # type: ignore[misc]  # mypy#15459: lambda default
     best = min(fact, key=fact.__getitem__)
     fac = solver.factor(K)
     b = rng.standard_normal(model.n_dof)

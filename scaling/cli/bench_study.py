@@ -44,8 +44,9 @@ from hypate.scaling.cli.run import resolve_workers
 from hypate.scaling.engine.pareto import hypervolume
 from hypate.scaling.workflow.best_known import best_known
 from hypate.scaling.workflow.derived import study_data
+from hypate.scaling.workflow.execute import execute
 from hypate.scaling.workflow.fidelity import is_top
-from hypate.scaling.workflow.run import run_study
+from hypate.scaling.workflow.run import RunOutcome
 from hypate.scaling.workflow.seeds import seed_directory, seed_list
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.study import Study, load_study, parse_study
@@ -89,7 +90,9 @@ def _trace(study: Study, out: Path, workers: int, seed: int) -> dict[str, Any]:
         worst = float(np.max(evaluation.F)) if admissible else math.inf
         rows.append((time.perf_counter() - t0, spent[0], worst))
 
-    outcome = run_study(study, out, workers=workers, seed=seed, progress=progress)
+    outcome = execute(study, out, workers=workers, seed=seed, progress=progress)
+    # one single campaign (run() rejects sweeps and robust studies; no seeds, no on_complete)
+    assert isinstance(outcome, RunOutcome)
     point = outcome.design_point
     result = outcome.result
     keep = result.ok & (is_top(result.X, n_levels) if n_levels else True)

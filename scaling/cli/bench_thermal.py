@@ -25,7 +25,8 @@ from hypate.solvers.errors import InputError
 from hypate.solvers.materials import honeycomb_core, isotropic, library_material
 from hypate.solvers.numerics.threads import blas_threads
 from hypate.solvers.panel import Layer, PanelSpec
-from hypate.solvers.thermal.model import SurfaceCondition, ThermalLoads, ThermalModel
+from hypate.solvers.thermal.loads import SurfaceCondition, ThermalLoads
+from hypate.solvers.thermal.model import ThermalModel
 
 
 def register_bench(sub: argparse._SubParsersAction) -> None:
@@ -93,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
     ev = full._evaluate(T_nl + 1.0, T_nl, dt, 0.5, nl_loads, True)
     J = ev.J
     Jlin = lin._evaluate(T_lin, T_lin, dt, 0.5, lin_loads, True).J
+    assert J is not None and Jlin is not None  # jacobian=True: _evaluate assembles it
     A = full._matrix(J).tocsc()
     with blas_threads(1):
         results["factor_banded_cholesky_constant"] = median_seconds(
@@ -100,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
         results["factor_banded_lu"] = median_seconds(lambda: full._banded.lu(J), args.repeat)
         for spec in ("MMD_AT_PLUS_A", "COLAMD"):
             results[f"factor_splu_{spec}"] = median_seconds(
-                lambda sp_=spec: spla.splu(A, permc_spec=sp_), args.repeat)
+                lambda sp_=spec: spla.splu(A, permc_spec=sp_), args.repeat)  # type: ignore[misc]  # mypy#15459: lambda default
         fac = full._banded.lu(J)
         b = rng.standard_normal(full.n_nodes)
         results["solve_banded_lu"] = median_seconds(lambda: fac.solve(b), args.repeat)

@@ -53,7 +53,8 @@ def flow_from_args(args: argparse.Namespace) -> FlowCondition:
             raise InputError("--p0/--T0", "both --p0 and --T0 are required")
         return FlowCondition.from_stagnation(args.mach, args.p0, args.T0)
     if args.pressure is None or args.temperature is None:
-        raise InputError("--pressure/--temperature", "both --pressure and --temperature are required")
+        raise InputError("--pressure/--temperature",
+                         "both --pressure and --temperature are required")
     return FlowCondition.from_static(args.mach, args.pressure, args.temperature)
 
 

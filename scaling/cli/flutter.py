@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import argparse
 
-from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.arguments import finite, integer_in, positive
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.config import load_panel

@@ -1,7 +1,7 @@
 """The ``hypate`` command line.
 
-Subcommands live in the modules of :mod:`hypate.scaling.cli`; each registers its own parser. Errors in user
-input (``hypate.solvers.errors.InputError``) and malformed files end with a one-line message
+Subcommands live in the modules of :mod:`hypate.scaling.cli`; each registers its own parser. Errors
+in user input (``hypate.solvers.errors.InputError``) and malformed files end with a one-line message
 naming the field and exit code 2 -- never a traceback. So do a link where a command would
 write, a run directory it may not write, a full disk (exit 4), Ctrl-C (130) and SIGTERM
 (143; :mod:`.failures`). The logged warnings of the package (a store without digests) are
@@ -17,6 +17,7 @@ import re
 import sys
 from collections.abc import Iterator, Sequence
 from types import ModuleType
+from typing import NoReturn
 
 from hypate.scaling.cli import (
     bench,
@@ -77,7 +78,7 @@ class _Parser(argparse.ArgumentParser):
         kwargs.setdefault("formatter_class", DefaultsHelpFormatter)
         super().__init__(*args, **kwargs)
 
-    def error(self, message: str) -> None:  # noqa: D401 - argparse API
+    def error(self, message: str) -> NoReturn:  # noqa: D401 - argparse API (self.exit)
         choice = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
         if choice:
             options = re.findall(r"'?([\w-]+)'?", choice.group(2))

@@ -7,16 +7,15 @@ import argparse
 import warnings
 from pathlib import Path
 
-from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.arguments import output_directory
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.report.figures import png_bytes, prediction_figure
 from hypate.scaling.report.prediction import prediction_page
+from hypate.scaling.workflow.measured import ACCEPTED, read_measured
 from hypate.scaling.workflow.predict import (
-    ACCEPTED,
     design_point_basis,
     predict,
-    read_measured,
     sweep_basis,
     write_prediction,
 )

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import argparse
 
-from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.arguments import integer_in, output_directory
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.progress import StepProgress
 from hypate.scaling.engine.executors import usable_cores

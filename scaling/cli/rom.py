@@ -16,8 +16,8 @@ import argparse
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
-from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.arguments import integer_in, output_file, positive
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.progress import StepProgress
 from hypate.scaling.workflow.shipped import resolve
@@ -41,7 +41,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     b = cmds.add_parser("build", help="build a ROM from a TOML build file",
                         description="Sample the built-in source on an OLH plan (or read the "
                         "external snapshots of the file) and fit the POD-kriging ROM.")
-    b.add_argument("config", help="ROM build file (TOML), e.g. studies/rom/rom_2d_panel.toml or the shipped name rom_2d_panel")
+    b.add_argument("config", help="ROM build file (TOML), e.g. studies/rom/rom_2d_panel.toml "
+                   "or the shipped name rom_2d_panel")
     b.add_argument("--out", required=True,
                    help="output ROM file (.npz); missing folders are created")
     b.add_argument("--samples", type=int, help="override [training] samples")

@@ -1,8 +1,10 @@
 """``hypate run [STUDY.toml]``: run a scaling study (the main job).
 
-Size: about 650 lines: the one command with every way a study runs (single, seeds,
-sweep, robust, cluster) and their terminal output; the runner split of issue 42 moves the
-choice of how a study runs into the workflow.
+How a study runs (single, seeds, sweep, robust) is decided by the runner,
+:func:`hypate.scaling.workflow.execute.execute`; this module shows it on the terminal
+(:class:`Terminal`: the runner's hooks) and turns its end into one line and an exit code.
+Size: about 640 lines, the terminal output of every way a study runs and of every way it
+can stop.
 """
 from __future__ import annotations
 
@@ -20,31 +22,36 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli import jsonout
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.failures import (
     EXIT_INFRASTRUCTURE,
-    EXIT_INTERRUPTED,
     EXIT_NO_RESULT,
     EXIT_OUTPUT,
-    EXIT_TERMINATED,
     interrupt_code,
     interrupt_word,
     is_write_failure,
     write_failure,
 )
 from hypate.scaling.cli.progress import StepProgress
+from hypate.scaling.engine.design_point import worst_objective
 from hypate.scaling.engine.executors import LOST_AFTER, auto_workers
 from hypate.scaling.engine.faults import InfrastructureError
 from hypate.scaling.engine.pareto import hypervolume
 from hypate.scaling.engine.problem import summarize_warnings, tally_warnings
 from hypate.scaling.engine.store import EvaluationStore, StoreError
 from hypate.scaling.report.html import write_report, write_report_safely
-from hypate.scaling.workflow.campaign import preflight
+from hypate.scaling.workflow.execute import (
+    RunStart,
+    SeedsOutcome,
+    check_request,
+    default_run_dir,
+    execute,
+)
 from hypate.scaling.workflow.integrity import missing_outputs
 from hypate.scaling.workflow.resources import local_workers, study_estimate
-from hypate.scaling.workflow.robust import robust_budget, run_robust_study
-from hypate.scaling.workflow.run import run_study
+from hypate.scaling.workflow.robust import robust_budget
+from hypate.scaling.workflow.run import RunOutcome
 from hypate.scaling.workflow.rundir import (
     DESIGN_POINT_JSON,
     REPORT_HTML,
@@ -53,12 +60,10 @@ from hypate.scaling.workflow.rundir import (
     SWEEP_CSV,
     SWEEP_JSON,
     describe_occurrences,
-    worst_objective,
 )
-from hypate.scaling.workflow.seeds import seed_directory, seed_list, write_seeds_summary
 from hypate.scaling.workflow.shipped import default_study, resolve
 from hypate.scaling.workflow.study import Study, load_study
-from hypate.scaling.workflow.sweep import run_sweep
+from hypate.scaling.workflow.sweep import SweepOutcome
 from hypate.scaling.workflow.verdict import prototype_note
 from hypate.solvers.errors import InputError
 from tqdm import tqdm
@@ -86,16 +91,6 @@ def write_run_report(run_dir: Path) -> Path:
         raise ReportFailed(f"{run_dir / REPORT_HTML} not written: {exc}") from exc
 
 
-def default_run_dir(name: str, resume: bool, root: Path = Path("runs")) -> Path:
-    """``runs/NAME``, or ``runs/NAME-2``, ``-3``... when earlier runs exist (a repeated
-    ``hypate run`` starts a new run instead of refusing); with ``--resume`` the latest."""
-    candidates = [root / name] + [root / f"{name}-{k}" for k in range(2, 1000)]
-    existing = [c for c in candidates if c.exists()]
-    if resume:
-        return existing[-1] if existing else candidates[0]
-    return next(c for c in candidates if not c.exists())
-
-
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help=HELP["run"],
                        description="Optimize a wind-tunnel model whose nondimensional "
@@ -103,7 +98,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        "evaluations.sqlite/.csv, pareto.csv and design_point.json to --out; "
                        "a study with a [sweep] table runs one optimization per sweep point "
                        "into --out/<point> and writes --out/sweep.json and sweep.csv.")
-    p.add_argument("study", nargs="?", help="study TOML file or a shipped study's name (default: the quick-start)")
+    p.add_argument("study", nargs="?",
+                   help="study TOML file or a shipped study's name (default: the quick-start)")
     p.add_argument("--out", help="run directory (default: runs/<study name>, numbered -2, "
                    "-3 ... when it exists)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out")
@@ -382,7 +378,8 @@ def _print_scatter(what: str, scatter: dict[str, Any] | None) -> None:
     """One line: max(J_u, J_T) under the study's scatter at a design."""
     if scatter and "objectives" in scatter:
         st = scatter["objectives"]["J_max"]
-        pct = (lambda v: "inf" if v is None else f"{100 * v:.3g} %")
+        def pct(v: float | None) -> str:
+            return "inf" if v is None else f"{100 * v:.3g} %"
         print(f"  {what} under the study's scatter ({scatter['samples']} simulator runs, "
               f"{scatter['failed']} failed): max(J_u, J_T) mean {pct(st['mean'])}, "
               f"q90 {pct(st['q90'])}")
@@ -408,159 +405,186 @@ def run(args: argparse.Namespace) -> int:
     path = resolve(args.study, "study") if args.study else default_study()
     study = load_study(path)
     args.workers = resolve_workers(args.workers, study)
+    kind = check_request(study, args.seeds, args.seed_from)
+    if kind == "seeds" and args.json:
+        raise InputError("--json", "not available with --seeds (seeds.json holds the result)")
     out = Path(args.out) if args.out else default_run_dir(study.name, args.resume)
-    t0 = time.perf_counter()
     say = (lambda *a: None) if args.quiet else (lambda *a: print(*a, file=sys.stderr))
     say(f"study {study.name}: {study.description or path}")
     if args.out is None and out.name != study.name and not args.resume:
         say(f"runs/{study.name} exists: this run writes {out} "
             f"(hypate run --resume continues the latest)")
-    if study.sweep is not None:
-        if args.seed_from:
-            raise InputError("--seed-from", "not available for sweep studies (their points "
-                             "are seeded by recycling, [sweep] recycle)")
-        if args.seeds is not None:
-            raise InputError("--seeds", "not available for sweep studies (run the sweep "
-                             "once per --seed instead)")
-        return _run_sweep(args, study, out, t0)
-    if args.seeds is not None:
-        return _run_seeds(args, study, out, say)
-    return _run_one(args, study, out, t0, say)
-
-
-def _run_one(args: argparse.Namespace, study, out: Path, t0: float, say) -> int:
-    """One optimization run of a (non-sweep) study into ``out``."""
-    # refuse a bad setting or another campaign before anything is simulated or written
-    preflight(study, out, resume=args.resume, seed=args.seed, workers=args.workers,
-              scheduler=args.scheduler, force=args.force)
-    if local_workers(args.workers, args.scheduler) is not None:
-        say(study_estimate(study, args.workers).summary())
-    robust = study.uncertainty is not None and study.uncertainty.optimize
-    if robust and args.seed_from:
-        raise InputError("--seed-from", "not available for a robust study ([robust]: its "
-                         "search starts from its nominal campaign)")
-    before = stored_evaluations(out) if args.resume else 0
-    if args.resume:
-        # complete: the campaign ended (its budget spent or its stopping rule met) and every
-        # output it wrote is there, matching the store
-        missing = missing_outputs(out)
-        if not missing:
-            point = json.loads((out / DESIGN_POINT_JSON).read_text())
-            summary = _summary(out, point, before, 0.0)
-            if args.json:
-                print(jsonout.dumps(summary, indent=2))
-            else:
-                print(f"{out}: already complete ({before} evaluations); nothing to do")
-                if summary["report"]:
-                    print(f"report: {summary['report']}")
-            return 0
-        budget = robust_budget(study) - study.budget if robust else study.budget
-        if before >= budget:  # the evaluations are done: only outputs are left to write
-            say(f"{out}: the {before} evaluations are stored; writing what is missing: "
-                f"{', '.join(missing)}")
-    say("simulating the prototype ...")
-    bar = Progress(quiet=args.quiet, verbose=args.verbose, first_id=before)
-    steps: list[StepProgress] = []  # made when the scatter starts: its clock starts there
-
-    def on_scatter(done: int, total: int, which: str = "the design point",
-                   last: bool = True) -> None:
-        if not steps or steps[-1].step != f"scatter at {which}":
-            if last:
-                bar.close()  # the evaluations are over: the scatter gets its own line
-            # its own clock: the robust search's evaluations run between two propagations
-            steps.append(StepProgress("run", quiet=args.quiet))
-        steps[-1](f"scatter at {which}", done, total)
-
+    if kind == "seeds":  # an interrupted seed: continue them all
+        first = study.optimizer.seed if args.seed is None else args.seed
+        args.seeds_run = (first, args.seeds, out)
+    terminal = Terminal(args, study, kind, say, out)
     try:
         with collected_warnings(args.verbose) as caught:
-            if robust:
-                outcome = run_robust_study(
-                    study, out, resume=args.resume, workers=args.workers,
-                    scheduler=args.scheduler, seed=args.seed, progress=bar,
-                    on_written=write_run_report, lost_after=args.cluster_timeout,
-                    force=args.force, on_scatter=lambda which, done, total: on_scatter(
-                        done, total, f"the {which} design", last=which == "robust"))
-            else:
-                outcome = run_study(study, out, resume=args.resume, workers=args.workers,
-                                    scheduler=args.scheduler, seed=args.seed, progress=bar,
-                                    seed_runs=args.seed_from, on_written=write_run_report,
-                                    lost_after=args.cluster_timeout,
-                                    on_warnings=print_warnings if args.verbose else None,
-                                    on_scatter=on_scatter, force=args.force)
+            terminal.caught = caught
+            outcome = execute(
+                study, out, resume=args.resume, workers=args.workers,
+                scheduler=args.scheduler, seed=args.seed, seeds=args.seeds,
+                seed_runs=args.seed_from, progress=terminal.progress,
+                on_run=terminal.start, on_done=terminal.done, on_complete=terminal.complete,
+                on_written=write_run_report, on_seeds_written=write_report_safely,
+                on_warnings=print_warnings if args.verbose else None,
+                on_scatter=terminal.scatter, lost_after=args.cluster_timeout,
+                force=args.force)
     except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM
-        bar.close()
+        terminal.close()
         return interrupted(args, out, exc)
     except InfrastructureError as exc:
-        bar.close()
+        terminal.close()
         return infrastructure_lost(args, out, exc)
     except ReportFailed as exc:
-        bar.close()
+        terminal.close()
         return output_failed(args, out, str(exc), "fix that")
     except MemoryError:
-        bar.close()
+        terminal.close()
         return output_failed(args, out, "out of memory in a simulation (--force ran a "
                              "study beyond the estimate, or other work took the memory)",
                              "use a coarser [simulation] mesh or fewer --workers")
     except OSError as exc:
         if not is_write_failure(exc):
             raise
-        bar.close()
+        terminal.close()
         return output_failed(args, out, *write_failure(exc))
     finally:
-        bar.close()
-        for step in steps:
+        terminal.close()
+    if isinstance(outcome, SweepOutcome):
+        return _sweep_summary(args, out, outcome, terminal, caught)
+    if isinstance(outcome, SeedsOutcome):
+        return _seeds_summary(out, outcome, terminal)
+    return terminal.code
+
+
+class Terminal:
+    """What ``hypate run`` shows of a run: the hooks of
+    :func:`~hypate.scaling.workflow.execute.execute` (a progress bar per campaign, the
+    scatter's step lines, each campaign's summary) and the exit code they imply."""
+
+    def __init__(self, args: argparse.Namespace, study: Study, kind: str, say,
+                 out: Path) -> None:
+        self.args, self.study, self.kind, self.say = args, study, kind, say
+        self.bars: list[Progress] = []
+        self.steps: list[StepProgress] = []  # made when a scatter starts: its clock too
+        self.caught: list[warnings.WarningMessage] = []
+        self.mark = 0  # warnings caught before the campaign now running
+        self.before = 0  # evaluations its store held before this run
+        self.t0 = time.perf_counter()
+        self.code = 0  # the single run's exit code
+        self.failed = 0  # seeds without a result
+        #: evaluations each sweep point's store held before this run
+        self.stored = {store.parent.name: stored_evaluations(store.parent)
+                       for store in (out.glob(f"*/{STORE}")
+                                     if args.resume and kind == "sweep" else ())}
+
+    def announce(self, start: RunStart) -> None:
+        if start.kind == "seeds":
+            self.say(f"[seed {start.index + 1}/{start.total}] seed {start.seed}: "
+                     f"{start.directory}")
+        elif start.kind == "sweep" and not self.args.quiet:
+            print(f"[{start.index + 1}/{start.total}] {start.label}", file=sys.stderr)
+
+    def start(self, start: RunStart) -> None:
+        """A campaign starts: the estimate, what a resume still has to do, a new bar."""
+        self.close()
+        self.announce(start)
+        args = self.args
+        if start.kind == "sweep":
+            self.bars.append(Progress(quiet=args.quiet, verbose=args.verbose,
+                                      first_id=self.stored.get(start.label, 0)))
+            return
+        self.t0, self.mark = time.perf_counter(), len(self.caught)
+        if local_workers(args.workers, args.scheduler) is not None:
+            self.say(study_estimate(self.study, args.workers).summary())
+        self.before = stored_evaluations(start.directory) if start.resume else 0
+        if start.resume:
+            budget = (robust_budget(self.study) - self.study.budget if start.kind == "robust"
+                      else self.study.budget)
+            if self.before >= budget:  # the evaluations are done: only outputs are left
+                self.say(f"{start.directory}: the {self.before} evaluations are stored; "
+                         f"writing what is missing: "
+                         f"{', '.join(missing_outputs(start.directory))}")
+        self.say("simulating the prototype ...")
+        self.bars.append(Progress(quiet=args.quiet, verbose=args.verbose,
+                                  first_id=self.before))
+
+    def progress(self, done: int, budget: int, evaluation: Any) -> None:
+        if self.bars:
+            self.bars[-1](done, budget, evaluation)
+
+    def scatter(self, done: int, total: int, which: str = "the design point") -> None:
+        """The scatter's own step line (a robust run's nominal one runs before the robust
+        search's evaluations, so only the last one closes the bar)."""
+        if not self.steps or self.steps[-1].step != f"scatter at {which}":
+            if which != "the nominal design":
+                for bar in self.bars:  # the evaluations are over: the scatter's own line
+                    bar.close()
+            self.steps.append(StepProgress("run", quiet=self.args.quiet))
+        self.steps[-1](f"scatter at {which}", done, total)
+
+    def complete(self, start: RunStart) -> None:
+        """A campaign found complete on resume: its summary, nothing run."""
+        self.announce(start)
+        before = stored_evaluations(start.directory)
+        point = json.loads((start.directory / DESIGN_POINT_JSON).read_text())
+        summary = _summary(start.directory, point, before, 0.0)
+        if self.args.json:
+            print(jsonout.dumps(summary, indent=2))
+        else:
+            print(f"{start.directory}: already complete ({before} evaluations); nothing to do")
+            if summary["report"]:
+                print(f"report: {summary['report']}")
+
+    def done(self, start: RunStart, outcome: RunOutcome) -> None:
+        """A campaign finished: its warnings, its summary, its exit code."""
+        self.close()
+        args, out = self.args, start.directory
+        if not args.quiet and not args.verbose:
+            for line in warning_summary(self.caught[self.mark:],
+                                        run_warnings(out, self.before),
+                                        outcome.prototype_warnings):
+                self.say(line)
+        point = outcome.design_point
+        summary = _summary(out, point, self.before, time.perf_counter() - self.t0)
+        if args.json:
+            print(jsonout.dumps(summary, indent=2))
+        else:
+            _print_summary(summary, self.before)
+        code = 0
+        if not point["statistics"]["successful"]:
+            print(f"hypate: error: no evaluation succeeded "
+                  f"({point['statistics']['evaluations']} failed); the reasons:",
+                  file=sys.stderr)
+            for line in failure_reasons(out):
+                print(line, file=sys.stderr)
+            code = EXIT_NO_RESULT
+        elif not math.isfinite(point["statistics"].get("wall_seconds") or 0.0):
+            code = EXIT_NO_RESULT
+        self.code = code
+        self.failed += code != 0
+
+    def close(self) -> None:
+        for bar in self.bars:
+            bar.close()
+        self.bars.clear()
+        for step in self.steps:
             step.close()
-    if not args.quiet and not args.verbose:
-        for line in warning_summary(caught, run_warnings(out, before),
-                                    outcome.prototype_warnings):
-            say(line)
-    point = outcome.design_point
-    summary = _summary(out, point, before, time.perf_counter() - t0)
-    if args.json:
-        print(jsonout.dumps(summary, indent=2))
-    else:
-        _print_summary(summary, before)
-    if not point["statistics"]["successful"]:
-        print(f"hypate: error: no evaluation succeeded ({point['statistics']['evaluations']}"
-              " failed); the reasons:", file=sys.stderr)
-        for line in failure_reasons(out):
-            print(line, file=sys.stderr)
-        return EXIT_NO_RESULT
-    if not math.isfinite(point["statistics"].get("wall_seconds") or 0.0):
-        return EXIT_NO_RESULT
-    return 0
+        self.steps.clear()
 
 
-def _run_seeds(args: argparse.Namespace, study, out: Path, say) -> int:
-    """``--seeds N``: one run per seed into ``out/seed-<s>``; the summary after each."""
-    if args.json:
-        raise InputError("--json", "not available with --seeds (seeds.json holds the result)")
-    first = study.optimizer.seed if args.seed is None else args.seed
-    seeds = seed_list(first, args.seeds)
-    out.mkdir(parents=True, exist_ok=True)
-    failed = 0
-    for k, seed in enumerate(seeds):
-        sub = seed_directory(out, seed)
-        say(f"[seed {k + 1}/{len(seeds)}] seed {seed}: {sub}")
-        one = argparse.Namespace(**{**vars(args), "seed": seed, "out": str(sub),
-                                    "resume": args.resume and (sub / STORE).is_file(),
-                                    "seeds_run": (first, len(seeds), out)})
-        code = _run_one(one, study, sub, time.perf_counter(), say)
-        write_seeds_summary(study, out, seeds)
-        if code in (EXIT_INTERRUPTED, EXIT_TERMINATED, EXIT_INFRASTRUCTURE, EXIT_OUTPUT):
-            return code
-        failed += code != 0
-    for seed in seeds:  # every report shows the spread over all seeds
-        write_report_safely(seed_directory(out, seed))
-    data = write_seeds_summary(study, out, seeds)
-    print(f"{out}: {data['finished']} of {len(seeds)} seeds finished "
+def _seeds_summary(out: Path, outcome: SeedsOutcome, terminal: Terminal) -> int:
+    """``--seeds N``: the spread over the seeds."""
+    data = outcome.summary
+    print(f"{out}: {data['finished']} of {len(outcome.seeds)} seeds finished "
           f"(summary: {out / SEEDS_CSV})")
     for group in ("objectives", "design"):
         for name, st in data["spread"][group].items():
             if st["median"] is not None:
                 print(f"  {name:>10s}: median {st['median']:.6g}, min {st['min']:.6g}, "
                       f"max {st['max']:.6g}")
-    return EXIT_NO_RESULT if failed else 0
+    return EXIT_NO_RESULT if terminal.failed else 0
 
 
 def infrastructure_lost(args: argparse.Namespace, out: Path, exc: InfrastructureError) -> int:
@@ -590,64 +614,22 @@ def interrupted(args: argparse.Namespace, out: Path, exc: BaseException) -> int:
     return interrupt_code(exc)
 
 
-def _run_sweep(args: argparse.Namespace, study, out: Path, t0: float) -> int:
-    """``hypate run`` of a sweep study: one optimization per point, then the summary."""
-    bars: list[Progress] = []
-    # evaluations each point's store held before this run: its ids of this run follow them
-    before = {store.parent.name: stored_evaluations(store.parent)
-              for store in (out.glob(f"*/{STORE}") if args.resume else ())}
-
-    def on_point(i: int, n: int, point) -> None:
-        if bars:
-            bars.pop().close()
-        if not args.quiet:
-            print(f"[{i + 1}/{n}] {point.label}", file=sys.stderr)
-        bars.append(Progress(quiet=args.quiet, verbose=args.verbose,
-                             first_id=before.get(point.label, 0)))
-
-    def progress(done: int, budget: int, evaluation) -> None:
-        if bars:
-            bars[-1](done, budget, evaluation)
-
-    try:
-        with collected_warnings(args.verbose) as caught:
-            outcome = run_sweep(study, out, resume=args.resume, workers=args.workers,
-                                scheduler=args.scheduler, seed=args.seed, progress=progress,
-                                on_point=on_point, on_written=write_run_report,
-                                lost_after=args.cluster_timeout, force=args.force)
-    except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM
-        for bar in bars:
-            bar.close()
-        return interrupted(args, out, exc)
-    except ReportFailed as exc:
-        for bar in bars:
-            bar.close()
-        return output_failed(args, out, str(exc), "fix that")
-    except OSError as exc:
-        if not is_write_failure(exc):
-            raise
-        for bar in bars:
-            bar.close()
-        return output_failed(args, out, *write_failure(exc))
-    except InfrastructureError as exc:
-        for bar in bars:
-            bar.close()
-        return infrastructure_lost(args, out, exc)
-    finally:
-        for bar in bars:
-            bar.close()
+def _sweep_summary(args: argparse.Namespace, out: Path, outcome: SweepOutcome,
+                   terminal: Terminal, caught: list[warnings.WarningMessage]) -> int:
+    """``hypate run`` of a sweep study: the warnings of every point, then one line each."""
+    seconds = time.perf_counter() - terminal.t0
     if not args.quiet and not args.verbose:
         attributed = [((rec["label"], i), w) for rec in outcome.points
                       for i, w in run_warnings(out / rec["label"],
-                                               before.get(rec["label"], 0))]
+                                               terminal.stored.get(rec["label"], 0))]
         for line in warning_summary(caught, attributed):
             print(line, file=sys.stderr)
     if args.json:
         print(jsonout.dumps({"directory": str(out), "summary": str(out / SWEEP_CSV),
-                             "seconds": time.perf_counter() - t0, "points": outcome.points},
+                             "seconds": seconds, "points": outcome.points},
                             indent=2, default=str))
         return 1 if any(rec["status"] != "done" for rec in outcome.points) else 0
-    print(f"{out}: {len(outcome.points)} sweep points in {time.perf_counter() - t0:.1f} s "
+    print(f"{out}: {len(outcome.points)} sweep points in {seconds:.1f} s "
           f"(summary: {out / SWEEP_CSV})")
     failed = 0
     for rec in outcome.points:

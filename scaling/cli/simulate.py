@@ -4,8 +4,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.arguments import output_directory
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.config import load_case

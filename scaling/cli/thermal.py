@@ -30,7 +30,8 @@ from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.workflow.shipped import resolve
 from hypate.solvers.config import load_panel
 from hypate.solvers.errors import InputError
-from hypate.solvers.thermal.model import ThermalModel, uniform_loads
+from hypate.solvers.thermal.loads import uniform_loads
+from hypate.solvers.thermal.model import ThermalModel
 
 #: Upper bound on the number of time steps of one run (guards against typos in --time-step).
 MAX_STEPS = 1_000_000

@@ -5,12 +5,12 @@ from __future__ import annotations
 import argparse
 import math
 import warnings
-from pathlib import Path
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
-from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.arguments import output_directory
+from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.progress import StepProgress
 from hypate.scaling.report.figures import plot_sweep
@@ -221,8 +221,9 @@ def run(args: argparse.Namespace) -> int:
         if args.scatter:
             bar = StepProgress("whatif")  # stderr: --json stdout stays clean
             try:
-                result = scatter_whatif(study, values, base=base, samples=args.samples,
-                                        progress=lambda d, t: bar("scatter", d, t))
+                result: dict[str, Any] = scatter_whatif(
+                    study, values, base=base, samples=args.samples,
+                    progress=lambda d, t: bar("scatter", d, t))
             finally:
                 bar.close()
             if args.json:
@@ -232,10 +233,9 @@ def run(args: argparse.Namespace) -> int:
             return 0
         if sweep is not None:
             name, lo, hi, n = sweep
-            result: dict[str, Any] = {"study": study.name,
-                                      "sweep": sweep_whatif(study, values, name, lo, hi, n,
-                                                            out, base=base,
-                                                            plot=plot_sweep)}
+            result = {"study": study.name,
+                      "sweep": sweep_whatif(study, values, name, lo, hi, n, out, base=base,
+                                            plot=plot_sweep)}
         else:
             result = evaluate_whatif(study, values, base=base)
     if args.json:

@@ -27,7 +27,7 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, ClassVar, Protocol, cast
 
 import numpy as np
 from hypate.scaling.engine.criteria import (
@@ -72,6 +72,14 @@ class Model(Protocol):
     def predict_with_gradients(
         self, X: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]: ...
+
+
+class JointModel(Model, Protocol):
+    """A model that also draws joint samples of its objectives and their gradients
+    (:meth:`~hypate.scaling.engine.histories.HistoriesModel.sample_with_gradients`: shapes
+    (N, S, m) and (N, S, m, d))."""
+
+    def sample_with_gradients(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
 
 
 @dataclass(frozen=True)
@@ -126,7 +134,7 @@ class Acquisition(ABC):
     #: ``True`` if larger is better (the inner optimizer minimizes ``-C``).
     maximize: bool = True
     #: ``True`` for acquisitions of several objectives (registry checks the problem).
-    multi_objective: bool = False
+    multi_objective: ClassVar[bool] = False
 
     # Every class in :data:`ACQUISITIONS` also has a classmethod
     # ``from_context(model, context)`` building it for one proposal; an acquisition made by
@@ -367,6 +375,8 @@ class HypervolumePoI(_Hypervolume):
 
     @classmethod
     def from_context(cls, model: Model, context: AcquisitionContext) -> HypervolumePoI:
+        # the optimizer always sets it (the reference point, else nadir + range)
+        assert context.ref_point is not None
         return cls(model, context.pareto_front, context.ref_point)
 
     def _from_moments(self, mu, sigma):
@@ -407,6 +417,8 @@ class HypervolumeEI(_Hypervolume):
 
     @classmethod
     def from_context(cls, model: Model, context: AcquisitionContext) -> HypervolumeEI:
+        # the optimizer always sets it (the reference point, else nadir + range)
+        assert context.ref_point is not None
         return cls(model, context.pareto_front, context.ref_point, rng=context.rng)
 
     def _from_moments(self, mu, sigma):
@@ -454,6 +466,8 @@ class HypervolumeLCB(_Hypervolume):
 
     @classmethod
     def from_context(cls, model: Model, context: AcquisitionContext) -> HypervolumeLCB:
+        # the optimizer always sets it (the reference point, else nadir + range)
+        assert context.ref_point is not None
         return cls(model, context.pareto_front, context.ref_point,
                    v=context.weight(cls.default_v))
 
@@ -509,7 +523,8 @@ class _MinMax(Acquisition):
     def value_and_gradient(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if not self._joint:
             return super().value_and_gradient(X)
-        return self._value(*self._criterion(*self.model.sample_with_gradients(np.atleast_2d(X))))
+        model = cast(JointModel, self.model)  # self._joint: it has sample_with_gradients
+        return self._value(*self._criterion(*model.sample_with_gradients(np.atleast_2d(X))))
 
 
 def _best_minmax(context: AcquisitionContext) -> float:
@@ -573,9 +588,18 @@ class MinMaxLCB(_MinMax):
 #: ``factory(model, context) -> Acquisition``: a user's acquisition instead of a name.
 AcquisitionFactory = Callable[[Any, AcquisitionContext], Acquisition]
 
+class RegisteredAcquisition(Protocol):
+    """What a class in :data:`ACQUISITIONS` offers: whether it ranks several objectives,
+    and ``from_context`` building it for a fitted model."""
+
+    multi_objective: bool
+
+    def from_context(self, model: Any, context: AcquisitionContext) -> Acquisition: ...
+
+
 #: The acquisitions by name (study files, ``hypate bench bo --acquisition``); each class
 #: builds itself from an :class:`AcquisitionContext` (``from_context``).
-ACQUISITIONS: dict[str, type[Acquisition]] = {
+ACQUISITIONS: dict[str, RegisteredAcquisition] = {
     "lcb": LowerConfidenceBound,
     "ei": ExpectedImprovement,
     "poi": ProbabilityOfImprovement,

@@ -29,7 +29,7 @@ import dataclasses
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
@@ -113,7 +113,8 @@ class AskTellOptimizer:
         As ``hypate.minimize``; ``None``: EI for one objective, HVLCB for several.
     store : str, Path, EvaluationStore or None
         SQLite store of the told evaluations (``None``: in memory; a path's missing folders
-        are created). An existing store is resumed (module docstring); one of another problem, seed or budget is refused.
+        are created). An existing store is resumed (module docstring); one of another problem, seed
+        or budget is refused.
     names : sequence of str, optional
         Variable names of :attr:`evaluations` (default ``x0, x1, ...``).
     objective_names, constraint_names : sequence of str, optional
@@ -193,7 +194,9 @@ class AskTellOptimizer:
             self.close()
             raise
         self._records = self.store.load()
-        self._asks: list[dict[str, Any]] = list(self.store.get_meta(ASKS) or [])
+        # the ASKS record is the JSON list of dicts this class stores (get_meta: object)
+        self._asks: list[dict[str, Any]] = list(
+            cast("list[dict[str, Any]]", self.store.get_meta(ASKS) or []))
         told = {(r.iteration, r.batch_index) for r in self._records}
         #: Slots asked before (maybe by a killed process) and never told: handed out first.
         self._unanswered = [tuple(s) for a in self._asks for s in a["slots"]

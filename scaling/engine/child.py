@@ -203,6 +203,8 @@ def _run_child_once(fn: Callable[[], T], limit: float) -> tuple[bool, Any]:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno,
                                    registry=_REISSUED)
         return True, value
+    # incomplete: the read loop ended by its break, after the child was reaped
+    assert status is not None
     return False, _describe_death(status)
 
 

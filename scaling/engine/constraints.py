@@ -183,7 +183,10 @@ def sort_constraints(constraints: Sequence[Any] | None, bounds: np.ndarray) -> C
             cheap.append(c)
         elif isinstance(c, Mapping):
             part = _from_dict(i, c, span)
-            (cheap if isinstance(part, CheapConstraint) else expensive).append(part)
+            if isinstance(part, CheapConstraint):
+                cheap.append(part)
+            else:
+                expensive.append(part)
         elif callable(c):
             expensive.append(ExpensiveConstraint(c))
         else:

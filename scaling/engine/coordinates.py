@@ -7,7 +7,7 @@ designs, bounds, cheap constraints and the acquisition search stay in ``x``
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -66,6 +66,16 @@ class LogLinearCoordinates:
         return np.c_[lo, hi]
 
 
+class InputCoordinates(Protocol):
+    """What a warped surrogate needs of its input coordinates: ``z = coords(x)`` and the
+    Jacobian ``dz/dx`` (:class:`LogLinearCoordinates`, or a categorical variable's
+    :class:`~hypate.scaling.engine.mixed.MixedCoordinates`)."""
+
+    def __call__(self, X: np.ndarray) -> np.ndarray: ...
+
+    def jacobian(self, X: np.ndarray) -> np.ndarray: ...
+
+
 class WarpedModel:
     """A surrogate fitted in ``z`` coordinates, queried (with gradients) in ``x``.
 
@@ -74,10 +84,10 @@ class WarpedModel:
     model : object
         Fitted on ``z = coords(x)``, with ``predict_moments``, ``predict_with_gradients``
         and ``condition`` (:class:`hypate.solvers.numerics.kriging.KrigingRegressor`).
-    coords : LogLinearCoordinates
+    coords : InputCoordinates
     """
 
-    def __init__(self, model: Any, coords: LogLinearCoordinates) -> None:
+    def __init__(self, model: Any, coords: InputCoordinates) -> None:
         self.model = model
         self.coords = coords
 

@@ -374,7 +374,7 @@ def auto_workers(batch_size: int) -> int:
 
 
 def make_executor(workers: int, scheduler: str | None, *, lost_after: float = LOST_AFTER
-                  ) -> tuple[Any, Callable[[], None]]:
+                  ) -> tuple[Any, Callable[..., None]]:
     """The executor of a run and its closer.
 
     Parameters

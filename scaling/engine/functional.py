@@ -13,12 +13,13 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pymoo.core.problem import Problem
 
 __all__ = ["Budget", "FunctionProblem", "check_bounds", "objective_count", "plan_budget"]
 
 
-def check_bounds(bounds: Sequence[tuple[float, float]]) -> np.ndarray:
+def check_bounds(bounds: ArrayLike) -> np.ndarray:
     """``bounds`` as an array of shape (d, 2), checked.
 
     Raises
@@ -58,7 +59,7 @@ class FunctionProblem(Problem):
     """
 
     def __init__(self, fun: Callable[[np.ndarray], float | Sequence[float]],
-                 bounds: Sequence[tuple[float, float]], n_obj: int = 1,
+                 bounds: ArrayLike, n_obj: int = 1,
                  constraints: Sequence[Callable[[np.ndarray], float]] = ()) -> None:
         b = check_bounds(bounds)
         if n_obj < 1:
@@ -80,7 +81,7 @@ class FunctionProblem(Problem):
 
 
 def objective_count(fun: Callable[[np.ndarray], float | Sequence[float]],
-                    bounds: Sequence[tuple[float, float]]) -> int:
+                    bounds: ArrayLike) -> int:
     """How many objectives ``fun`` returns, from one call at the centre of the box."""
     centre = np.asarray(bounds, dtype=float).mean(axis=1)
     return int(np.atleast_1d(np.asarray(fun(centre), dtype=float)).size)

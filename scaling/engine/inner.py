@@ -12,10 +12,12 @@ import itertools
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol, cast
 
 import numpy as np
 from hypate.scaling.engine.acquisition import Acquisition
+from hypate.scaling.engine.coordinates import LogLinearCoordinates, WarpedModel
+from hypate.scaling.engine.histories import HistoriesModel
 from hypate.scaling.engine.problem import (
     CHEAP_TOL,
     CheapConstraint,
@@ -23,7 +25,6 @@ from hypate.scaling.engine.problem import (
     project_unit,
     scipy_constraints,
 )
-from hypate.scaling.engine.surrogate import ProbabilisticConstraint
 from hypate.solvers.numerics.kriging import Mapper
 from hypate.solvers.numerics.random import as_rng, raw_latin_hypercube
 from scipy.optimize import Bounds, minimize
@@ -39,6 +40,17 @@ PROBE_DIRECTIONS_PER_VARIABLE = 16
 #: the normal, not along the face (an off-valley neighbour 7 % inward in h but 10 % off in
 #: the thermal load, at cosine 0.86, does not say how J_u falls along the valley).
 PROBE_MIN_COSINE = 0.9
+
+
+class ModelConstraint(Protocol):
+    """A surrogate constraint ``c(X) <= 0`` of designs (N, d): values (N, k) and their
+    Jacobian (N, k, d): a :class:`hypate.scaling.engine.surrogate.ProbabilisticConstraint`,
+    the success classifier, or one of them on one level
+    (:class:`hypate.scaling.engine.mixed.LevelConstraint`)."""
+
+    def __call__(self, X: np.ndarray, /) -> np.ndarray: ...
+
+    def jacobian(self, X: np.ndarray, /) -> np.ndarray: ...
 
 
 @dataclass(frozen=True)
@@ -74,6 +86,36 @@ class Resolution:
         dirs = np.vstack([inward, cone / np.linalg.norm(cone, axis=1, keepdims=True)])
         return self.from_metric(w_center + (1.0 + 1e-6) * self.radius * dirs)
 
+#: Largest length scale (unit box) of the surrogates' metric for the inward probe.
+MAX_METRIC_LENGTH = 1.0
+
+
+def surrogate_metric(model: Any, radius: float, n_var: int) -> Resolution:
+    """The objective surrogates' metric: input coordinates (the model's warp, or the design
+    box) scaled to the surrogates' unit box and divided by their shortest length scale per
+    input (over the objectives, at most :data:`MAX_METRIC_LENGTH`), with the probe
+    ``radius``; a histories model's is that of its coefficients' kriging."""
+    if isinstance(model, HistoriesModel):  # the metric of its coefficients' kriging
+        model = model.coefficients
+    coords = model.coords if isinstance(model, WarpedModel) else None
+    gp = model.model if isinstance(model, WarpedModel) else model
+    # a length scale beyond the box (an input the fit calls irrelevant, up to the
+    # bound 1e2) would make the whole box one point: the metric caps it at the box
+    lower = gp.lower_
+    unit = gp.scale_ * np.minimum(gp.length_scale_.min(axis=0), MAX_METRIC_LENGTH)
+    if coords is None:
+        return Resolution(lambda X: (np.atleast_2d(X) - lower) / unit,
+                          lambda W: lower + np.atleast_2d(W) * unit, radius,
+                          np.eye(n_var))
+    # log-linear: a categorical variable's mixed coordinates have no metric (no inward side)
+    A_inv = np.linalg.inv(cast(LogLinearCoordinates, coords).matrix)
+    # x_i grows along the gradient of ln x_i = (A^-1 z)_i, i.e. of A^-1 (lower + w unit)
+    normals = A_inv * unit[None, :]
+    return Resolution(lambda X: (coords(X) - lower) / unit,
+                      lambda W: np.exp((lower + np.atleast_2d(W) * unit) @ A_inv.T),
+                      radius, normals / np.linalg.norm(normals, axis=1, keepdims=True))
+
+
 
 @dataclass(frozen=True)
 class _UnitSearch:
@@ -86,7 +128,7 @@ class _UnitSearch:
     scale: float                 # loss scale: SLSQP's ftol is relative to O(1) values
     cheap_constraints: Sequence[CheapConstraint]
     cheap: list[dict[str, Any]]  # the cheap constraints in scipy form, in u
-    model_constraints: Sequence[ProbabilisticConstraint]
+    model_constraints: Sequence[ModelConstraint]
     U_avoid: np.ndarray | None
     min_distance: float
 
@@ -127,7 +169,7 @@ class _UnitSearch:
 
 def _raw_points(acquisition: Acquisition, lo: np.ndarray, span: np.ndarray, n_raw: int,
                 extra_starts: np.ndarray | None,
-                model_constraints: Sequence[ProbabilisticConstraint], sign: float,
+                model_constraints: Sequence[ModelConstraint], sign: float,
                 rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Raw OLH points (+ extra starts) in u, their losses, and their ranking: points that
     satisfy the surrogate constraints first, then by loss (non-finite losses last)."""
@@ -206,9 +248,9 @@ def _bound_probe(search: _UnitSearch, candidates: list[tuple[bool, float, np.nda
     """The candidates, led by an inward probe when the best one refines a sample on a bound.
 
     A sample on a bound (a face or corner of the box) with no other sample within twice
-    the resolution radius off that bound along its inward normal has data on one side only: whether the objective
-    falls inward is the surrogate's extrapolation, and a search that trusts it refines the
-    bound point forever (Sec. 9.1: h pinned at its upper bound while J_u falls inward along
+    the resolution radius off that bound along its inward normal has data on one side only: whether
+    the objective falls inward is the surrogate's extrapolation, and a search that trusts it refines
+    the bound point forever (Sec. 9.1: h pinned at its upper bound while J_u falls inward along
     the similarity valley). When the best candidate lies within the radius of such a
     sample, the acquisition's best point of the resolution sphere around the sample within
     26 degrees of the inward normal of such a bound (the first, if several) goes first:
@@ -252,7 +294,7 @@ def optimize_acquisition(
     n_raw: int = 256,
     n_starts: int = 5,
     cheap_constraints: Sequence[CheapConstraint] = (),
-    model_constraints: Sequence[ProbabilisticConstraint] = (),
+    model_constraints: Sequence[ModelConstraint] = (),
     X_avoid: np.ndarray | None = None,
     min_distance: float = 1e-5,
     extra_starts: np.ndarray | None = None,
@@ -278,7 +320,7 @@ def optimize_acquisition(
     bounds : ndarray of shape (d, 2)
     n_raw, n_starts : int
     cheap_constraints : sequence of CheapConstraint
-    model_constraints : sequence of ProbabilisticConstraint
+    model_constraints : sequence of ModelConstraint
         Each ``c(x) <= 0``.
     X_avoid : ndarray of shape (n, d) or None
         Existing (and pending) samples.
@@ -330,6 +372,7 @@ def optimize_acquisition(
     candidates = [c for c in polished if c is not None]
     candidates.sort(key=lambda c: (c[0], c[1]))
     if resolution is not None and U_avoid is not None and candidates:
+        assert X_avoid is not None  # U_avoid is None when X_avoid is
         candidates = _bound_probe(search, candidates, resolution, np.atleast_2d(X_avoid), rng)
     # after the polished starts, if all are too close to a sample: the raw points in rank
     # order (projected lazily: usually the first polished start is taken)

@@ -134,8 +134,10 @@ class MultiFidelityKriging:
                     dmean, dvar = dm[:, 0], 2.0 * s[:, None] * ds[:, 0]
                 continue
             r = self.rho[t]
+            assert mean is not None and var is not None  # set at t == 0
             mean, var = r * mean + m, r * r * var + s * s
             if gradient:
+                assert dmean is not None and dvar is not None  # set at t == 0 with gradient
                 dmean = r * dmean + dm[:, 0]
                 dvar = r * r * dvar + 2.0 * s[:, None] * ds[:, 0]
         return mean, var, dmean, dvar

@@ -47,9 +47,8 @@ Reproducibility: the random numbers of iteration ``t`` come from
 ``numpy.random.default_rng([seed, t])`` and a proposal depends only on the evaluations of
 earlier iterations, so a resumed run proposes exactly what the uninterrupted run proposed.
 
-Size: about 720 lines: the loop, the proposal (one method with its batch and exploitation
-rules) and the surrogate plumbing; acquisitions, the inner search, histories, failures and
-stopping already live in their own modules.
+Size: about 680 lines: the loop, the proposal (one method with its batch and exploitation
+rules) and the surrogate plumbing.
 """
 from __future__ import annotations
 
@@ -63,16 +62,16 @@ from typing import Any
 import numpy as np
 from hypate.scaling.engine.acquisition import (
     ACQUISITIONS,
-    MinMaxEI,
-    MinMaxLCB,
     MULTI_OBJECTIVE_ACQUISITIONS,
     SINGLE_OBJECTIVE_ACQUISITIONS,
     Acquisition,
     AcquisitionContext,
     AcquisitionFactory,
+    MinMaxEI,
+    MinMaxLCB,
 )
 from hypate.scaling.engine.check import SurrogateCheck, leave_one_out_check
-from hypate.scaling.engine.coordinates import WarpedModel
+from hypate.scaling.engine.coordinates import LogLinearCoordinates, WarpedModel
 from hypate.scaling.engine.executors import run_batch
 from hypate.scaling.engine.failures import SuccessModel
 from hypate.scaling.engine.histories import (
@@ -82,7 +81,7 @@ from hypate.scaling.engine.histories import (
     HistoryBasis,
     normal_samples,
 )
-from hypate.scaling.engine.inner import Resolution, optimize_acquisition
+from hypate.scaling.engine.inner import Resolution, optimize_acquisition, surrogate_metric
 from hypate.scaling.engine.mixed import MixedCoordinates, propose_by_level
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
 from hypate.scaling.engine.polish import polish_best
@@ -94,13 +93,13 @@ from hypate.scaling.engine.problem import (
 )
 from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.engine.settings import OptimizerSettings, SettingError
+from hypate.scaling.engine.sharing import WorkerMap
 from hypate.scaling.engine.stopping import Stopping, check
 from hypate.scaling.engine.store import (
     Evaluation,
     EvaluationStore,
     evaluations_to_dataframe,
 )
-from hypate.scaling.engine.sharing import WorkerMap
 from hypate.scaling.engine.surrogate import ProbabilisticConstraint, surrogate_regressor
 from hypate.solvers.numerics.kriging import fit_together
 from hypate.solvers.numerics.random import latin_hypercube, raw_latin_hypercube
@@ -110,17 +109,8 @@ __all__ = ["BayesianOptimizer", "SurrogateCheck"]
 
 #: Smallest objective value of the log transform (ln 1e-12 = -27.6).
 LOG_FLOOR = 1e-12
-
-#: Smoothing of the failure-indicator kriging of the robust search (standardized nugget,
-#: unit-box length scales); the optimizer's proposals use a classifier (SuccessModel).
-FAILURE_NUGGET = 0.05
-FAILURE_LENGTH_SCALES = (0.15, 1e2)
-#: Largest predicted failure indicator the robust search accepts for a proposal.
-FAILURE_THRESHOLD = 0.15
 #: The random stream of the stopping rule's candidates (apart from the proposal's).
 STOP_STREAM = 7
-#: Largest length scale (unit box) of the surrogates' metric for the inward probe.
-MAX_METRIC_LENGTH = 1.0
 
 
 # --------------------------------------------------------------------- optimizer
@@ -267,9 +257,10 @@ class BayesianOptimizer:
         """:meth:`surrogate` of each ``(X, Y, options)``, in order, with all their columns'
         likelihood optimizations spread over the run's workers (:attr:`worker_map`): the
         same models as one :meth:`surrogate` call after another."""
-        s, coords = self.settings, self.settings.coordinates
+        s = self.settings
+        coords: LogLinearCoordinates | MixedCoordinates | None = s.coordinates
         if s.categorical is not None:
-            coords = MixedCoordinates(s.categorical, self.n_var, coords)
+            coords = MixedCoordinates(s.categorical, self.n_var, s.coordinates)
         box = self.bounds if coords is None else coords.box(self.bounds)
         jobs = [(surrogate_regressor(box, kernel=s.kernel, n_restarts=s.n_restarts, rng=rng,
                                      **kw),
@@ -286,32 +277,13 @@ class BayesianOptimizer:
         return None if ex is None else WorkerMap(ex, blas=self.settings.blas_threads)
 
     def resolution(self, model: Any) -> Resolution | None:
-        """The objective surrogates' metric (:class:`~hypate.scaling.engine.inner.Resolution`):
-        input coordinates (``settings.coordinates`` or the design box) scaled to the
-        surrogates' unit box and divided by their shortest length scale per input (over the
-        objectives, at most :data:`MAX_METRIC_LENGTH`); None when ``settings.resolution``
-        is 0 or a variable is categorical."""
+        """The objective surrogates' metric (:func:`~hypate.scaling.engine.inner.
+        surrogate_metric`); None when ``settings.resolution`` is 0 or a variable is
+        categorical (a level indicator has no inward direction)."""
         radius = self.settings.resolution
         if radius <= 0.0 or self.settings.categorical is not None:
-            return None  # a level indicator has no inward direction
-        if isinstance(model, HistoriesModel):  # the metric of its coefficients' kriging
-            model = model.coefficients
-        coords = model.coords if isinstance(model, WarpedModel) else None
-        gp = model.model if isinstance(model, WarpedModel) else model
-        # a length scale beyond the box (an input the fit calls irrelevant, up to the
-        # bound 1e2) would make the whole box one point: the metric caps it at the box
-        lower = gp.lower_
-        unit = gp.scale_ * np.minimum(gp.length_scale_.min(axis=0), MAX_METRIC_LENGTH)
-        if coords is None:
-            return Resolution(lambda X: (np.atleast_2d(X) - lower) / unit,
-                              lambda W: lower + np.atleast_2d(W) * unit, radius,
-                              np.eye(self.n_var))
-        A_inv = np.linalg.inv(coords.matrix)
-        # x_i grows along the gradient of ln x_i = (A^-1 z)_i, i.e. of A^-1 (lower + w unit)
-        normals = A_inv * unit[None, :]
-        return Resolution(lambda X: (coords(X) - lower) / unit,
-                          lambda W: np.exp((lower + np.atleast_2d(W) * unit) @ A_inv.T),
-                          radius, normals / np.linalg.norm(normals, axis=1, keepdims=True))
+            return None
+        return surrogate_metric(model, radius, self.n_var)
 
     def _model_space(self, F: np.ndarray) -> np.ndarray:
         """Objective values as the surrogates see them (:attr:`output_transform`)."""
@@ -457,9 +429,10 @@ class BayesianOptimizer:
                         min_distance=st.min_distance, extra_starts=extra, rng=rng,
                         resolution=resolution, mapper=workers)
                 else:
+                    assert st.categorical is not None  # no acquisition: a categorical one
                     x = propose_by_level(
                         st.categorical, cur_model, model_constraints, self.bounds,
-                        lambda m: self._build_acquisition(m, F_obs, feas_obs, F[ok], rng,
+                        lambda m: self._build_acquisition(m, F_obs, feas_obs, F[ok], rng,  # noqa: B023 - called within this iteration
                                                           iteration),
                         X_avoid, extra, rng, n_raw=st.n_raw, n_starts=st.n_starts,
                         cheap_constraints=st.cheap_constraints, min_distance=st.min_distance)
@@ -486,6 +459,7 @@ class BayesianOptimizer:
         """The stopping rule of ``iterations = "auto"`` (:mod:`hypate.scaling.engine.stopping`)
         with the surrogates just fitted; the evidence is kept in :attr:`stopping`."""
         rule = self.settings.stopping
+        assert rule is not None  # checked only with a stopping rule (propose)
         if iteration <= rule.min_iterations:
             return False
         it = np.array([r.iteration for r in records])[ok]
@@ -515,9 +489,10 @@ class BayesianOptimizer:
         """The probability of success of a proposal (:class:`SuccessModel`, a Gaussian-
         process classifier on the surrogates' input coordinates), required to reach
         ``p_min`` (default ``settings.p_success``)."""
-        s, coords = self.settings, self.settings.coordinates
+        s = self.settings
+        coords: LogLinearCoordinates | MixedCoordinates | None = s.coordinates
         if s.categorical is not None:
-            coords = MixedCoordinates(s.categorical, self.n_var, coords)
+            coords = MixedCoordinates(s.categorical, self.n_var, s.coordinates)
         return SuccessModel(X, ok, self.bounds, transform=coords,
                             box=None if coords is None else coords.box(self.bounds),
                             p_min=s.p_success if p_min is None else p_min,
@@ -539,6 +514,7 @@ class BayesianOptimizer:
         samples drawn from ``rng``)."""
         if histories is None:
             return fitted
+        assert self.composition is not None  # histories are fitted only with it
         basis, A = histories
         return HistoriesModel(fitted, basis, self.composition, self.settings.output_transform,
                               normal_samples(SAMPLES, A.shape[1], int(rng.integers(2**31))),

@@ -19,6 +19,7 @@ import math
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import chaospy
 import numpy as np
@@ -188,6 +189,7 @@ def summary(values: np.ndarray) -> dict[str, float]:
     failure) makes the mean and std infinite and the quantiles the samples' own order
     statistics (no interpolation towards infinity)."""
     v = np.asarray(values, float).reshape(-1)
+    method: Literal["linear", "inverted_cdf"]
     if np.all(np.isfinite(v)):
         out = {"mean": float(np.mean(v)), "std": float(np.std(v, ddof=1))}
         method = "linear"

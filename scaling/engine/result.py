@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 from hypate.scaling.engine.criteria import weighted_metric
+from hypate.scaling.engine.design_point import DESIGN_POINT_RULES, design_point_index
 from hypate.scaling.engine.pareto import (
     hypervolume,
     non_dominated_mask,
@@ -155,6 +156,19 @@ class OptimizationResult:
         """Best feasible first objective after each evaluation, shape (n,) (inf before one)."""
         f = np.where(self.feasible, self.F[:, 0], np.inf)
         return np.minimum.accumulate(f) if len(f) else f
+
+    def design_point(self, rule: str = DESIGN_POINT_RULES[0],
+                     weights: Sequence[float] | None = None) -> int | None:
+        """Row of the design point among the feasible evaluations by ``rule``
+        (:func:`~hypate.scaling.engine.design_point.design_point_index`; default "minmax":
+        the smallest largest objective, Sec. 9.2.3), None without a feasible evaluation.
+        THE recommendation of a run: :func:`hypate.minimize` and a study's run directory
+        both take it from here (:meth:`best` is Eq. (6.11)'s scalarization, for studies
+        of the metric itself)."""
+        idx = np.flatnonzero(self.feasible)
+        if idx.size == 0:
+            return None
+        return int(idx[design_point_index(self.F[idx], rule, weights)])
 
     def best(self, weights: np.ndarray | None = None, g: float = 1.0,
              normalize: bool = True) -> pd.Series:

@@ -36,12 +36,7 @@ from typing import Any
 
 import numpy as np
 from hypate.scaling.engine.inner import optimize_acquisition
-from hypate.scaling.engine.optimizer import (
-    FAILURE_LENGTH_SCALES,
-    FAILURE_NUGGET,
-    FAILURE_THRESHOLD,
-    BayesianOptimizer,
-)
+from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.pareto import non_dominated_mask
 from hypate.scaling.engine.problem import project_designs
 from hypate.scaling.engine.propagation import ROBUST_STATISTICS
@@ -103,6 +98,13 @@ def reduce_samples(mu: np.ndarray, sd: np.ndarray, statistic: str,
     dR = dmean + 2.0 * np.where(std[..., None] > 0, dstd, 0.0)
     return R, S, dR, dS
 
+
+#: Smoothing of the failure-indicator kriging of the robust search (standardized nugget,
+#: unit-box length scales); the optimizer's proposals use a classifier (SuccessModel).
+FAILURE_NUGGET = 0.05
+FAILURE_LENGTH_SCALES = (0.15, 1e2)
+#: Largest predicted failure indicator the robust search accepts for a proposal.
+FAILURE_THRESHOLD = 0.15
 
 class RobustModel:
     """The robust statistic of a joint model over the uncertain inputs' samples, as a model

@@ -82,7 +82,10 @@ def _check_int(name: str, value: Any) -> int:
 
 def _check_real(name: str, value: Any) -> Any:
     lo, hi, lo_closed, hi_closed = _REAL_RANGE[name]
-    ok = isinstance(value, Real) and not isinstance(value, bool) and \
+    # the type test apart from the comparisons: typeshed's numbers.Real has no order
+    # operators (a Real value here is a float, an int or a numpy number)
+    real = isinstance(value, Real) and not isinstance(value, bool)
+    ok = real and \
         (lo <= value if lo_closed else lo < value) and (value <= hi if hi_closed else value < hi)
     if not ok:
         raise SettingError(name, _interval(lo, hi, lo_closed, hi_closed), value)
@@ -251,7 +254,7 @@ class OptimizerSettings:
     cheap_constraints: Sequence[CheapConstraint] = ()
     p_feasible: float = 0.5
     p_success: float = 0.85
-    kernel: str = "matern52"
+    kernel: Literal["matern52", "rbf"] = "matern52"
     n_restarts: int = 2
     n_raw: int = 256
     n_starts: int = 5

@@ -57,7 +57,7 @@ class Stopping:
     reason: str = "cap"
     iteration: int | None = None
     evidence: dict[str, Any] = field(default_factory=dict)
-    rule: dict[str, Any] = field(default_factory=dict)
+    rule: dict[str, Any] | None = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

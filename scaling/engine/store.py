@@ -457,7 +457,7 @@ class EvaluationStore:
             self._snapshot.cleanup()
             self._snapshot = None
 
-    def __enter__(self) -> "EvaluationStore":
+    def __enter__(self) -> EvaluationStore:
         return self
 
     def __exit__(self, *exc: object) -> None:

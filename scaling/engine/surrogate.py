@@ -17,11 +17,14 @@ this module adapts it to the optimizer (Sec. 6.3.1, step 4(a)):
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from hypate.solvers.numerics.kriging import KrigingRegressor
 from scipy.special import ndtr, ndtri
+
+if TYPE_CHECKING:
+    from hypate.scaling.engine.acquisition import Model
 
 __all__ = ["fit_surrogate", "surrogate_regressor", "ProbabilisticConstraint"]
 
@@ -29,7 +32,7 @@ __all__ = ["fit_surrogate", "surrogate_regressor", "ProbabilisticConstraint"]
 def surrogate_regressor(
     bounds: np.ndarray,
     *,
-    kernel: str = "matern52",
+    kernel: Literal["matern52", "rbf"] = "matern52",
     n_restarts: int = 2,
     nugget: float = 1e-8,
     length_scale_bounds: tuple[float, float] = (1e-2, 1e2),
@@ -82,7 +85,7 @@ class ProbabilisticConstraint:
 
     Parameters
     ----------
-    model : KrigingRegressor
+    model : KrigingRegressor or another :class:`~hypate.scaling.engine.acquisition.Model`
         Surrogate of ``k`` constraint functions (``(N, k)`` moments).
     p_min : float
         Required probability of feasibility, in (0, 1).
@@ -90,7 +93,7 @@ class ProbabilisticConstraint:
         ``t``: the constraint is ``G <= t``.
     """
 
-    def __init__(self, model: KrigingRegressor, p_min: float = 0.5, threshold: float = 0.0) -> None:
+    def __init__(self, model: Model, p_min: float = 0.5, threshold: float = 0.0) -> None:
         if not 0.0 < p_min < 1.0:
             raise ValueError(f"p_min must be in (0, 1), got {p_min}")
         self.model = model

@@ -27,7 +27,7 @@ import io
 import textwrap
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import matplotlib
 
@@ -43,6 +43,9 @@ from hypate.solvers.coupling.response import Response  # noqa: E402
 from hypate.solvers.numerics.files import atomic_file, write_bytes  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.ticker import FuncFormatter, LogLocator  # noqa: E402
+
+if TYPE_CHECKING:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 __all__ = ["MISMATCH_THRESHOLD", "HV_REFERENCE", "LOG_PAD", "embed_png",
            "figure_html", "fit_labels", "label_overflows", "log_limits",
@@ -72,7 +75,7 @@ def label_overflows(fig: Figure) -> list[str]:
     """Axis labels and titles of ``fig`` longer than their axes (y-labels taller than the
     axes, x-labels and titles wider), as ``"<text>: <size> px > <span> px"``."""
     fig.canvas.draw()
-    renderer = fig.canvas.get_renderer()
+    renderer = cast("FigureCanvasAgg", fig.canvas).get_renderer()  # the Agg backend's canvas
     out = []
     for ax in fig.axes:
         box = ax.get_window_extent(renderer)
@@ -91,7 +94,7 @@ def label_overflows(fig: Figure) -> list[str]:
 def _wrap_labels(fig: Figure, min_chars: int) -> None:
     """One pass of :func:`fit_labels`: wrap each too long label to its axes' current size."""
     fig.canvas.draw()
-    renderer = fig.canvas.get_renderer()
+    renderer = cast("FigureCanvasAgg", fig.canvas).get_renderer()  # the Agg backend's canvas
     for ax in fig.axes:
         box = ax.get_window_extent(renderer)
         for label, vertical in ((ax.yaxis.label, True), (ax.xaxis.label, False),
@@ -453,7 +456,8 @@ def schedule_figure(run: RunData) -> str:
                        "its control points, equally spaced over the model's test) with the "
                        "upper-surface mean temperature T_w of the prototype and of the "
                        "design-point model at matched nondimensional time (left, K; right, "
-                       "T_w/T0, with the volume-mean T/T0 that J_T compares). The model absorbs the heater flux emissivity sigma T_rad^4 and "
+                       "T_w/T0, with the volume-mean T/T0 that J_T compares). The model absorbs "
+                       "the heater flux emissivity sigma T_rad^4 and "
                        "emits emissivity sigma T_w^4: while T_rad > T_w the heater heats it.")
 
 

@@ -49,7 +49,7 @@ import html
 import re
 import warnings
 from collections.abc import Callable, Sequence
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 from hypate.scaling.report.figures import close_figures
@@ -100,7 +100,8 @@ th{background:#eef1f6}td:first-child,th:first-child{text-align:left}
 tr.mismatch td{background:#fde2e1}tr.active td{background:#fff4d6}
 tr.design td{background:#fff1b8;font-weight:600}tr.design td:first-child::before{content:"\\2605  "}
 .rule{background:#eef5ee;border-left:4px solid #5a5;padding:.4em .8em}
-table.glossary td,table.glossary th{text-align:left}details.figure-toggle summary{cursor:pointer;color:#345}
+table.glossary td,table.glossary th{text-align:left}\
+details.figure-toggle summary{cursor:pointer;color:#345}
 dl{display:grid;grid-template-columns:max-content auto;gap:.2em 1em}dt{font-weight:600}dd{margin:0}
 figure{margin:1em 0}figure img{max-width:100%;height:auto;border:1px solid #ddd}
 figcaption{font-size:.9em;color:#555}.note{color:#555;font-style:italic}
@@ -133,7 +134,7 @@ def render_html(run: RunData, sections: Sequence[Section], stamp: str | None = N
     title = f"hypate scaling report: {name}"
     used: set[str] = set()
     slugs = [_slug(s.title, used) for s in sections]
-    stamp = stamp or datetime.now(timezone.utc).strftime(STAMP_FORMAT)
+    stamp = stamp or datetime.now(UTC).strftime(STAMP_FORMAT)
     state = "interrupted run (partial results)" if run.interrupted else "finished run"
     out = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
            '<meta name="viewport" content="width=device-width, initial-scale=1">',

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from hypate.scaling.engine.design_point import DESIGN_POINT_RULES, design_point_index
 from hypate.scaling.engine.problem import tally_warnings
 from hypate.scaling.engine.store import EvaluationStore, StoreTampered, warnings_from_text
 from hypate.scaling.workflow.campaign import ENVIRONMENTS
@@ -26,14 +27,12 @@ from hypate.scaling.workflow.rundir import (
     CLASSICAL_JSON,
     DESIGN_POINT_JSON,
     DESIGN_POINT_NPZ,
-    DESIGN_POINT_RULES,
     EVALUATIONS_CSV,
     FIGURES_DIR,
     ID_COLUMN,
     PROTOTYPE_NPZ,
     PROTOTYPE_WARNINGS,
     STORE,
-    design_point_index,
 )
 from hypate.scaling.workflow.seeds import load_seeds
 from hypate.scaling.workflow.shipped import shipped
@@ -217,9 +216,9 @@ def _study_candidates(run_dir: Path, explicit: str | Path | None, point: dict[st
                 p = Path(val)
                 out.append((p if p.is_absolute() else run_dir / p, True))
                 out.append((p, True))
-    for name in ("study.toml",):
-        if (run_dir / name).is_file():
-            out.append((run_dir / name, True))
+    for fname in ("study.toml",):
+        if (run_dir / fname).is_file():
+            out.append((run_dir / fname, True))
     name = (point or {}).get("study") or meta.get("study")
     if isinstance(name, str) and re.fullmatch(r"[\w.-]+", name):
         match = shipped("study").get(name)
@@ -256,9 +255,9 @@ def load_run(run_dir: str | Path, study_path: str | Path | None = None,
     study_path : path, optional
         The study file. Without it the study is looked up in ``design_point.json``
         (``study_path``), the store's metadata, ``run_dir/study.toml`` and finally the
-        shipped study of that name (:mod:`hypate.scaling.workflow.shipped`) (used only when its variable and objective
-        counts match the store). When none is found the report shows what the store/CSV
-        holds (variables ``x0..``, objectives ``f0..`` unless the CSV names them).
+        shipped study of that name (:mod:`hypate.scaling.workflow.shipped`) (used only when its
+        variable and objective counts match the store). When none is found the report shows what the
+        store/CSV holds (variables ``x0..``, objectives ``f0..`` unless the CSV names them).
     simulate : bool
         For an interrupted run with a known study: simulate the rebuilt design point to
         plot its response (one model simulation). Off by default.

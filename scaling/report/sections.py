@@ -11,29 +11,30 @@ K, deflection and stress; the prototype's own validity), *Across seeds* (one see
 parameters* (prototype / model / relative difference; > 10 % highlighted), *Glossary*
 (symbol, formula, equation and meaning of each parameter),
 *Robustness* (a study with ``[uncertainty]``: the design point under its scatter),
-*Figures* (with a heater schedule: the optimized ``T_rad(t)`` next to the wall temperatures), *Pareto set* (the design point's row marked), *Run statistics* (evaluations,
-failures grouped by reason, wall time), *Warnings* (the distinct solver warnings, where
-they occurred and how often; left out without any) and *Scaling laws* (a sweep's refined
-laws, Fig. 9.12). :mod:`.html` renders them into the page.
+*Figures* (with a heater schedule: the optimized ``T_rad(t)`` next to the wall temperatures),
+*Pareto set* (the design point's row marked), *Run statistics* (evaluations, failures grouped by
+reason, wall time), *Warnings* (the distinct solver warnings, where they occurred and how often;
+left out without any) and *Scaling laws* (a sweep's refined laws, Fig. 9.12). :mod:`.html` renders
+them into the page.
 
 Every evaluation number printed is the evaluation id (``RunData.evaluations``' index, the
 ``id`` column of ``evaluations.csv``); every number goes through :mod:`.numbers`.
 
-Size: about 740 lines: one builder per report section, each short and independent; split
-by section family if another is added.
+The building blocks (:class:`Section`, :func:`html_table`) are :mod:`.blocks`; the run-health
+sections (statistics, seeds, warnings) :mod:`.run_sections`.
 """
 from __future__ import annotations
 
 import html
 import json
-import re
-from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from hypate.scaling.engine.design_point import describe_rule
 from hypate.scaling.engine.pareto import non_dominated_mask
+from hypate.scaling.report.blocks import Raw, Section, dl, fmt, html_table, pct
 from hypate.scaling.report.figures import (
     MISMATCH_THRESHOLD,
     close_figures,
@@ -47,13 +48,16 @@ from hypate.scaling.report.figures import (
     variable_unit,
 )
 from hypate.scaling.report.glossary import glossary_rows
+from hypate.scaling.report.laws import laws_figure, laws_table
 from hypate.scaling.report.material import material_row, materials_note
 from hypate.scaling.report.numbers import (
     format_difference,
-    format_number,
-    format_percent,
 )
-from hypate.scaling.report.laws import laws_figure, laws_table
+from hypate.scaling.report.run_sections import (
+    seeds_section,
+    statistics_section,
+    warnings_section,
+)
 from hypate.scaling.report.rundata import RunData
 from hypate.scaling.workflow.laws import (
     SWEEP_JSON,
@@ -65,82 +69,21 @@ from hypate.scaling.workflow.rundir import (
     PREDICTION_DIR,
     PREDICTION_HTML,
     PREDICTION_JSON,
-    describe_occurrences,
-    describe_rule,
 )
 
 __all__ = ["BUILTIN_SECTIONS", "Section", "html_table"]
-
-
-@dataclass(frozen=True)
-class Section:
-    """One report section: a title and its HTML body (inserted verbatim)."""
-
-    title: str
-    html: str
-
-
-# -- small HTML helpers ---------------------------------------------------------------------
-def _fmt(value: Any, digits: int = 4) -> str:
-    """Numbers to short text (:func:`.numbers.format_number`), other values escaped."""
-    if value is None or isinstance(value, (bool, int, float, np.bool_, np.number)):
-        return format_number(value, digits)
-    return html.escape(str(value))
-
-
-def _pct(value: Any) -> str:
-    """J or a relative difference in percent (:func:`.numbers.format_percent`)."""
-    return format_percent(value)
-
-
-def html_table(header: Sequence[str], rows: Iterable[Sequence[Any]],
-               row_classes: Sequence[str] | None = None, css_class: str = "") -> str:
-    """An HTML table; header cells are escaped, numbers formatted to 4 significant digits.
-
-    Parameters
-    ----------
-    header : sequence of str
-    rows : iterable of sequences
-        Cell values: numbers are formatted; strings are escaped, except instances of
-        :class:`_Raw` (HTML kept verbatim).
-    row_classes : sequence of str, optional
-        A CSS class per row (``""`` for none), e.g. ``"mismatch"``.
-    css_class : str
-        CSS class of the table.
-    """
-    out = [f'<table class="{html.escape(css_class)}"><thead><tr>']
-    out += [f"<th>{html.escape(str(h))}</th>" for h in header]
-    out.append("</tr></thead><tbody>")
-    for i, row in enumerate(rows):
-        cls = row_classes[i] if row_classes is not None and i < len(row_classes) else ""
-        out.append(f'<tr class="{cls}">' if cls else "<tr>")
-        for cell in row:
-            text = str(cell) if isinstance(cell, _Raw) else _fmt(cell)
-            out.append(f"<td>{text}</td>")
-        out.append("</tr>")
-    out.append("</tbody></table>")
-    return "".join(out)
-
-
-class _Raw(str):
-    """A string inserted into :func:`html_table` without escaping."""
-
-
-
-def _dl(items: Sequence[tuple[str, str]]) -> str:
-    return "<dl>" + "".join(f"<dt>{html.escape(k)}</dt><dd>{v}</dd>" for k, v in items) + "</dl>"
 
 
 def _study_section(run: RunData) -> Section:
     point = run.point or {}
     study = run.study
     if study is None:
-        items = [("study", _fmt(point.get("study", "unknown"))),
-                 ("xi (geometric scale)", _fmt(point.get("xi"))),
+        items = [("study", fmt(point.get("study", "unknown"))),
+                 ("xi (geometric scale)", fmt(point.get("xi"))),
                  ("design variables", html.escape(", ".join(run.variables)) or "&ndash;"),
                  ("objectives", html.escape(", ".join(run.objectives)) or "&ndash;"),
-                 ("evaluations stored", _fmt(len(run.evaluations)))]
-        return Section("Study", _dl(items) + "<p class='note'>The study file is unknown: "
+                 ("evaluations stored", fmt(len(run.evaluations)))]
+        return Section("Study", dl(items) + "<p class='note'>The study file is unknown: "
                        "regenerate with <code>hypate report DIR --study STUDY.toml</code> "
                        "for the full summary.</p>")
     spec = study.spec
@@ -193,7 +136,7 @@ def _study_section(run: RunData) -> Section:
     var_rows = [(v.name, "-", "one of: " + ", ".join(spec.material_names), "")
                 if v.name == "material" else (v.name, variable_unit(v.name), v.lower, v.upper)
                 for v in spec.variables]
-    body = _dl(items) + "<h3>Design variables</h3>" + html_table(
+    body = dl(items) + "<h3>Design variables</h3>" + html_table(
         ["variable", "unit", "lower bound", "upper bound"], var_rows)
     if spec.fixed:
         body += "<h3>Fixed values</h3>" + html_table(
@@ -234,10 +177,10 @@ def _surrogate_cell(check: dict[str, Any] | None) -> str:
     """``predicted (lower - upper), z = ...`` in percent, or ``-`` without a check."""
     if not check or check.get("predicted") is None:
         return "-"
-    band = f"{_pct(check.get('lower'))} &ndash; {_pct(check.get('upper'))}"
+    band = f"{pct(check.get('lower'))} &ndash; {pct(check.get('upper'))}"
     z = check.get("z")
     zs = f", <i>z</i> = {z:+.2g}" if isinstance(z, (int, float)) else ""
-    return f"{_pct(check['predicted'])} ({band}){zs}"
+    return f"{pct(check['predicted'])} ({band}){zs}"
 
 
 def _design_section(run: RunData) -> Section:
@@ -261,8 +204,8 @@ def _design_section(run: RunData) -> Section:
     intro = _rule_paragraph(run)
     objs = point.get("objectives") or {}
     checks = ((point.get("surrogate") or {}).get("objectives")) or {}
-    obj_rows = [(k, _Raw(_pct(v)), _Raw(_surrogate_cell(checks.get(k))),
-                 _Raw(_pct(((run.classical or {}).get("objectives") or {}).get(k))))
+    obj_rows = [(k, Raw(pct(v)), Raw(_surrogate_cell(checks.get(k))),
+                 Raw(pct(((run.classical or {}).get("objectives") or {}).get(k))))
                 for k, v in objs.items()]
     body = intro + html_table(["variable", "unit", "value", "lower bound", "upper bound",
                                "bound hit", "classical baseline"], rows, classes)
@@ -278,7 +221,7 @@ def _design_section(run: RunData) -> Section:
         if active else "<p>none</p>")
     extra = []
     if isinstance(point.get("evaluation"), int):
-        extra.append(("evaluation", _fmt(point["evaluation"])))
+        extra.append(("evaluation", fmt(point["evaluation"])))
     if run.model_time_step is not None:
         extra.append(("model time step", f"{run.model_time_step:.4g} s"))
     if run.study is not None and run.model_time_step is not None:
@@ -286,7 +229,7 @@ def _design_section(run: RunData) -> Section:
         extra.append(("model test duration",
                       f"{run.model_time_step * sim.n_steps:.4g} s (prototype "
                       f"{sim.time_step * sim.n_steps:.4g} s)"))
-    return Section("Design point", body + (_dl(extra) if extra else ""))
+    return Section("Design point", body + (dl(extra) if extra else ""))
 
 
 #: What J_u compares, per projection (the study's ``projection``).
@@ -414,7 +357,7 @@ def _similarity_section(run: RunData) -> Section:
         rd = rec.get("relative_difference")
         bad = rd is not None and np.isfinite(float(rd)) and abs(float(rd)) > MISMATCH_THRESHOLD
         rows.append((rec.get("name"), rec.get("prototype"), rec.get("model"),
-                     _Raw(format_difference(rd, rec.get("prototype"), rec.get("model")))))
+                     Raw(format_difference(rd, rec.get("prototype"), rec.get("model")))))
         classes.append("mismatch" if bad else "")
     n_bad = classes.count("mismatch")
     return Section("Similarity parameters",
@@ -465,7 +408,7 @@ def _pareto_section(run: RunData) -> Section | None:
         title = f"Best designs ({len(sel)})"
     header = ["evaluation"] + [f"{v} ({variable_unit(v)})" for v in run.variables] + \
         [f"{o} (%)" for o in run.objectives]
-    rows = [[int(i)] + [r[v] for v in run.variables] + [_Raw(_pct(r[o])) for o in run.objectives]
+    rows = [[int(i)] + [r[v] for v in run.variables] + [Raw(pct(r[o])) for o in run.objectives]
             for i, r in sel.iterrows()]
     marked = ["design" if int(i) == run.point_id else "" for i in sel.index]
     note = ("<p>The design point's row is marked (&#9733;).</p>" if "design" in marked
@@ -473,122 +416,19 @@ def _pareto_section(run: RunData) -> Section | None:
     return Section(title, note + html_table(header, rows, marked))
 
 
-_NUM = re.compile(r"[-+]?\d+(\.\d+)?([eE][-+]?\d+)?")
-
-
-def _statistics_section(run: RunData) -> Section:
-    df = run.evaluations
-    n = len(df)
-    stats = (run.point or {}).get("statistics") or {}
-    failed = df[df["status"] != "ok"] if n else df
-    items = [("evaluations", _fmt(n)), ("successful", _fmt(n - len(failed))),
-             ("failed", _fmt(len(failed)))]
-    if n and "iteration" in df and len(failed):
-        it_f = failed["iteration"].to_numpy()
-        after = int((df["iteration"].to_numpy() >= 1).sum())
-        items.append(("failed in the initial design / after it",
-                      f"{int((it_f <= 0).sum())} / {int((it_f >= 1).sum())} of {after} "
-                      "(after it, the classifier of failures steers the proposals)"))
-    stopping = (run.point or {}).get("stopping")
-    if stopping:
-        ev = stopping.get("evidence") or {}
-        rule = stopping.get("rule") or {}
-        if stopping.get("reason") == "converged":
-            why = (f"converged before iteration {stopping.get('iteration')}: the design point "
-                   f"improved by {100 * (ev.get('improvement') or 0.0):.2g} % over the last "
-                   f"{rule.get('patience')} iterations, its leave-one-out z = "
-                   + ", ".join(f"{z:+.2g}" for z in ev.get("z") or [])
-                   + f", the largest predicted improvement {100 * (ev.get('predicted_gain') or 0.0):.2g} %")
-        else:
-            why = ("the iteration cap was reached before the stopping rule held (last check: "
-                   + ", ".join(f"{k} {'yes' if ev.get(k) else 'no'}" for k in
-                               ("stalled", "surrogate_knows_it", "no_promise_left")) + ")")
-        items.append(("why the run stopped", html.escape(why)))
-    if n:
-        sec = df["seconds"].to_numpy(float)
-        items.append(("median time per evaluation", f"{np.median(sec):.3g} s"))
-        items.append(("total evaluation time", f"{np.sum(sec):.4g} s"))
-    if stats.get("wall_seconds") is not None:
-        items.append(("wall time", f"{float(stats['wall_seconds']):.4g} s"))
-    elif run.interrupted:
-        items.append(("wall time", "not recorded (interrupted run)"))
-    if stats.get("pareto_size") is not None:
-        items.append(("Pareto-set size", _fmt(stats["pareto_size"])))
-    low = run.lower_fidelity
-    if len(low):  # multi-fidelity: the tables and figures are the top level's
-        for name, grp in low.groupby("fidelity_name"):
-            items.append((f"lower-fidelity evaluations ({html.escape(str(name))})",
-                          f"{len(grp)}, {np.sum(grp['seconds'].to_numpy(float)):.4g} s "
-                          "(not in the tables and figures, which are the top level's)"))
-    for env in run.environments:
-        items.append(("numerical environment", html.escape(describe_environment(env))))
-    if n and "iteration" in df:
-        it = df["iteration"].to_numpy()
-        opt = run.study.optimizer if run.study is not None else None
-        if opt is not None and opt.polish:
-            polish = it > run.study.iteration_cap
-            items.append(("classical seed / initial / BO / polish evaluations",
-                          f"{int((it < 0).sum())} / {int((it == 0).sum())} / "
-                          f"{int(((it > 0) & ~polish).sum())} / {int(polish.sum())}"))
-        else:
-            items.append(("classical seed / initial / BO evaluations",
-                          f"{int((it < 0).sum())} / {int((it == 0).sum())} / "
-                          f"{int((it > 0).sum())}"))
-    body = _dl(items)
-    if len(failed):
-        groups: dict[tuple[str, str], list[int]] = {}
-        examples: dict[tuple[str, str], str] = {}
-        for i, r in failed.iterrows():
-            msg = str(r.get("message", "") or "")
-            key = (str(r["status"]), _NUM.sub("#", msg)[:160])
-            groups.setdefault(key, []).append(int(i))
-            examples.setdefault(key, msg)
-        rows = [(st, len(idx), ", ".join(map(str, idx[:12])) + (" ..." if len(idx) > 12 else ""),
-                 examples[(st, k)][:300])
-                for (st, k), idx in sorted(groups.items(), key=lambda kv: -len(kv[1]))]
-        body += "<h3>Failures by reason</h3>" + html_table(
-            ["status", "count", "evaluations", "example message"], rows)
-    return Section("Run statistics", body)
-
-
-def _seeds_section(run: RunData) -> Section | None:
-    """One seed of a ``--seeds`` run: its design point next to the spread over the seeds."""
-    data = run.seeds
-    if not data:
-        return None
-    this, spread = data["this"], data.get("spread") or {}
-    rows, classes = [], []
-    for group, as_pct in (("objectives", True), ("design", False), ("similarity", True)):
-        for name, st in (spread.get(group) or {}).items():
-            mine = (this.get(group) or {}).get(name)
-            show = _pct if as_pct else _fmt
-            label = f"{name} (relative difference)" if group == "similarity" else name
-            rows.append((label, _Raw(show(mine)), _Raw(show(st.get("median"))),
-                         _Raw(show(st.get("min"))), _Raw(show(st.get("max")))))
-            classes.append("")
-    seeds = ", ".join(f"{r['seed']} ({r['status']})" for r in data.get("seeds", []))
-    body = (f"<p>This run is seed {this['seed']} of a <code>--seeds</code> run; "
-            f"{data.get('finished', 0)} of {len(data.get('seeds', []))} seeds have a design "
-            f"point (seeds: {html.escape(seeds)}). A design whose spread is wide depends on "
-            "the optimizer's seed: read the median and the range, not one seed.</p>")
-    body += html_table(["quantity", "this seed", "median over seeds", "min", "max"],
-                       rows, classes)
-    return Section("Across seeds", body)
-
-
 def _scatter_how(block: dict[str, Any]) -> str:
     """How a propagation's statistics were obtained (one sentence part)."""
     if block["method"] == "chaos":
         return (f"a polynomial chaos (degree {block['order']}) of the response histories, "
-                f"leave-one-out error {_pct(block['chaos_error'])} of the std")
+                f"leave-one-out error {pct(block['chaos_error'])} of the std")
     return ("the simulator samples themselves (the chaos does not hold here: a scattered "
-            f"model failed or the leave-one-out error is {_pct(block['chaos_error'])} of the "
+            f"model failed or the leave-one-out error is {pct(block['chaos_error'])} of the "
             "std), a failed model counting as J = infinity (shown as -)")
 
 
 def _statistics_rows(label: str | None, block: dict[str, Any]) -> list[tuple[Any, ...]]:
     lead = () if label is None else (label,)
-    return [(*lead, name, *(_Raw(_pct(st[q])) for q in ("mean", "std", "q10", "q50", "q90")))
+    return [(*lead, name, *(Raw(pct(st[q])) for q in ("mean", "std", "q10", "q50", "q90")))
             for name, st in block["objectives"].items()]
 
 
@@ -620,7 +460,8 @@ def _robustness_section(run: RunData) -> Section | None:
         other = nominal.get("robust") or {}
         body += (f" The robust search minimizes the {html.escape(stat)} of J_u and J_T under "
                  "that scatter on its surrogate; its best design and the nominal optimum of "
-                 f"the same study (its own campaign, {html.escape(Path(nominal['directory']).name)}/) "
+                 "the same study (its own campaign, "
+                 f"{html.escape(Path(nominal['directory']).name)}/) "
                  "are both verified on the simulator, and the design point is the better "
                  f"of the two: the {html.escape(point.get('chosen', 'robust search'))}.</p>")
         blocks = {name: block for name, block in (("robust search's design", candidate),
@@ -632,7 +473,7 @@ def _robustness_section(run: RunData) -> Section | None:
         if predicted:
             body += ("<p>The surrogate's " + html.escape(stat) + " at the robust search's "
                      "design: " + ", ".join(
-                         f"{html.escape(o)} {_pct(v['predicted'])} (std {_pct(v['std'])})"
+                         f"{html.escape(o)} {pct(v['predicted'])} (std {pct(v['std'])})"
                          for o, v in predicted.items()) + ".</p>")
         blocks = {k: b for k, b in blocks.items() if "distribution" in b}
         if blocks:
@@ -647,40 +488,6 @@ def _robustness_section(run: RunData) -> Section | None:
                         "First-order Sobol indices at the design point: the share of each "
                         f"input's scatter in the variance of J{caveat}")
     return Section("Robustness", body)
-
-
-def describe_environment(env: dict[str, Any]) -> str:
-    """``Python 3.11.7, numpy 2.4.6, ..., BLAS openblas 0.3.31 Haswell`` (one line)."""
-    pkgs = ", ".join(f"{k} {v}" for k, v in (env.get("packages") or {}).items() if v)
-    blas = "; ".join(f"{b.get('internal_api')} {b.get('version')} {b.get('architecture')}"
-                     for b in env.get("blas") or [])
-    simd = env.get("simd")
-    cpu = (f"; CPU {env['cpu']}" + ("" if simd is None else
-                                    " (AVX-512)" if "AVX512F" in simd else " (no AVX-512)")
-           if env.get("cpu") else "")
-    return (f"Python {env.get('python')}, hypate {env.get('hypate')}, {pkgs}"
-            + (f"; BLAS {blas}" if blas else "") + cpu)
-
-
-#: Distinct warnings listed in the Warnings section (the rest are counted below it).
-REPORT_WARNINGS = 30
-
-
-def _warnings_section(run: RunData) -> Section | None:
-    """The "Warnings" section: one row per distinct warning (the prototype's and each
-    evaluation's, as recorded), with the evaluations it occurred in and its count."""
-    tally = run.warnings
-    if not tally:
-        return None
-    rows = [(text[:300], describe_occurrences(where), n)
-            for text, where, n in tally[:REPORT_WARNINGS]]
-    body = ("<p>Warnings raised by the solvers during the prototype's simulation and the "
-            "evaluations (evaluation ids as in <code>evaluations.csv</code>, whose "
-            "<code>warnings</code> column lists each evaluation's).</p>"
-            + html_table(["warning", "where", "times"], rows))
-    if len(tally) > REPORT_WARNINGS:
-        body += f"<p>... and {len(tally) - REPORT_WARNINGS} more distinct warnings.</p>"
-    return Section("Warnings", body)
 
 
 def _laws_section(run: RunData) -> Section | None:
@@ -719,13 +526,13 @@ def _prediction_section(run: RunData) -> Section | None:
         histories = summary["histories"].items()
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
-    rows = [(f"{name} [{h.get('unit', '')}]", _Raw(_pct(h.get("J"))), h.get("half_width"),
-             _Raw(_pct(h.get("in_band")))) for name, h in histories]
+    rows = [(f"{name} [{h.get('unit', '')}]", Raw(pct(h.get("J"))), h.get("half_width"),
+             Raw(pct(h.get("in_band")))) for name, h in histories]
     page = run.directory / PREDICTION_DIR / PREDICTION_HTML
     intro = (f"<p>Measured model test <code>{html.escape(str(summary.get('measured')))}</code>"
-             f" ({_fmt(summary.get('points'))} points) mapped onto the prototype through the "
+             f" ({fmt(summary.get('points'))} points) mapped onto the prototype through the "
              f"{html.escape(str(summary.get('source')))}: prototype time = "
-             f"{_fmt(summary.get('time_ratio'))} x model time.</p>")
+             f"{fmt(summary.get('time_ratio'))} x model time.</p>")
     link = (f"<p>Figure and band parts: <a href='{PREDICTION_DIR}/{PREDICTION_HTML}'>"
             f"{PREDICTION_DIR}/{PREDICTION_HTML}</a>.</p>" if page.is_file() else "")
     return Section("Prediction", intro + html_table(
@@ -735,7 +542,7 @@ def _prediction_section(run: RunData) -> Section | None:
 
 #: The built-in section builders, in page order (registered plug-ins follow them).
 BUILTIN_SECTIONS: tuple[Callable[[RunData], Section | None], ...] = (
-    _study_section, _design_section, _admissibility_section, _seeds_section,
+    _study_section, _design_section, _admissibility_section, seeds_section,
     _similarity_section, _glossary_section,
-    _robustness_section, _figures_section, _pareto_section, _statistics_section,
-    _warnings_section, _laws_section, _prediction_section)
+    _robustness_section, _figures_section, _pareto_section, statistics_section,
+    warnings_section, _laws_section, _prediction_section)

@@ -28,7 +28,8 @@ import numpy as np
 import pandas as pd
 from hypate.scaling.engine.problem import project_cheap
 from hypate.scaling.workflow.admissibility import admissible, violation
-from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem
+from hypate.scaling.workflow.objectives import ModelFailure
+from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.rundir import EVALUATIONS_CSV
 from hypate.scaling.workflow.study import Study
 from hypate.solvers.errors import InputError
@@ -174,6 +175,7 @@ def best_known_search(study: Study, starts: Sequence[np.ndarray], evaluations: i
                 row = {"start": k, "x": x, **_score(problem, x)}
                 result.rows.append(row)
                 if writer is not None:
+                    assert handle is not None  # opened with the writer
                     writer.writerow([k, *(repr(float(v)) for v in x), *(repr(row[o]) for o in
                                                         study.spec.objectives),
                                      repr(row["value"]), row["admissible"], row["message"]])

@@ -22,7 +22,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, cast
 
 from hypate.scaling.engine.executors import check_scheduler_address
 from hypate.scaling.engine.store import EvaluationStore, StoreError
@@ -40,7 +40,7 @@ from threadpoolctl import threadpool_info
 try:  # numpy's runtime record of the SIMD extensions it dispatches to (numpy.show_runtime)
     from numpy._core._multiarray_umath import __cpu_features__ as NUMPY_CPU_FEATURES
 except ImportError:  # another numpy layout: the environment record then lists none
-    NUMPY_CPU_FEATURES: dict[str, bool] = {}
+    NUMPY_CPU_FEATURES = {}
 
 __all__ = ["ENVIRONMENTS", "MAX_SEED", "campaign_identity", "changed_keys", "check_resume",
            "fingerprint", "check_run_settings", "package_version", "preflight",
@@ -364,7 +364,8 @@ def record_campaign(store: EvaluationStore, identity: dict[str, Any], study: Stu
             store.set_meta("study_path", str(Path(study.path).resolve()), replace=True)
         store.set_meta("study", study.name, replace=True)
         env = runtime_environment()
-        seen = store.get_meta(ENVIRONMENTS) or []
+        # the JSON list of environments written here (get_meta: any JSON value)
+        seen = cast("list[Any]", store.get_meta(ENVIRONMENTS) or [])
         if not seen or seen[-1] != env:
             store.set_meta(ENVIRONMENTS, [*seen, env], replace=True)
     except (ValueError, sqlite3.Error) as exc:

@@ -16,8 +16,8 @@ otherwise it is the best compromise, with the residual mismatch of each paramete
 active bounds reported (the analysis Table 9.8 shows for the refined designs).
 
 The monomial of each parameter is not written by hand: it is the exact local power law of
-:func:`hypate.scaling.workflow.similarity.similarity_parameters` around the current point (exponents from
-central differences in log space, exact for monomials up to round-off). Parameters that are
+:func:`hypate.scaling.workflow.similarity.similarity_parameters` around the current point (exponents
+from central differences in log space, exact for monomials up to round-off). Parameters that are
 not monomials of the chosen variables -- ``Re_0`` through Sutherland's viscosity, anything
 through temperature-dependent properties or the isentropic relations in M -- are handled by
 sequential geometric programming: re-fit the local monomials at the new point and solve

@@ -201,7 +201,8 @@ def apply_design(template: Configuration, design: Mapping[str, float]) -> Config
     template : Configuration
         Model template: material layup, aspect ratio, Mach number, fixed values.
     design : mapping
-        ``{name: value}`` with names from :data:`hypate.scaling.workflow.variables.DESIGN_VARIABLES`:
+        ``{name: value}`` with names from
+        :data:`hypate.scaling.workflow.variables.DESIGN_VARIABLES`:
 
         * ``L`` (width follows at the template's aspect ratio), ``width``, ``L_le``,
           ``h`` (layers scaled proportionally; applied before any ``h[k]``), ``h[k]``,

@@ -8,9 +8,10 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from hypate.scaling.workflow.variables import CATEGORICAL
 from hypate.scaling.workflow.shipped import resolve
 from hypate.scaling.workflow.study import Study, parse_study
+from hypate.scaling.workflow.variables import CATEGORICAL
+
 
 @dataclasses.dataclass(frozen=True)
 class SweepPoint:

@@ -129,8 +129,8 @@ def study_levels(entries: Mapping[str, VariableEntry]) -> dict[str, tuple[str, .
             if name in CATEGORICAL}
 
 
-def variable_bounds(name: str, value: list[float] | str, tunnel: TunnelEnvelope | None
-                    ) -> tuple[float, float]:
+def variable_bounds(name: str, value: list[float] | list[str] | str,
+                    tunnel: TunnelEnvelope | None) -> tuple[float, float]:
     """Bounds of a ``NAME = [lower, upper]`` or ``NAME = "tunnel"`` entry (SI units)."""
     field = f"variables.{name}"
     if isinstance(value, list) and any(isinstance(v, str) for v in value):

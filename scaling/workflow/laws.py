@@ -1,8 +1,8 @@
 """Refined scaling laws from a sweep of scaled designs (Sec. 6.1.3, Fig. 9.4, Fig. 9.12).
 
-A sweep study (``[sweep] xi = [...]``, see :mod:`hypate.scaling.workflow.study`) yields one optimized design
-point per geometric scale ``xi = L_p / L_m``. For every continuous design variable ``d`` the
-points are fitted by a power law
+A sweep study (``[sweep] xi = [...]``, see :mod:`hypate.scaling.workflow.study`) yields one
+optimized design point per geometric scale ``xi = L_p / L_m``. For every continuous design variable
+``d`` the points are fitted by a power law
 
 .. math:: d(\\xi) = c\\,\\xi^{k}
 
@@ -38,7 +38,7 @@ values (``h_p``, ``L_p``, ``L_le^p``, M, p0, T0, T_inf, emissivity) and Eq. 9.2b
 
 :func:`predict` turns the laws into the design at a new scale, its similarity table and
 (optionally) its simulated ``J_u``, ``J_T``; the sweep runner seeds a new scale's initial
-sample with the same prediction (:func:`hypate.scaling.workflow.run.run_sweep`).
+sample with the same prediction (:func:`hypate.scaling.workflow.sweep.run_sweep`).
 
 Their exponent table, the Fig. 9.4/9.12-style figure and the report section are in
 :mod:`hypate.scaling.report.laws`.
@@ -58,7 +58,8 @@ import numpy as np
 from hypate.scaling.engine.problem import project_cheap
 from hypate.scaling.workflow.derived import study_at, study_data
 from hypate.scaling.workflow.integrity import verify_run
-from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem
+from hypate.scaling.workflow.objectives import ModelFailure
+from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON, SWEEP_JSON
 from hypate.scaling.workflow.similarity import (
     analytical_scaling,
@@ -233,6 +234,7 @@ def _constrained_fit(lx: np.ndarray, ly: np.ndarray, bounds: tuple[float, float]
     prob.solve()
     if prob.status not in ("optimal", "optimal_inaccurate") or k.value is None:
         raise ArithmeticError(f"constrained power-law fit failed: {prob.status}")
+    assert a.value is not None  # solved (optimal): a's value is set with k's
     return float(k.value), float(a.value)
 
 

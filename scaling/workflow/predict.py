@@ -3,32 +3,7 @@ histories mapped onto the prototype through the design point's nondimensionaliza
 an error band from the design point's residual mismatch, its propagated scatter and the
 measurement's own deviation.
 
-Size: about 810 lines, most of them this docstring (the file contract, the mapping and the
-band) and the measured file's checks, each naming its column; the reading, mapping, band
-and outputs share one set of run-directory facts, so they stay together.
-
-The measured file
------------------
-A CSV table (pandas; ``#`` starts a comment, so a file may carry its provenance in comment
-lines). The header names every column as ``NAME [UNIT]``: a name of :data:`COLUMNS`, a
-space (optional), the unit in square brackets; whitespace around the cell is ignored, names
-and units are case-sensitive. Accepted (:data:`UNITS`):
-
-==========================  ============  ==================================================
-column                      units         meaning
-==========================  ============  ==================================================
-``time``                    ``s``, ``ms`` model time since the start of the test (required;
-                                          strictly increasing, within the model's test span)
-``center_deflection``       ``m``, ``mm`` deflection at the panel centre
-``mean_temperature``        ``K``,        volume-mean panel temperature
-                            ``degC``
-==========================  ============  ==================================================
-
-``time`` and at least one of the two histories are required. Any other column, a unit not
-listed, a name given twice, an empty cell, a text that is not a number, NaN or infinity, a
-temperature below absolute zero, a time that does not increase and a time outside
-``[0, t_end]`` of the model's test (the design point's simulated span) each raise
-:class:`~hypate.solvers.errors.InputError` (field ``measured``) naming the column.
+The measured file's contract and its reading are :mod:`.measured`.
 
 The mapping (Sec. 9.2.1.1, Eqs. 6.4, 9.3, 9.5-9.6)
 -----------------------------------------------------
@@ -103,7 +78,6 @@ import contextlib
 import io
 import json
 import math
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -114,8 +88,11 @@ import numpy as np
 import pandas as pd
 from hypate.scaling.engine.store import EvaluationStore, StoreError
 from hypate.scaling.workflow.integrity import verify_run
-from hypate.scaling.workflow.laws import load_sweep, predict as law_design
-from hypate.scaling.workflow.problem import ModelFailure, ScalingProblem, relative_rms
+from hypate.scaling.workflow.laws import load_sweep
+from hypate.scaling.workflow.laws import predict as law_design
+from hypate.scaling.workflow.measured import COLUMNS, Measured, column_error
+from hypate.scaling.workflow.objectives import ModelFailure, relative_rms
+from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.rundir import (
     DESIGN_POINT_JSON,
     DESIGN_POINT_NPZ,
@@ -137,26 +114,11 @@ from hypate.solvers.numerics.files import (
     same_content,
 )
 
-__all__ = ["ACCEPTED", "COLUMNS", "COVERAGE", "HISTORIES", "UNITS", "BandParts", "Basis",
-           "Measured", "PredictedHistory", "Prediction", "Scaling", "band_parts",
-           "check_clock", "check_span", "design_point_basis", "predict",
-           "prediction_summary", "prediction_table", "read_measured", "scatter_sigma",
-           "study_time_step", "sweep_basis", "sweep_root", "write_prediction"]
+__all__ = ["COVERAGE", "BandParts", "Basis", "PredictedHistory", "Prediction", "Scaling",
+           "band_parts", "check_clock", "check_span", "design_point_basis", "predict",
+           "prediction_summary", "prediction_table", "scatter_sigma", "study_time_step",
+           "sweep_basis", "sweep_root", "write_prediction"]
 
-#: The field of every error about the measured file (the CLI's ``--measured``).
-FIELD = "measured"
-#: Accepted columns and their SI unit.
-COLUMNS = {"time": "s", "center_deflection": "m", "mean_temperature": "K"}
-#: The measured histories (every column but ``time``).
-HISTORIES = ("center_deflection", "mean_temperature")
-#: Accepted units per column: ``SI value = factor * value + offset``.
-UNITS: dict[str, dict[str, tuple[float, float]]] = {
-    "time": {"s": (1.0, 0.0), "ms": (1e-3, 0.0)},
-    "center_deflection": {"m": (1.0, 0.0), "mm": (1e-3, 0.0)},
-    "mean_temperature": {"K": (1.0, 0.0), "degC": (1.0, 273.15)},
-}
-#: A header cell: ``NAME [UNIT]``.
-HEADER = re.compile(r"^\s*(?P<name>[^\[\]]*?)\s*\[\s*(?P<unit>[^\[\]]*?)\s*\]\s*$")
 #: Two-sided 95 % quantile of the standard normal distribution (the random parts' factor).
 COVERAGE = NormalDist().inv_cdf(0.975)
 #: ``q90 - q10`` of a normal distribution in standard deviations (interdecile estimate).
@@ -167,139 +129,6 @@ SPAN_RTOL = 1e-9
 EDGE_RTOL = 1e-9
 #: Relative agreement asked of the prototype response's clock with ``k dt_p``.
 CLOCK_RTOL = 1e-9
-
-
-def _allowed(name: str) -> str:
-    return f"{name} [{'|'.join(UNITS[name])}]"
-
-
-ACCEPTED = ", ".join(_allowed(n) for n in COLUMNS)
-
-
-# -- the measured file --------------------------------------------------------------------
-@dataclass(frozen=True)
-class Measured:
-    """A measured model test in SI units.
-
-    Attributes
-    ----------
-    path : Path
-    time : ndarray of shape (n,)
-        Model time (s), strictly increasing.
-    histories : dict
-        ``"center_deflection"`` (m) and/or ``"mean_temperature"`` (K), each (n,).
-    headers : dict
-        Column name -> the header cell as written (for messages).
-    """
-
-    path: Path
-    time: np.ndarray
-    histories: dict[str, np.ndarray]
-    headers: dict[str, str]
-
-
-def _column_error(path: Path, header: str, message: str) -> InputError:
-    return InputError(FIELD, f"{path}, column '{header}': {message}")
-
-
-def _parse_header(path: Path, cells: list[str]) -> dict[str, tuple[int, str, str]]:
-    """``name -> (position, unit, header cell)`` of a header row (every rule of the module
-    docstring about names and units)."""
-    out: dict[str, tuple[int, str, str]] = {}
-    for i, cell in enumerate(cells):
-        text = cell.strip()
-        match = HEADER.match(cell)
-        if match is None:
-            bare = text if text in COLUMNS else None
-            hint = (f"give its unit, e.g. '{_allowed(bare)}'" if bare is not None
-                    else f"write NAME [UNIT], one of {ACCEPTED}")
-            raise _column_error(path, text, f"not of the form NAME [UNIT]; {hint}")
-        name, unit = match["name"], match["unit"]
-        if name not in COLUMNS:
-            raise _column_error(path, text, f"unknown column {name!r}; accepted: {ACCEPTED}")
-        if unit not in UNITS[name]:
-            raise _column_error(path, text, f"unit {unit!r} is not accepted for {name}; use "
-                                f"{' or '.join(UNITS[name])}")
-        if name in out:
-            raise _column_error(path, text, f"{name} is given twice (also as "
-                                f"'{out[name][2]}')")
-        out[name] = (i, unit, text)
-    if "time" not in out:
-        raise _column_error(path, _allowed("time"), "missing (required)")
-    if not any(h in out for h in HISTORIES):
-        raise _column_error(path, " or ".join(_allowed(h) for h in HISTORIES),
-                            "missing: the file needs at least one measured history")
-    return out
-
-
-def _values(path: Path, header: str, raw: pd.Series) -> np.ndarray:
-    """A column's numbers; the first empty, non-numeric or non-finite cell is an error."""
-    text = raw.fillna("").astype(str).str.strip()
-    values = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
-    bad = ~np.isfinite(values)
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
-        cell = text.iloc[i]
-        what = ("empty (a missing value)" if cell == "" else
-                "NaN" if np.isnan(values[i]) and cell.lower() in ("nan", "na", "n/a", "null")
-                else "not finite" if cell.lower().lstrip("+-") in ("inf", "infinity")
-                else f"{cell!r} is not a number")
-        raise _column_error(path, header, f"data row {i + 1}: {what}")
-    return values
-
-
-def read_measured(path: str | Path) -> Measured:
-    """Read and check a measured model test (header contract: module docstring).
-
-    Parameters
-    ----------
-    path : path
-        CSV file.
-
-    Returns
-    -------
-    Measured
-        In SI units (s, m, K).
-
-    Raises
-    ------
-    InputError
-        Field ``measured``: the file is missing or empty, a column is missing, unknown,
-        given twice or has a unit not accepted, a value is missing or not a finite number,
-        the time does not increase strictly, a temperature is below 0 K.
-    """
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(FIELD, f"{path}: file not found")
-    try:
-        table = pd.read_csv(path, header=None, dtype=str, keep_default_na=False,
-                            comment="#", skip_blank_lines=True, encoding="utf-8-sig")
-    except pd.errors.EmptyDataError:
-        raise InputError(FIELD, f"{path}: empty file (no header, no data)") from None
-    except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as exc:
-        raise InputError(FIELD, f"{path}: not a CSV table ({str(exc).strip()})") from None
-    cells = [str(c) for c in table.iloc[0]]
-    columns = _parse_header(path, cells)
-    data = table.iloc[1:]
-    if data.empty:
-        raise InputError(FIELD, f"{path}: no data rows below the header")
-    out: dict[str, np.ndarray] = {}
-    for name, (i, unit, header) in columns.items():
-        factor, offset = UNITS[name][unit]
-        out[name] = factor * _values(path, header, data.iloc[:, i]) + offset
-    headers = {name: header for name, (_, _, header) in columns.items()}
-    time = out.pop("time")
-    steps = np.diff(time)
-    if np.any(steps <= 0.0):
-        i = int(np.flatnonzero(steps <= 0.0)[0])
-        raise _column_error(path, headers["time"], f"must increase strictly; data row {i + 2}"
-                            f" ({time[i + 1]:.9g} s) does not follow data row {i + 1} "
-                            f"({time[i]:.9g} s)")
-    if "mean_temperature" in out and np.any(out["mean_temperature"] <= 0.0):
-        i = int(np.flatnonzero(out["mean_temperature"] <= 0.0)[0])
-        raise _column_error(path, headers["mean_temperature"], f"data row {i + 1}: "
-                            f"{out['mean_temperature'][i]:.6g} K is not above absolute zero")
-    return Measured(path=path, time=time, histories=out, headers=headers)
 
 
 # -- what the prediction maps through ----------------------------------------------------
@@ -626,7 +455,8 @@ def scatter_sigma(block: Mapping[str, Any] | None, objective: str) -> tuple[floa
     if isinstance(std, int | float) and math.isfinite(std):
         return float(std), "std"
     q10, q90 = stats.get("q10"), stats.get("q90")
-    if all(isinstance(q, int | float) and math.isfinite(q) for q in (q10, q90)):
+    if isinstance(q10, int | float) and isinstance(q90, int | float) \
+            and math.isfinite(q10) and math.isfinite(q90):
         return (float(q90) - float(q10)) / INTERDECILE, "interdecile"
     return None, "none"
 
@@ -722,7 +552,7 @@ def check_span(measured: Measured, basis: Basis) -> None:
     tol = SPAN_RTOL * end
     t = measured.time
     if t[0] < -tol or t[-1] > end + tol:
-        raise _column_error(measured.path, measured.headers["time"],
+        raise column_error(measured.path, measured.headers["time"],
                             f"the measured span [{t[0]:.6g}, {t[-1]:.6g}] s is outside the "
                             f"model's test span [0, {end:.6g}] s ({basis.steps - 1} steps of "
                             f"{basis.scaling.model_time_step:.6g} s at the {basis.source})")

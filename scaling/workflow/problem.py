@@ -1,8 +1,8 @@
 """The scaling problem (Sec. 6.2, 9.1.2.2, 9.2.1): prototype vs wind-tunnel model.
 
 A :class:`ScalingProblem` is a pymoo problem whose design vector sets the model and the
-tunnel (names of :func:`hypate.scaling.workflow.similarity.apply_design`: ``p0``, ``T0``, ``M``, ``L``,
-``L_le``, ``h``, ``emissivity``, ``T_rad``, ``p_ext``, ``p_inf``, ``delta_T``...). One
+tunnel (names of :func:`hypate.scaling.workflow.similarity.apply_design`: ``p0``, ``T0``, ``M``,
+``L``, ``L_le``, ``h``, ``emissivity``, ``T_rad``, ``p_ext``, ``p_inf``, ``delta_T``...). One
 evaluation simulates the model with the compact aerothermoelastic simulator and compares
 its nondimensional response with the prototype's (simulated once and cached) at matched
 nondimensional times: the model's time step follows from the prototype's by the Fourier
@@ -10,18 +10,7 @@ number (Eqs. 9.5-9.6 with the length scale, or Eq. 6.5 with the thickness; quasi
 problems) or by the structural time (Eq. 9.3, transient aeroelastic problems), and both
 runs take the same number of steps.
 
-Objectives (Eq. 6.4), written as relative RMS errors over the time samples so that 0.1
-reads "10 %":
-
-* ``J_u``: nondimensional deflection -- centre deflection / thickness (``projection =
-  "center"``, Sec. 9.2.1.1), the sinusoidal modal coordinates / thickness (``"modal"``), or
-  the whole nodal displacement field nondimensionalized as in Eq. (3.17b) --
-  ``(u, v, w) / h`` and ``(psi_x, psi_y) L / h`` -- with the in-plane ``(u, v)``, transverse
-  ``w`` and rotation fields weighted equally (``"fields"``: the in-plane field, which scales
-  with ``h / L`` at matched ``lambda_F`` and thermal load, makes the thickness identifiable;
-  both meshes must have the same node grid);
-* ``J_T``: volume-mean temperature / stagnation temperature (Sec. 9.2.1.1);
-* ``J_s = sqrt(J_u^2 + J_T^2)`` (Eq. 9.8) for single-objective studies.
+The objectives J_u, J_T, J_s and the histories they compare are :mod:`.objectives`.
 
 Cheap equality constraints (Eq. 9.7), e.g. ``"T_inf"``: the model's free-stream temperature
 ratio ``T_w / T_inf`` equals the prototype's, are analytic functions of the design vector
@@ -66,6 +55,13 @@ from hypate.scaling.workflow.configuration import (
     apply_design,
     with_material,
 )
+from hypate.scaling.workflow.objectives import (
+    PROJECTIONS,
+    ModelFailure,
+    history_vector,
+    response_errors,
+    response_series,
+)
 from hypate.scaling.workflow.similarity import (
     TIME_SCALINGS,
     compare,
@@ -85,23 +81,18 @@ from hypate.solvers.materials import Material
 from hypate.solvers.settings import SimulationSettings
 from pymoo.core.problem import Problem
 
+#: A design vector: the values of the problem's variables in order.
+DesignVector = Sequence[float] | np.ndarray
 #: Objective names.
 OBJECTIVES = ("J_u", "J_T", "J_s")
 #: Largest |deflection| / thickness of a meaningful response: beyond it the von Karman
 #: (moderate rotation) shell model no longer holds and the run counts as diverged.
 MAX_DEFLECTION = 50.0
-#: Projections of the structural response for J_u.
-PROJECTIONS = ("center", "modal", "fields")
-#: DOF groups of the "fields" projection (DOF order u, v, w, psi_x, psi_y per node).
-FIELD_GROUPS = {"in-plane": (0, 1), "transverse": (2,), "rotation": (3, 4)}
 #: Cheap equality constraints available (Eq. 9.7).
 EQUALITY_CONSTRAINTS = ("T_inf",)
-#: The categorical design variable (the one of :data:`~hypate.scaling.workflow.variables.CATEGORICAL`).
+#: The categorical design variable (the one of
+#: :data:`~hypate.scaling.workflow.variables.CATEGORICAL`).
 (MATERIAL,) = CATEGORICAL
-
-
-class ModelFailure(RuntimeError):
-    """The model simulation did not produce a response comparable to the prototype's."""
 
 
 @dataclass(frozen=True)
@@ -332,8 +323,10 @@ class AnalyticCheck:
         config = p.configure(p.design(x))
         if self.check == "size":
             plate, core = size_value(config.panel, tunnel, float(config.flow.mach))
+            assert core is not None  # the check is made only for a tunnel's test section
             return (plate - (float(core) - rule.margin)) / max(float(core), 1e-12)
         run = tunnel.run_time_at(*p.setting(config))
+        assert run is not None  # the check is made only for a tunnel's run time
         return (self.test_duration(x) + rule.injection_time - (run - rule.margin)) / run
 
     def _value(self, x: np.ndarray) -> float:
@@ -382,75 +375,6 @@ def evaluate_rows(problem: ScalingProblem, configs: Sequence[Configuration],
     if problem.n_ieq_constr:
         out["G"] = G
     out["aux"] = aux
-
-
-def _series(resp: Response, projection: str) -> np.ndarray:
-    """Nondimensional deflection history (n_t, k): modal coordinates or centre w / h."""
-    if projection == "modal":
-        return np.asarray(resp.modal)
-    return np.asarray(resp.center_deflection)[:, None] / resp.thickness
-
-
-def relative_rms(model: np.ndarray, prototype: np.ndarray) -> float:
-    """``||model - prototype|| / ||prototype||`` over all samples (Eq. 6.4, normalized)."""
-    num = float(np.linalg.norm(np.asarray(model) - np.asarray(prototype)))
-    den = float(np.linalg.norm(prototype))
-    return num / den if den > 0.0 else num
-
-
-def _field_series(resp: Response) -> np.ndarray:
-    """Nodal displacements nondimensionalized by Eq. (3.17b), shape (n_t, n_nodes, 5)."""
-    if not resp.u:
-        raise ModelFailure("the 'fields' projection needs the displacement fields "
-                           "(keep_fields)")
-    U = np.asarray(resp.u, dtype=float)
-    U = U.reshape(len(U), -1, 5) / resp.thickness
-    U[..., 3:] *= resp.length
-    return U
-
-
-def response_series(resp: Response, projection: str = "center") -> dict[str, np.ndarray]:
-    """The nondimensional histories J compares, by name: ``"u"`` (centre w / h or modal
-    coordinates; for ``"fields"`` one entry per :data:`FIELD_GROUPS` group instead) and
-    ``"T"`` (volume-mean temperature / stagnation temperature), each (n_t, ...)."""
-    if projection == "fields":
-        U = _field_series(resp)
-        out = {g: U[..., list(k)] for g, k in FIELD_GROUPS.items()}
-    else:
-        out = {"u": _series(resp, projection)}
-    out["T"] = np.asarray(resp.mean_temperature) / resp.stagnation_temperature
-    return out
-
-
-def history_vector(series: dict[str, np.ndarray], n: int) -> np.ndarray:
-    """The ``"u"`` and ``"T"`` series of :func:`response_series` over steps 1 .. n - 1,
-    flattened and concatenated: exactly what J compares with the prototype's (a comparable
-    model runs at least the prototype's ``n`` steps)."""
-    return np.concatenate([np.asarray(series[key], float)[1:n].reshape(-1)
-                           for key in ("u", "T")])
-
-
-def series_errors(model: dict[str, np.ndarray], prototype: dict[str, np.ndarray], n: int
-                  ) -> dict[str, float]:
-    """J_u, J_T, J_s (Eqs. 6.4, 9.8) of :func:`response_series` over steps 1 .. n - 1."""
-    if "u" in prototype:
-        J_u = relative_rms(model["u"][1:n], prototype["u"][1:n])
-    else:
-        errs = [relative_rms(model[g][1:n], prototype[g][1:n]) for g in FIELD_GROUPS]
-        J_u = float(np.sqrt(np.mean(np.square(errs))))
-    J_T = relative_rms(model["T"][1:n], prototype["T"][1:n])
-    return {"J_u": J_u, "J_T": J_T, "J_s": math.hypot(J_u, J_T)}
-
-
-def response_errors(model: Response, prototype: Response, projection: str = "center"
-                    ) -> dict[str, float]:
-    """J_u, J_T, J_s (Eqs. 6.4, 9.8) at matched nondimensional times (same step index)."""
-    n = min(len(model.times), len(prototype.times))
-    sm, sp = response_series(model, projection), response_series(prototype, projection)
-    if projection == "fields" and sm["in-plane"].shape[1:] != sp["in-plane"].shape[1:]:
-        raise ModelFailure(f"'fields' projection: model and prototype meshes differ "
-                           f"({sm['in-plane'].shape[1]} and {sp['in-plane'].shape[1]} nodes)")
-    return series_errors(sm, sp, n)
 
 
 # -- the pymoo problem ----------------------------------------------------------------------
@@ -521,7 +445,7 @@ class ScalingProblem(Problem):
         return self._prototype_response
 
     # -- model --------------------------------------------------------------------------------
-    def design(self, x: Sequence[float]) -> dict[str, float]:
+    def design(self, x: DesignVector) -> dict[str, float]:
         """Design dict (variables then fixed values) of a design vector; a categorical
         material is its level number (:meth:`material_name` names it)."""
         x = np.asarray(x, dtype=float).reshape(-1)
@@ -531,7 +455,7 @@ class ScalingProblem(Problem):
             x = self.categorical.snap(x)[0]
         return {**self.spec.fixed, **dict(zip(self.spec.names, map(float, x)))}
 
-    def material_name(self, x: Sequence[float]) -> str | None:
+    def material_name(self, x: DesignVector) -> str | None:
         """The material of design ``x`` by its study name (None: not a design variable)."""
         if self.categorical is None:
             return None
@@ -550,7 +474,7 @@ class ScalingProblem(Problem):
             template = with_material(template, self.spec.materials[level][1])
         return apply_design(template, design)
 
-    def model_configuration(self, x: Sequence[float]) -> Configuration:
+    def model_configuration(self, x: DesignVector) -> Configuration:
         """The model configuration of design vector ``x`` (DESIGN.md data flow), simulated
         with its matched time step (:meth:`model_time_step`), which is also the reference
         time of its similarity parameters."""
@@ -562,12 +486,12 @@ class ScalingProblem(Problem):
         return self.spec.simulation.time_step * time_scale(
             self._ref_p, reference_quantities(config), self.spec.time_scaling)
 
-    def simulate_model(self, x: Sequence[float], keep_fields: bool = False
+    def simulate_model(self, x: DesignVector, keep_fields: bool = False
                        ) -> tuple[Configuration, Response]:
         config = self.model_configuration(x)
         return config, simulate_configuration(config, keep_fields=keep_fields)
 
-    def errors(self, x: Sequence[float]) -> dict[str, float]:
+    def errors(self, x: DesignVector) -> dict[str, float]:
         """J_u, J_T, J_s of one design; raises :class:`ModelFailure` when not comparable."""
         return self.outputs(self.model_configuration(x))[0]
 
@@ -620,10 +544,11 @@ class ScalingProblem(Problem):
         if resp.status == "failed" or len(resp.times) < 2:
             raise ModelFailure(f"model simulation failed: {resp.message}")
         if len(resp.times) < n_p:
-            raise ModelFailure(f"model {resp.instability_type or 'instability'} at step "
-                               f"{len(resp.times) - 1} of {n_p - 1} (the prototype "
-                               f"{'stays stable' if proto.status == 'completed' else 'lasts longer'}):"
-                               f" {resp.message}")
+            raise ModelFailure(
+                f"model {resp.instability_type or 'instability'} at step "
+                f"{len(resp.times) - 1} of {n_p - 1} (the prototype "
+                f"{'stays stable' if proto.status == 'completed' else 'lasts longer'}):"
+                f" {resp.message}")
         w = np.abs(np.asarray(resp.center_deflection)) / resp.thickness
         modal = np.abs(np.asarray(resp.modal)) if resp.modal else np.zeros(1)
         if not (np.all(np.isfinite(w)) and w.max() <= MAX_DEFLECTION
@@ -749,14 +674,14 @@ class ScalingProblem(Problem):
         return CheapConstraint(fun=fun, jac=jac, kind="eq")
 
     # -- reporting ------------------------------------------------------------------------------
-    def similarity(self, x: Sequence[float]) -> list[dict[str, Any]]:
+    def similarity(self, x: DesignVector) -> list[dict[str, Any]]:
         """Similarity-parameter table of a design, public ``design_point.json`` form."""
         proto = self.spec.prototype
         table = compare(proto.with_time_step(proto.simulation.time_step),
                         self.model_configuration(x))
         return comparison_records(table)
 
-    def active_bounds(self, x: Sequence[float], rtol: float = 1e-3) -> list[str]:
+    def active_bounds(self, x: DesignVector, rtol: float = 1e-3) -> list[str]:
         """Names of the bounds a design sits on (Table 9.8 style), e.g. ``"h=upper"``."""
         out = []
         for v, value in zip(self.spec.variables, np.asarray(x, float)):

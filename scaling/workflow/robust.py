@@ -31,25 +31,25 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from hypate.scaling.engine.coordinates import LogLinearCoordinates
+from hypate.scaling.engine.design_point import design_point_index
 from hypate.scaling.engine.executors import LOST_AFTER, make_executor
 from hypate.scaling.engine.faults import ExecutorError
 from hypate.scaling.engine.pareto import non_dominated_mask
 from hypate.scaling.engine.propagation import collocation_nodes
 from hypate.scaling.engine.robust import RobustBayesianOptimizer
-from hypate.scaling.engine.settings import OptimizerSettings
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
 from hypate.scaling.workflow.campaign import preflight, record_campaign, run_lock
 from hypate.scaling.workflow.integrity import record_outputs
-from hypate.scaling.workflow.problem import ScalingProblem, evaluate_rows, response_errors
-from hypate.scaling.workflow.run import (
-    RunOutcome,
+from hypate.scaling.workflow.objectives import response_errors
+from hypate.scaling.workflow.optimizer_settings import optimizer_settings
+from hypate.scaling.workflow.outputs import (
     design_fields,
     design_point_scatter,
     point_header,
-    run_study,
     save_design_response,
-    surrogate_coordinates,
 )
+from hypate.scaling.workflow.problem import ScalingProblem, evaluate_rows
+from hypate.scaling.workflow.run import RunOutcome, run_study, surrogate_coordinates
 from hypate.scaling.workflow.rundir import (
     DESIGN_POINT_JSON,
     EVALUATIONS_CSV,
@@ -57,7 +57,6 @@ from hypate.scaling.workflow.rundir import (
     PARETO_CSV,
     PROTOTYPE_NPZ,
     STORE,
-    design_point_index,
     finite,
     finite_or_none,
     write_csv,
@@ -108,15 +107,22 @@ class JointProblem(Problem):
         out["F"], out["aux"] = full["F"], full["aux"]
 
 
+def robust_inputs(study: Study) -> Uncertainty:
+    """The study's ``[uncertainty]``: a robust run has one (refused otherwise)."""
+    if study.uncertainty is None:
+        raise InputError("robust", "a robust run needs [uncertainty] and [robust]")
+    return study.uncertainty
+
+
 def nominal_study(study: Study) -> Study:
     """The study as a nominal optimization (its scatter propagated at the design point)."""
-    return dataclasses.replace(study, uncertainty=dataclasses.replace(study.uncertainty,
+    return dataclasses.replace(study, uncertainty=dataclasses.replace(robust_inputs(study),
                                                                       optimize=False))
 
 
 def robust_budget(study: Study) -> int:
     """Evaluations of a robust run: the nominal campaign's and the robust search's."""
-    unc = study.uncertainty
+    unc = robust_inputs(study)
     iterations = study.iteration_cap if unc.iterations is None else unc.iterations
     return study.budget + unc.initial_samples + iterations
 
@@ -156,8 +162,8 @@ def run_robust_study(study: Study, out: str | Path, *, resume: bool = False, wor
     "robust"). Other parameters as :func:`~hypate.scaling.workflow.run.run_study`.
     """
     out = Path(out)
-    unc = study.uncertainty
-    if unc is None or not unc.optimize:
+    unc = robust_inputs(study)
+    if not unc.optimize:
         raise InputError("robust", "a robust run needs [uncertainty] and [robust]")
     identity, run_seed = preflight(study, out, resume=resume, seed=seed, workers=workers,
                                    scheduler=scheduler, force=force)
@@ -212,18 +218,12 @@ def _robust_campaign(study: Study, nominal: RunOutcome, store: EvaluationStore,
                      executor: Any, run_seed: int, callback: Callable[[Evaluation], None],
                      on_scatter: Callable[[int, int], None] | None, out: Path):
     """The robust search on the joint problem, then the outputs."""
-    unc, problem = study.uncertainty, nominal.problem
+    unc, problem = robust_inputs(study), nominal.problem
     joint = JointProblem(problem, unc)
     n_inputs = len(unc.inputs)
-    opt = study.optimizer
-    settings = OptimizerSettings(
-        acquisition=study.acquisition, n_init=unc.initial_samples,
-        n_iter=study.iteration_cap if unc.iterations is None else unc.iterations,
-        v=opt.v, v_final=opt.v_final, weights=opt.weights,
-        cheap_constraints=problem.cheap_constraints(),
-        executor=executor, timeout=opt.timeout, store=store, seed=run_seed,
-        callback=callback, output_transform=opt.transform, surrogate=opt.surrogate,
-        coordinates=joint_coordinates(study, problem, n_inputs))
+    settings = optimizer_settings(study, problem, executor=executor, store=store,
+                                  seed=run_seed, callback=callback, robust=True,
+                                  coordinates=joint_coordinates(study, problem, n_inputs))
     optimizer = RobustBayesianOptimizer(
         joint, settings, n_design=problem.n_var,
         samples=collocation_nodes(unc.inputs, QUADRATURE_SAMPLES, run_seed),
@@ -239,6 +239,8 @@ def _robust_campaign(study: Study, nominal: RunOutcome, store: EvaluationStore,
 
 def verified_statistic(block: dict[str, Any] | None) -> float:
     """The statistic of max(J_u, J_T) of a propagation block (infinite when it failed)."""
+    if block is None:
+        return float("inf")
     try:
         value = block["objectives"]["J_max"]["robust"]
     except (KeyError, TypeError):
@@ -248,7 +250,7 @@ def verified_statistic(block: dict[str, Any] | None) -> float:
 
 def _evaluations_frame(study: Study, optimizer: RobustBayesianOptimizer,
                        records: list[Evaluation]) -> pd.DataFrame:
-    names = study.spec.names + [INPUT_PREFIX + n for n in study.uncertainty.names]
+    names = study.spec.names + [INPUT_PREFIX + n for n in robust_inputs(study).names]
     X = np.array([r.x for r in records], float).reshape(len(records), len(names))
     df = pd.DataFrame(X, columns=names)
     for j, o in enumerate(study.spec.objectives):
@@ -274,7 +276,7 @@ def write_robust_outputs(study: Study, problem: ScalingProblem,
     their surrogate robust statistics, the non-dominated ones), design_point.json (the
     robust design point, its ``robust`` propagation and the ``nominal`` optimum's beside it)
     and design_point.npz (the robust design's nominal response)."""
-    unc = study.uncertainty
+    unc = robust_inputs(study)
     records = store.load()
     _write_csv(_evaluations_frame(study, optimizer, records), out / EVALUATIONS_CSV)
     designs, R, S = optimizer.robust_estimates(records)

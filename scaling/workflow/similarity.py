@@ -220,6 +220,7 @@ def reference_quantities(config: Configuration, *,
     panel = config.panel
     temps = config.resolved_temperatures()
     TS, TT = temps.structural, temps.thermal
+    assert TS is not None and TT is not None  # resolved: every temperature filled in
     lam = laminate(panel, TS)  # uniform T_S: stiffness at T_S (N_T unused here)
     h = panel.thickness
     L = float(panel.length)
@@ -305,6 +306,9 @@ def similarity_parameters(config: Configuration, *,
     ref = reference_quantities(config) if reference is None else reference
     flow = config.flow
     temps = ref.temperatures
+    # resolved (reference_quantities): every temperature filled in
+    assert temps.wall is not None and temps.structural is not None
+    assert temps.thermal is not None and temps.fluid is not None
     L, h, D = ref.length, ref.thickness, ref.D_xx
     V = flow.velocity
     mu = float(sutherland_viscosity(temps.fluid))

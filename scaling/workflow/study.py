@@ -72,8 +72,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, cast, overload
 
 from hypate.scaling.engine.stopping import StoppingRule
 from hypate.scaling.workflow import uncertainty as scatter
@@ -196,8 +197,8 @@ class SweepSection(InputModel):
         if self.conditions is not None:
             conditions = [(float(m), float(h)) for m, h in self.conditions]
         elif self.mach is not None or self.altitude is not None:
-            machs = self.mach or [None]
-            alts = self.altitude or [None]
+            machs: Sequence[float | None] = self.mach or [None]
+            alts: Sequence[float | None] = self.altitude or [None]
             conditions = []
             for i, m in enumerate(machs):
                 row = alts if i % 2 == 0 else list(reversed(alts))
@@ -338,7 +339,8 @@ class StudyFile(InputModel):
         if acq is not None:
             single = acq in ("lcb", "ei", "poi")
             if single != (n_obj == 1):
-                raise ValueError(f"optimizer.acquisition: {acq!r} does not fit {n_obj} objective(s) "
+                raise ValueError(f"optimizer.acquisition: {acq!r} does not fit "
+                                 f"{n_obj} objective(s) "
                                  "(lcb/ei/poi for one; hvlcb/hvei/hvpoi/ws/cheb for two)")
         opt = self.optimizer
         if opt.iterations == "auto" and opt.min_iterations >= opt.max_iterations:
@@ -475,6 +477,10 @@ class Study:
 
 def constant_material(m: mat.Material, T: float) -> mat.Material:
     """``m`` with every property frozen at temperature ``T`` (Sec. 9.1, Table 9.1)."""
+    @overload
+    def c(prop: mat.Property) -> mat.Property: ...
+    @overload
+    def c(prop: None) -> None: ...
     def c(prop: mat.Property | None) -> mat.Property | None:
         return None if prop is None else mat.Property.constant(prop.name, float(prop(T)))
 
@@ -540,7 +546,9 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
         sim_cfg = sim_cfg.model_copy(update={"aero": aero})
     proto_panel = case.panel
     if sim_cfg.mesh is not None:
-        proto_panel = dataclasses.replace(proto_panel, mesh=tuple(sim_cfg.mesh))
+        # validated: exactly two entries
+        proto_panel = dataclasses.replace(proto_panel,
+                                          mesh=cast("tuple[int, int]", tuple(sim_cfg.mesh)))
     if cfg.prototype.temperature_independent:
         proto_panel = _freeze(proto_panel, proto_panel.initial_temperature)
     proto_flow = case.flow

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from hypate.scaling.engine.design_point import rank_designs
 from hypate.scaling.engine.executors import LOST_AFTER
 from hypate.scaling.engine.problem import project_cheap
 from hypate.scaling.engine.store import EvaluationStore
@@ -39,7 +40,6 @@ from hypate.scaling.workflow.rundir import (
     STORE,
     SWEEP_CSV,
     SWEEP_JSON,
-    rank_designs,
     write_csv,
     write_json,
 )
@@ -86,8 +86,8 @@ def sweep_seeds(study: Study, sub: Study, problem: ScalingProblem, index: int,
       exponent ``k`` where two or more scales are finished and the analytical one
       otherwise (:mod:`hypate.scaling.workflow.laws`), so that e.g. the thickness keeps ``h/L``.
     * **Prediction**: for a scale not solved yet, with ``sweep.predict`` and two or more
-      finished scales, the refined laws' prediction (:func:`hypate.scaling.workflow.laws.predicted_design`)
-      comes first.
+      finished scales, the refined laws' prediction
+      (:func:`hypate.scaling.workflow.laws.predicted_design`) comes first.
 
     Every seed is clipped to the new bounds and projected onto the cheap equalities
     (Eq. 9.7). The result depends only on finished points, so a resumed sweep recomputes

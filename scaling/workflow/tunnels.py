@@ -30,7 +30,7 @@ import math
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache, lru_cache
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -337,7 +337,7 @@ def _shipped() -> dict[str, Any]:
     return tomllib.loads(text)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _shipped_envelope(name: str) -> TunnelEnvelope:
     return envelope_from_table(_shipped()["tunnels"][name], name=name, field=f"tunnels.{name}")
 

@@ -55,12 +55,8 @@ from hypate.scaling.engine.propagation import (
     summary,
 )
 from hypate.scaling.workflow.configuration import Configuration
-from hypate.scaling.workflow.problem import (
-    ModelFailure,
-    ScalingProblem,
-    relative_rms,
-    response_series,
-)
+from hypate.scaling.workflow.objectives import ModelFailure, relative_rms, response_series
+from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.variables import CATEGORICAL, schedule_point
 from hypate.solvers import materials as mat
 from hypate.solvers.config import InputModel
@@ -123,7 +119,8 @@ class UncertainEntry(InputModel):
         given = [k for k in DISTRIBUTIONS if getattr(self, k) is not None]
         if len(given) != 1:
             raise ValueError(f"give exactly one distribution of {', '.join(DISTRIBUTIONS)} "
-                             f"(a width: {'; '.join(f'{k}: {v}' for k, v in DISTRIBUTIONS.items())})")
+                             "(a width: "
+                             f"{'; '.join(f'{k}: {v}' for k, v in DISTRIBUTIONS.items())})")
         return self
 
     def uncertain(self, name: str) -> Uncertain:
@@ -225,8 +222,9 @@ def scaled_material(m: mat.Material, factors: dict[str, float]) -> mat.Material:
     return dataclasses.replace(m, **changes) if changes else m
 
 
-def scattered_configuration(problem: ScalingProblem, x: Sequence[float], names: Sequence[str],
-                            factors: Sequence[float]) -> Configuration:
+def scattered_configuration(problem: ScalingProblem, x: np.ndarray | Sequence[float],
+                            names: Sequence[str], factors: np.ndarray | Sequence[float]
+                            ) -> Configuration:
     """The model of design ``x`` as built and tested with the inputs ``names`` multiplied
     by ``factors``, run on the nominal design's time step (the planned time mapping)."""
     nominal = problem.model_configuration(x)
@@ -262,7 +260,7 @@ class Samples:
     seconds: float
 
 
-def simulate_scatter(problem: ScalingProblem, x: Sequence[float], unc: Uncertainty,
+def simulate_scatter(problem: ScalingProblem, x: np.ndarray | Sequence[float], unc: Uncertainty,
                      nodes: np.ndarray, progress: Callable[[int, int], None] | None = None
                      ) -> Samples:
     """Simulate the scattered models at ``nodes`` (one simulator run each)."""
@@ -346,7 +344,7 @@ class HistoryChaos:
         return _combine(J)
 
 
-def propagate_design(problem: ScalingProblem, x: Sequence[float], unc: Uncertainty,
+def propagate_design(problem: ScalingProblem, x: np.ndarray | Sequence[float], unc: Uncertainty,
                      samples: int | None = None, seed: int = 0,
                      progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
     """Propagate the study's uncertainty at design ``x`` on the simulator.
@@ -409,7 +407,7 @@ def propagate_design(problem: ScalingProblem, x: Sequence[float], unc: Uncertain
     return out
 
 
-def propagate_or_failure(problem: ScalingProblem, x: Sequence[float], unc: Uncertainty,
+def propagate_or_failure(problem: ScalingProblem, x: np.ndarray | Sequence[float], unc: Uncertainty,
                          samples: int | None = None, seed: int = 0,
                          progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
     """:func:`propagate_design`, or ``{"status": "failed: ...", "samples", "statistic"}``
@@ -422,7 +420,7 @@ def propagate_or_failure(problem: ScalingProblem, x: Sequence[float], unc: Uncer
                 "samples": int(samples or unc.n_samples)}
 
 
-def monte_carlo_design(problem: ScalingProblem, x: Sequence[float], unc: Uncertainty,
+def monte_carlo_design(problem: ScalingProblem, x: np.ndarray | Sequence[float], unc: Uncertainty,
                        samples: int = 256, seed: int = 0,
                        progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
     """The reference of :func:`propagate_design`: J statistics of ``samples`` scrambled-Sobol

@@ -22,6 +22,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+from hypate.scaling.engine.design_point import design_point_index
 from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.workflow.admissibility import (
     admissible,
@@ -29,7 +30,7 @@ from hypate.scaling.workflow.admissibility import (
     violation,
 )
 from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.rundir import design_point_index, finite
+from hypate.scaling.workflow.rundir import finite
 from hypate.solvers.panel import PanelSpec
 
 __all__ = ["admissibility_lines", "binding_limits", "choose_admissible_point",

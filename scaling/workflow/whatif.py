@@ -8,15 +8,15 @@ Rules (documented in ``--help`` and the README):
 
 * ``--set NAME=VALUE`` (repeatable) sets a design value in SI units. ``NAME`` is one of the
   study's design variables, one of its ``[fixed]`` values (overridden), or any other design
-  variable of :data:`hypate.scaling.workflow.variables.DESIGN_VARIABLES` (applied as an extra fixed value and
-  flagged). Unknown names exit 2 naming ``--set``.
+  variable of :data:`hypate.scaling.workflow.variables.DESIGN_VARIABLES` (applied as an extra fixed
+  value and flagged). Unknown names exit 2 naming ``--set``.
 * ``--set material=NAME`` picks the model material: one of the study's categorical
   ``[variables] material`` values, or, for a study with a fixed ``[model] material``, any
   library material or ``[materials.NAME]`` of the study (an extra, flagged).
 * Variables not set take the **midpoint of their bounds** (arithmetic mean; a categorical
-  material its first listed value), so no value is required; the output says which values were set and which are midpoints. With
-  ``--base RUN_DIR`` (or a ``design_point.json``) they take the run's design point instead:
-  "the optimized model, but with only 6 MPa".
+  material its first listed value), so no value is required; the output says which values were set
+  and which are midpoints. With ``--base RUN_DIR`` (or a ``design_point.json``) they take the run's
+  design point instead: "the optimized model, but with only 6 MPa".
 * A value outside its bounds (or outside the tunnel envelope / manufacturing limits) is
   evaluated anyway -- that is the point of a what-if -- and flagged in the output.
 * ``--sweep NAME=LOW:HIGH:N`` evaluates N designs with ``NAME`` linearly spaced from LOW to
@@ -93,7 +93,7 @@ class WhatIf:
         The input named in errors (``set``, ``sweep``; the CLI shows its flag).
     """
 
-    def __init__(self, study: Any, values: Mapping[str, float], option: str = "set",
+    def __init__(self, study: Any, values: Mapping[str, float | str], option: str = "set",
                  base: Mapping[str, float] | None = None) -> None:
 
 
@@ -104,9 +104,11 @@ class WhatIf:
         self.material: str | None = None
         self.extra: list[str] = []
         if MATERIAL in values:
-            spec, values[MATERIAL] = self._material(study, values[MATERIAL], option)
-            if values[MATERIAL] is None:
+            spec, level = self._material(study, values[MATERIAL], option)
+            if level is None:
                 del values[MATERIAL]
+            else:
+                values[MATERIAL] = level
         known = list(spec.names) + [n for n in spec.fixed if n not in spec.names]
         others = [n for n in DESIGN_VARIABLES if n not in known]
         fixed = dict(spec.fixed)
@@ -265,7 +267,7 @@ class WhatIf:
         return out
 
 
-def evaluate_whatif(study: Any, values: Mapping[str, float],
+def evaluate_whatif(study: Any, values: Mapping[str, float | str],
                     base: Mapping[str, float] | None = None) -> dict[str, Any]:
     """Evaluate one what-if design of ``study``.
 
@@ -308,7 +310,7 @@ def evaluate_whatif(study: Any, values: Mapping[str, float],
     return result
 
 
-def scatter_whatif(study: Any, values: Mapping[str, float],
+def scatter_whatif(study: Any, values: Mapping[str, float | str],
                    base: Mapping[str, float] | None = None, samples: int | None = None,
                    progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
     """Propagate the study's ``[uncertainty]`` at one what-if design (``--scatter``).
@@ -335,9 +337,10 @@ def scatter_whatif(study: Any, values: Mapping[str, float],
                                 seed=study.optimizer.seed, progress=progress)
 
 
-def sweep_whatif(study: Any, values: Mapping[str, float], name: str, low: float, high: float,
-                 n: int, out_dir: str | Path = ".", base: Mapping[str, float] | None = None,
-                 plot: SweepPlot | None = None) -> dict[str, Any]:
+def sweep_whatif(study: Any, values: Mapping[str, float | str], name: str, low: float,
+                 high: float, n: int, out_dir: str | Path = ".",
+                 base: Mapping[str, float] | None = None, plot: SweepPlot | None = None
+                 ) -> dict[str, Any]:
     """Evaluate ``n`` designs with ``name`` in ``linspace(low, high, n)``; write the CSV and,
     with ``plot`` (the report's ``plot_sweep``: the workflow draws no figures), the PNG.
 
@@ -395,7 +398,8 @@ def sweep_whatif(study: Any, values: Mapping[str, float], name: str, low: float,
     for r in rows:
         r.pop("design")
     return {"name": name, "values": grid.tolist(), "rows": rows, "csv": str(csv_path),
-            "png": None if png is None else str(png), "base_design": w.problem.design(w.design_vector()),
+            "png": None if png is None else str(png),
+            "base_design": w.problem.design(w.design_vector()),
             "sources": w.sources({name: low})}
 
 

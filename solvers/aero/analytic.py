@@ -128,15 +128,15 @@ class BoundaryLayerShape:
 
 
 # -- Eckert heat flux ----------------------------------------------------------------------
-def eckert_heat_flux(flow: FlowCondition, p_e: ArrayLike, T_w: ArrayLike, x_le: ArrayLike,
-                     regime: str = "turbulent") -> Array:
+def eckert_heat_flux(flow: FlowCondition, p_e: ArrayLike, T_w: np.ndarray | float,
+                     x_le: ArrayLike, regime: str = "turbulent") -> Array:
     """Eckert reference-enthalpy heat flux into the wall (W/m^2), Eqs. (2.39)-(2.44).
 
     Parameters
     ----------
     p_e : array_like
         Absolute edge pressure (Pa), equal to the wall pressure of the pressure model.
-    T_w : array_like
+    T_w : ndarray or float
         Wall temperature (K).
     x_le : array_like
         Distance from the leading edge (m).
@@ -228,7 +228,10 @@ class PointwiseJacobians(FluidJacobians):
                  heat_derivatives=None) -> None:
         self.n = n
         self.dp_ds, self.dp_dv = dp_ds, dp_dv
-        self._dq = None if dq_dpe is None else (dq_dpe, dq_dT)
+        self._dq: tuple[Array, Array] | None = None
+        if dq_dpe is not None:
+            assert dq_dT is not None  # the two partials are given together or not at all
+            self._dq = (dq_dpe, dq_dT)
         self._heat_derivatives = heat_derivatives
         self.d_s_dT, self.d_s_dTs, self.S = d_s_dT, d_s_dTs, S
         self._built: dict[str, object] | None = None
@@ -259,6 +262,7 @@ class PointwiseJacobians(FluidJacobians):
         if not self.effective_shape:
             return self.dq_dT, None
         f = self.dq_dpe * self.dp_ds
+        assert self.d_s_dT is not None and self.d_s_dTs is not None  # given with the shape
         return self.dq_dT + f * self.d_s_dT, f * self.d_s_dTs
 
     def _build(self) -> dict[str, object]:
@@ -355,9 +359,9 @@ class AnalyticFluid(FluidModel):
             q, dq_dpe, dq_dT = np.zeros(n), np.zeros(n), np.zeros(n)
         loads = FluidLoads(pressure=p, heat_flux=q)
         if jacobians:
-            eff = self.effective_shape and self.pressure_model != "ls"
+            bl_eff = self.effective_shape and self.pressure_model != "ls"
             loads.jacobians = PointwiseJacobians(
                 n, np.asarray(dp_ds, float), np.asarray(dp_dv, float), dq_dpe, dq_dT,
-                d_s_dT if eff else None, d_s_dTs if eff else None, S if eff else None,
+                d_s_dT if bl_eff else None, d_s_dTs if bl_eff else None, S if bl_eff else None,
                 heat_derivatives=heat_derivatives)
         return loads

@@ -22,6 +22,7 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -225,7 +226,7 @@ class FluidModel(ABC):
         """Pressure and heat flux on ``points`` (and the Jacobians when asked)."""
 
 
-def dense(matrix: object) -> Array:
+def dense(matrix: Any) -> Array:
     """A Jacobian block as a dense array (for tests and small problems)."""
     if sp.issparse(matrix):
         return matrix.toarray()

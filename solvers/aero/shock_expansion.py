@@ -40,6 +40,7 @@ import scipy.sparse as sp
 from hypate.solvers.aero.analytic import RECOVERY_EXPONENT, BoundaryLayerShape
 from hypate.solvers.aero.base import (
     Array,
+    BlockJacobians,
     FluidLoads,
     FluidModel,
     SurfacePoints,
@@ -80,7 +81,8 @@ def max_deflection(mach: ArrayLike, gamma: float = 1.4) -> Array:
 
 
 def _theta_from_beta(M: Array, beta: Array, g: float) -> Array:
-    """theta-beta-M relation: tan theta = 2 cot beta (M^2 sin^2 beta - 1)/(M^2 (g + cos 2beta) + 2)."""
+    """theta-beta-M relation:
+    tan theta = 2 cot beta (M^2 sin^2 beta - 1)/(M^2 (g + cos 2beta) + 2)."""
     return np.arctan(2.0 / np.tan(beta) * (M**2 * np.sin(beta) ** 2 - 1.0)
                      / (M**2 * (g + np.cos(2.0 * beta)) + 2.0))
 
@@ -156,9 +158,9 @@ def inverse_prandtl_meyer(nu: ArrayLike, mach_guess: ArrayLike, gamma: float = 1
     nu = np.asarray(nu, float)
     M = np.array(np.broadcast_to(np.asarray(mach_guess, float), nu.shape), dtype=float)
     nu_max = 0.5 * math.pi * (math.sqrt((gamma + 1.0) / (gamma - 1.0)) - 1.0)
-    nu = np.minimum(nu, nu_max * (1.0 - 1e-9))
+    nu_c = np.minimum(nu, nu_max * (1.0 - 1e-9))
     for _ in range(60):
-        f = prandtl_meyer(M, gamma) - nu
+        f = prandtl_meyer(M, gamma) - nu_c
         dnu = np.sqrt(M * M - 1.0) / (M * (1.0 + 0.5 * (gamma - 1.0) * M * M))
         step = f / dnu
         M_new = np.maximum(M - step, 0.5 * (M + 1.0))  # stay supersonic
@@ -374,7 +376,8 @@ class ShockExpansionFluid(FluidModel):
         # the coupled Newton and the LSA can factor K - K_A directly
         csr = {k: sp.csr_matrix(v) for k, v in J.items()}
         zero = sp.csr_matrix((n, n))
-        loads.jacobians = {"dp_dw": zero, "dp_dws": csr["ps"], "dp_dwdot": csr["ps"] / V,
-                           "dp_dTw": csr["pT"], "dq_dw": zero.copy(), "dq_dws": csr["qs"],
-                           "dq_dwdot": csr["qs"] / V, "dq_dTw": csr["qT"]}
+        loads.jacobians = BlockJacobians({
+            "dp_dw": zero, "dp_dws": csr["ps"], "dp_dwdot": csr["ps"] / V, "dp_dTw": csr["pT"],
+            "dq_dw": zero.copy(), "dq_dws": csr["qs"], "dq_dwdot": csr["qs"] / V,
+            "dq_dTw": csr["qT"]})
         return loads

@@ -89,7 +89,8 @@ class FlutterAnalysis:
         st = self.structure
         T0 = panel.initial_temperature
         self.D = float(laminate(panel, T0).D[..., 0, 0])
-        self.T_cr = float(buckling_delta_T(st).critical_delta_T) if delta_T_ratio > 0 else float("nan")
+        self.T_cr = (float(buckling_delta_T(st).critical_delta_T) if delta_T_ratio > 0
+                     else float("nan"))
         self.delta_T = delta_T_ratio * self.T_cr if delta_T_ratio > 0 else 0.0
         self.T = T0 + self.delta_T
         self.omega_1 = 2.0 * math.pi * float(modes(st, count=1).frequencies_hz[0])
@@ -273,6 +274,7 @@ class FlutterAnalysis:
             if flat_div and div_lo is None:
                 div_lo = float(lam)
             if prev_div and not flat_div and div_hi is None:
+                assert prev_lam is not None  # set with prev_div
                 div_hi = self._bisect(prev_lam, float(lam), lambda x: self.flat_stability(x).status
                                       == "divergence", rtol)
             prev_lam, prev_div = float(lam), flat_div
@@ -281,15 +283,19 @@ class FlutterAnalysis:
                 onset = self._bisect(lo, float(lam), lambda x: self.stability(x)[0].status
                                      != "flutter", rtol)
                 break
-        if div_lo is not None and div_hi is None:
-            div_hi = float(prev_lam) if onset is None else onset
+        divergence = None
+        if div_lo is not None:
+            if div_hi is None:
+                assert prev_lam is not None  # div_lo was set in the sweep, so was prev_lam
+                div_hi = float(prev_lam) if onset is None else onset
+            divergence = (div_lo, div_hi)
         freq = None
         if onset is not None:
             res = self.stability(onset * (1 + 2 * rtol))[0]
             freq = float(abs(res.lambda_p[res.critical].imag) / self.omega_1)
         return FlutterResult(lambda_cr=onset, instability_type="flutter" if onset else None,
                              frequency_ratio=freq,
-                             divergence_range=(div_lo, div_hi) if div_lo is not None else None,
+                             divergence_range=divergence,
                              delta_T=self.delta_T, critical_delta_T=self.T_cr, sweep=history)
 
     @staticmethod

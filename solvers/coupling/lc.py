@@ -19,7 +19,7 @@ from hypate.solvers.coupling.newton import EquilibriumError
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 from hypate.solvers.structure.dynamics import AlphaStepper
-from hypate.solvers.thermal.model import SurfaceCondition, ThermalLoads
+from hypate.solvers.thermal.loads import SurfaceCondition, ThermalLoads
 from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
@@ -116,7 +116,7 @@ def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float | None = None,
     u1, v1 = stepper.u.copy(), stepper.v.copy()
     u1[w_free] += dt * stepper.v[w_free] + 0.5 * dt * dt * stepper.a[w_free]
     v1[w_free] += dt * stepper.a[w_free]
-    p_hist = [loads0.pressure, None]
+    p_hist = [loads0.pressure, loads0.pressure]  # [p^n, p^(n-1)]; n = 1 sets both anew
     q_hist = [loads0.heat_flux, loads0.heat_flux]
     v_prev = stepper.v.copy()
     # displacements handed to the fluid at the last two step ends, u^(n,E) and u^(n-1,E)
@@ -168,6 +168,7 @@ def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float | None = None,
                 uE_hist = [u, uE_hist[0]]
                 p_hist = [loads.pressure, p_hist[0]]
                 if record_energy:  # Eqs. (5.19)-(5.21) with u^E = u
+                    assert pE_prev is not None and p_act_prev is not None  # set at n == 1
                     du = tr.H_SF.T @ (u - u_old)
                     resp.artificial_energy.append(float(
                         0.5 * (p_est + pE_prev) @ du - 0.5 * (loads.pressure + p_act_prev) @ du))
@@ -186,6 +187,7 @@ def run_lc(model: PanelModel, scheme: str = "s2", rho_bar: float | None = None,
                 model.timer.structural += time.perf_counter() - t0
                 p_hist = [loads.pressure, p_hist[0]]
                 if record_energy:  # Eqs. (5.19)-(5.21) with p^E = p
+                    assert p_act_prev is not None and uE_prev is not None  # set at n == 1
                     p_mid = 0.5 * (loads.pressure + p_act_prev)
                     resp.artificial_energy.append(float(
                         p_mid @ (tr.H_SF.T @ ((stepper.u - u_old) - (u_est - uE_prev)))))

@@ -42,12 +42,13 @@ from hypate.solvers.coupling.stability import (
 )
 from hypate.solvers.coupling.transfer import PointwiseTransfer, Transfer, fluid_points
 from hypate.solvers.flow import FlowCondition
-from hypate.solvers.numerics.sparse import DeferredMatrix, FreePattern, csr_rows
+from hypate.solvers.numerics.sparse import DeferredMatrix, FreePattern, PermutedLU, csr_rows
 from hypate.solvers.panel import PanelSpec
 from hypate.solvers.settings import SimulationSettings
 from hypate.solvers.structure.model import StructuralModel
 from hypate.solvers.structure.stress import SurfaceStress
-from hypate.solvers.thermal.model import SurfaceCondition, ThermalLoads, ThermalModel
+from hypate.solvers.thermal.loads import SurfaceCondition, ThermalLoads
+from hypate.solvers.thermal.model import ThermalModel
 from hypate.solvers.thermal.schedule import HeaterSchedule
 from numpy.typing import NDArray
 
@@ -121,7 +122,8 @@ class PanelModel:
         self._F_ext = (self.structure.pressure_load(s.external_pressure)
                        if s.external_pressure != 0.0 else np.zeros(self.structure.n_dof))
         self.modes = sinusoidal_modes(panel, self.points)
-        self._precond = None  # LU of a recent (K - K_A)_ff, preconditions the Newton solves
+        # LU of a recent (K - K_A)_ff, preconditions the Newton solves
+        self._precond: PermutedLU | spla.SuperLU | None = None
         # the transferred Jacobians of a pointwise fluid model (their maps built on first use)
         self.pointwise = PointwiseTransfer(tr, self.structure.pattern, self._H_TF_top,
                                            self._H_FT_top)
@@ -137,7 +139,7 @@ class PanelModel:
         return FreePattern(st.pattern.indptr, st.pattern.indices, st.n_dof, st.free_dofs)
 
     @cached_property
-    def _mass_block(self) -> tuple[Array, Array, Array]:
+    def _mass_block(self) -> tuple[NDArray[np.intp], NDArray[np.integer], NDArray[np.int32]]:
         """The free block of the mass pattern (:attr:`StructuralModel.mass_slots`) inside the
         free block of the structural pattern: positions in the block's CSR data, column
         indices and row pointers (the LSA's M_ff without its structural zeros)."""

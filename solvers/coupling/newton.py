@@ -26,7 +26,7 @@ class EquilibriumError(RuntimeError):
 
 
 def solve_free_block(K: sp.csr_matrix, K_A: sp.spmatrix | spla.LinearOperator, b: Array,
-                     free: Array, precond=None,
+                     free: NDArray[np.intp], precond=None,
                      on_factor: Callable[[spla.SuperLU], None] | None = None) -> Array:
     """Solve ``(K - K_A)_ff x = b`` on the free DOFs: the Newton step of the aeroelastic
     equilibrium (Eq. 5.42).

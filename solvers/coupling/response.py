@@ -20,7 +20,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 import numpy as np
 from hypate.solvers.aero.base import SurfacePoints
@@ -33,6 +33,7 @@ from hypate.solvers.panel import PanelSpec
 from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
+CArray = NDArray[np.complex128]
 
 
 class RecordedModel(Protocol):
@@ -73,7 +74,8 @@ _LIMIT_ARRAYS = ("max_deflection_ratio", "max_von_mises", "von_mises_location",
 MODE_INDICES = tuple((i, j) for j in (1, 2, 3) for i in (1, 2, 3))
 
 
-def sinusoidal_modes(panel: PanelSpec, points: SurfacePoints) -> tuple[Array, list[tuple[int, int]]]:
+def sinusoidal_modes(panel: PanelSpec,
+                     points: SurfacePoints) -> tuple[Array, list[tuple[int, int]]]:
     """Mode shapes ``sin(i pi x/a) sin(j pi y/b)`` on the fluid points, shape (n_modes, n_f).
 
     A "2d" strip uses j = 1 only, with the y factor dropped.
@@ -88,7 +90,8 @@ def sinusoidal_modes(panel: PanelSpec, points: SurfacePoints) -> tuple[Array, li
 def modal_coordinates(w: Array, modes: Array, weights: Array) -> Array:
     """Least-squares (L2-weighted) coordinates of ``w`` (n_f,) on ``modes`` (n_modes, n_f)."""
     G = (modes * weights) @ modes.T
-    return np.linalg.solve(G, (modes * weights) @ w)
+    # float64 (numpy's stub: solve gives floating)
+    return cast(Array, np.linalg.solve(G, (modes * weights) @ w))
 
 
 @dataclass
@@ -106,7 +109,7 @@ class Response:
     top_temperature: list[float] = field(default_factory=list)
     max_wall_temperature: list[float] = field(default_factory=list)
     modal: list[Array] = field(default_factory=list)
-    lsa: list[Array] = field(default_factory=list)
+    lsa: list[CArray] = field(default_factory=list)
     lsa_status: list[str] = field(default_factory=list)
     u: list[Array] = field(default_factory=list)
     T: list[Array] = field(default_factory=list)
@@ -262,7 +265,8 @@ class Response:
                 "timing": self.timing, "mode_indices": self.mode_indices,
                 "lsa_status": self.lsa_status, "layer_materials": self.layer_materials}
         arrays: dict[str, Array] = {
-            "times": np.asarray(self.times), "center_deflection": np.asarray(self.center_deflection),
+            "times": np.asarray(self.times),
+            "center_deflection": np.asarray(self.center_deflection),
             "mean_temperature": np.asarray(self.mean_temperature),
             "top_temperature": np.asarray(self.top_temperature),
             "max_wall_temperature": np.asarray(self.max_wall_temperature),
@@ -272,7 +276,7 @@ class Response:
             if getattr(self, name):
                 arrays[name] = np.asarray(getattr(self, name), dtype=float)
         buf = io.BytesIO()
-        np.savez_compressed(buf, **arrays)
+        np.savez_compressed(buf, **arrays)  # type: ignore[arg-type]  # no allow_pickle key in **arrays
         write_bytes(path, buf.getvalue())  # never through a planted link; unchanged: kept
         return path
 

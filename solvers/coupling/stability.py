@@ -150,7 +150,7 @@ def _result(lam_p: CArray, warm_start: bool = False) -> StabilityResult:
 
 def gep(K: sp.spmatrix, M: sp.spmatrix, K_A: sp.spmatrix | LowRank | None = None,
         count: int = 6, sigma: float | None = None, solver: str = "direct",
-        free: Array | None = None, rng: np.random.Generator | int | None = 0,
+        free: NDArray[np.intp] | None = None, rng: np.random.Generator | int | None = 0,
         on_factor=None) -> StabilityResult:
     """LSA by the GEP ``(K - K_A) u = lambda_g M u`` (Eq. 5.35), eigenvalues nearest ``sigma``.
 
@@ -250,7 +250,7 @@ def start_vector(vectors: CArray) -> Array:
 
 def pep(K: sp.spmatrix, M: sp.spmatrix, C: sp.spmatrix | None = None,
         K_A: sp.spmatrix | None = None, C_A: sp.spmatrix | None = None, count: int = 6,
-        sigma: complex | None = None, free: Array | None = None,
+        sigma: complex | None = None, free: NDArray[np.intp] | None = None,
         rng: np.random.Generator | int | None = 0) -> StabilityResult:
     """LSA by the PEP (Eq. 5.33), linearized to first order and solved by shift-invert.
 

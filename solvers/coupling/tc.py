@@ -14,6 +14,7 @@ import numpy as np
 from hypate.solvers.coupling.model import PanelModel
 from hypate.solvers.coupling.newton import EquilibriumError
 from hypate.solvers.coupling.response import Response
+from hypate.solvers.coupling.stability import StabilityResult
 from hypate.solvers.numerics.threads import single_threaded_blas
 from numpy.typing import NDArray
 
@@ -64,7 +65,7 @@ def _run_tc(model: PanelModel, progress) -> Response:
     t_start = time.perf_counter()
     try:
         u, _ = model.equilibrium(u, T)
-        lsa = model.stability(u, T)
+        lsa: StabilityResult | None = model.stability(u, T)
         resp.record(0.0, u, T, model, lsa)
         # converged states of the previous steps, newest first: the Newton predictors
         T_hist: list[Array] = []

@@ -36,10 +36,11 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import RBF, ConstantKernel, Matern
 
-__all__ = ["KrigingRegressor", "KERNELS", "ColumnFit", "Mapper", "fit_together"]
+__all__ = ["KrigingRegressor", "KERNELS", "KernelName", "ColumnFit", "Mapper", "fit_together"]
 
 #: Kernels offered (anisotropic, times a constant amplitude).
 KERNELS: tuple[str, ...] = ("matern52", "rbf")
+KernelName = Literal["matern52", "rbf"]
 
 _SQRT5 = np.sqrt(5.0)
 
@@ -153,8 +154,8 @@ def _run(task: ColumnFit) -> tuple[np.ndarray, float]:
 Mapper = Callable[[Callable[[Any], Any], Sequence[Any]], list]
 
 
-def fit_together(jobs: Sequence[tuple["KrigingRegressor", np.ndarray, np.ndarray]],
-                 mapper: Mapper | None = None) -> list["KrigingRegressor"]:
+def fit_together(jobs: Sequence[tuple[KrigingRegressor, np.ndarray, np.ndarray]],
+                 mapper: Mapper | None = None) -> list[KrigingRegressor]:
     """Fit several regressors (``(regressor, X, y)`` each) with one ``mapper`` call over
     all their columns' likelihood optimizations.
 
@@ -230,7 +231,7 @@ class KrigingRegressor(RegressorMixin, BaseEstimator):
 
     def __init__(
         self,
-        kernel: Literal["matern52", "rbf"] = "matern52",
+        kernel: KernelName = "matern52",
         bounds: np.ndarray | None = None,
         n_restarts: int = 2,
         nugget: float = 1e-8,
@@ -251,7 +252,7 @@ class KrigingRegressor(RegressorMixin, BaseEstimator):
         self.rng = rng
 
     # ------------------------------------------------------------------ fitting
-    def fit(self, X: np.ndarray, y: np.ndarray) -> "KrigingRegressor":
+    def fit(self, X: np.ndarray, y: np.ndarray) -> KrigingRegressor:
         """Fit one kriging model per output column.
 
         Parameters
@@ -318,7 +319,7 @@ class KrigingRegressor(RegressorMixin, BaseEstimator):
                 tasks.append(np.asarray(start, float))
         return tasks
 
-    def _finish_fit(self, results: Sequence[tuple[np.ndarray, float]]) -> "KrigingRegressor":
+    def _finish_fit(self, results: Sequence[tuple[np.ndarray, float]]) -> KrigingRegressor:
         """Take the columns' hyperparameters and factorize (the second half of a fit)."""
         self.theta_ = np.array([theta for theta, _ in results])
         self.log_marginal_likelihood_ = np.array([lml for _, lml in results])
@@ -353,7 +354,7 @@ class KrigingRegressor(RegressorMixin, BaseEstimator):
             self.L_[j] = L
             self.alpha_[j] = cho_solve((L, True), Ys[:, j], check_finite=False)
 
-    def condition(self, X: np.ndarray, y: np.ndarray) -> "KrigingRegressor":
+    def condition(self, X: np.ndarray, y: np.ndarray) -> KrigingRegressor:
         """Return a copy refitted to new data with the same hyperparameters (no optimization).
 
         Used for fantasies (kriging believer / constant liar batches).
@@ -401,6 +402,7 @@ class KrigingRegressor(RegressorMixin, BaseEstimator):
             V = solve_triangular(self.L_[j], K.T, lower=True, check_finite=False)
             var[:, j] = self.amplitude_[j] - np.einsum("nN,nN->N", V, V)  # Eq. (A.6b)
             if gradient:
+                assert dmu is not None and dvar is not None and dK is not None  # with the gradient
                 dmu[:, j] = np.einsum("Nnd,n->Nd", dK, self.alpha_[j])  # Eq. (A.8a)
                 W = solve_triangular(self.L_[j], V, lower=True, trans=1, check_finite=False)
                 dvar[:, j] = -2.0 * np.einsum("nN,Nnd->Nd", W, dK)  # Eq. (A.8b)
@@ -498,6 +500,7 @@ class KrigingRegressor(RegressorMixin, BaseEstimator):
             A = np.stack([self.amplitude_[j] * self.alpha_[j] for j in cols], axis=1)
             mu[:, cols] = K @ A  # Eq. (A.6a), standardized
             if gradient:
+                assert dmu is not None and dK is not None  # with the gradient
                 dmu[:, cols] = np.einsum("Nnd,ng->Ngd", dK, A)  # Eq. (A.8a)
         mean = self.y_mean_ + self.y_std_ * mu
         if not gradient:

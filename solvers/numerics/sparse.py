@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 import scipy.linalg as sla
@@ -36,6 +37,7 @@ from numpy.typing import NDArray
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 Array = NDArray[np.float64]
+IndexArray = NDArray[np.integer]
 
 #: SuperLU column ordering used by the fallback (fastest measured on shell tangents).
 DEFAULT_PERMC = "MMD_AT_PLUS_A"
@@ -75,7 +77,7 @@ class PatternSolver:
 
     def __init__(self, pattern: sp.csr_matrix, method: str = "auto",
                  permc_spec: str = DEFAULT_PERMC,
-                 orderings: Sequence[Array] | None = None) -> None:
+                 orderings: Sequence[IndexArray] | None = None) -> None:
         if method not in ("auto", "banded", "splu"):
             raise ValueError(f"unknown factorization method {method!r}")
         self.method = method
@@ -83,10 +85,10 @@ class PatternSolver:
         self.indptr = pattern.indptr
         self.indices = pattern.indices
         self.n = pattern.shape[0]
-        self._band: tuple[Array, Array, Array, int] | None = None
+        self._band: tuple[IndexArray, IndexArray, IndexArray, int] | None = None
         self._orderings = list(orderings) if orderings is not None else []
 
-    def _band_map(self) -> tuple[Array, Array, Array, int]:
+    def _band_map(self) -> tuple[IndexArray, IndexArray, IndexArray, int]:
         """Best ordering (smallest bandwidth), CSR->band index maps and the bandwidth."""
         if self._band is None:
             n = self.n
@@ -161,7 +163,8 @@ class PatternSolver:
 
     def factor(self, K: sp.csr_matrix | Array) -> Factor:
         """Factorize ``K`` (a CSR matrix with this pattern, or its ``data`` array)."""
-        data = K.data if sp.issparse(K) else np.asarray(K)
+        # (scipy has no types: issparse does not narrow K)
+        data = cast(Array, K.data) if sp.issparse(K) else np.asarray(K)
         if self.method == "splu":
             return self.splu(data)
         try:

@@ -104,8 +104,8 @@ def shell_mesh(a: float, b: float, nx: int, ny: int) -> ShellMesh:
     ys = np.linspace(0.0, b, nj)
     X, Y = np.meshgrid(xs, ys)  # shape (nj, ni): node id = j * ni + i
     coords = np.column_stack([X.ravel(), Y.ravel()])
-    ei, ej = np.meshgrid(np.arange(nx), np.arange(ny))  # (ny, nx), e = ej * nx + ei
-    ei, ej = ei.ravel(), ej.ravel()
+    ei2, ej2 = np.meshgrid(np.arange(nx), np.arange(ny))  # (ny, nx), e = ej * nx + ei
+    ei, ej = ei2.ravel(), ej2.ravel()
     r = np.tile(np.arange(3), 3)
     s = np.repeat(np.arange(3), 3)
     elements = (2 * ej[:, None] + s[None, :]) * ni + (2 * ei[:, None] + r[None, :])

@@ -118,7 +118,8 @@ def buckling_delta_T(model: StructuralModel, count: int = 1,
         KG = model.geometric_stiffness(u0, T, nonlinear=False)
         KG1 = -KG / dT      # positive for compression
         n = model.n_dof
-        op = spla.LinearOperator((n, n), matvec=lambda x: fac.solve(KG1 @ x), dtype=float)
+        op = spla.LinearOperator((n, n), matvec=lambda x, fac=fac, KG1=KG1: fac.solve(KG1 @ x),
+                                 dtype=float)
         k = min(max(count, 1) + 3, n - 2)
         mu, vec = spla.eigs(op, k=k, which="LR", tol=1e-10)
         pos = np.real(mu) > 0

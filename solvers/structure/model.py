@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import cast
 
 import numpy as np
 import scipy.sparse as sp
@@ -75,7 +76,7 @@ class _ThermalState:
     C: Array   # (E|1, 9|1, 6, 6)  [[A, B], [B, D]]
     R: Array   # (E|1, 9|1, 6)     (N_T, M_T)
     S: Array   # (E|1, 4|1, 2, 2)
-    I: tuple[Array, Array, Array]  # (E|1, 9|1) inertia I1, I2, I3 (Eq. 3.38)
+    I: tuple[Array, ...]  # (E|1, 9|1) inertia I1, I2, I3 (Eq. 3.38)
     # u-independent kernel parts, formed on first use (StructuralModel._linear_tangent)
     linear: dict = field(default_factory=dict)
 
@@ -158,7 +159,8 @@ class StructuralModel:
 
     def assemble_matrix(self, Ke: Array, penalty: bool = False) -> sp.csr_matrix:
         """Assemble element matrices (n_elem, 45, 45) into CSR with the fixed pattern."""
-        data = np.bincount(self._map, weights=Ke.ravel(), minlength=self._nnz)
+        # float64 (numpy's stub types every bincount as intp, weighted too)
+        data = cast(Array, np.bincount(self._map, weights=Ke.ravel(), minlength=self._nnz))
         if penalty:
             self._add_penalty(data)
         return self._csr(data)
@@ -183,9 +185,10 @@ class StructuralModel:
 
     def assemble_vector(self, fe: Array) -> Array:
         """Assemble element vectors (n_elem, 45) into a global vector (n_dof,)."""
-        return np.bincount(self.edofs.ravel(), weights=fe.ravel(), minlength=self.n_dof)
+        return cast(Array, np.bincount(self.edofs.ravel(), weights=fe.ravel(),
+                                       minlength=self.n_dof))  # float64: see assemble_matrix
 
-    def _constrained_dofs(self) -> Array:
+    def _constrained_dofs(self) -> NDArray[np.intp]:
         """DOFs held at zero by the penalty method (Eqs. 3.40-3.42).
 
         Simply supported: w = 0 and in-plane immovable (u = v = 0) on every edge; the
@@ -198,7 +201,7 @@ class StructuralModel:
         bc = self.panel.boundary
         if bc not in ("simply_supported", "clamped"):
             raise InputError("panel.boundary", "must be 'simply_supported' or 'clamped'")
-        dofs: list[Array] = []
+        dofs: list[NDArray[np.intp]] = []
         xedges = np.concatenate([m.edges["x0"], m.edges["xa"]])
         yedges = np.concatenate([m.edges["y0"], m.edges["yb"]])
         if self.panel.kind == "2d":
@@ -257,7 +260,7 @@ class StructuralModel:
         np.add.at(data, pos, coo.data)
         return tie, data
 
-    def _grid_orderings(self) -> list[Array]:
+    def _grid_orderings(self) -> list[NDArray[np.intp]]:
         """DOF permutations of the natural grid orderings (x fastest, y fastest)."""
         nj, ni = self.mesh.grid_shape
         ids = np.arange(self.n_nodes).reshape(nj, ni)
@@ -289,7 +292,8 @@ class StructuralModel:
             return arr
         if arr.shape == (self.n_nodes, self.n_levels):
             return arr
-        raise InputError("temperature", f"expected a scalar or shape (n_levels,)=({self.n_levels},),"
+        raise InputError("temperature", "expected a scalar or shape "
+                         f"(n_levels,)=({self.n_levels},),"
                          f" (n_nodes,)=({self.n_nodes},) or (n_nodes, n_levels), got {arr.shape}")
 
     def _cached_thermal(self, Tn: Array | float) -> _ThermalState | None:
@@ -404,14 +408,14 @@ class StructuralModel:
             fe = (np.matmul(sw.reshape(E, 1, -1), self._B0.reshape(E, -1, NNODE * NDOF))
                   + np.matmul(ss.reshape(E, 1, -1), self._Bs.reshape(E, -1, NNODE * NDOF))
                   )[:, 0]
-            if nl:
+            if BL is not None:  # i.e. nl
                 fe.reshape(E, NNODE, NDOF)[:, :, W] += np.matmul(
                     np.ascontiguousarray(sw[..., :3]).reshape(E, 1, -1),
                     BL.reshape(E, -1, NNODE))[:, 0]
         if tangent:
             K0 = self._linear_tangent(st)
-            Ke = (btdb_von_karman(K0, self._B0, st.C * q3.wdet[..., None, None], BL) if nl
-                  else K0.copy())
+            Ke = (btdb_von_karman(K0, self._B0, st.C * q3.wdet[..., None, None], BL)
+                  if BL is not None else K0.copy())  # i.e. nl
             if geometric:
                 Kg = geometric_kernel(q3, stress[..., :3])
                 Ke.reshape(E, NNODE, NDOF, NNODE, NDOF)[:, :, W, :, W] += Kg
@@ -432,17 +436,20 @@ class StructuralModel:
         ndarray of shape (n_dof,), N.
         """
         fe, _ = self._kernel(u, T, force=True, tangent=False)
+        assert fe is not None  # force=True
         return self.assemble_vector(fe) + self._penalty_force(u)
 
     def tangent(self, u: Array, T: TemperatureLike = None) -> sp.csr_matrix:
         """Exact tangent ``dF_I/du`` (Eq. 3.50, with dK_N/du u and dF_T/du), CSR (N/m)."""
         _, Ke = self._kernel(u, T, force=False, tangent=True)
+        assert Ke is not None  # tangent=True
         return self.assemble_matrix(Ke, penalty=True)
 
     def force_and_tangent(self, u: Array, T: TemperatureLike = None
                           ) -> tuple[Array, sp.csr_matrix]:
         """``(F_I, dF_I/du)`` from one kernel pass."""
         fe, Ke = self._kernel(u, T, force=True, tangent=True)
+        assert fe is not None and Ke is not None  # force=True, tangent=True
         return (self.assemble_vector(fe) + self._penalty_force(u),
                 self.assemble_matrix(Ke, penalty=True))
 
@@ -451,6 +458,7 @@ class StructuralModel:
         """Linear stiffness ``K_L = K_L1 + K_L2`` (Eq. 3.34a-b) with properties at ``T``
         (no initial-stress term); plus the penalty ``K^c`` when ``constrained``."""
         _, Ke = self._kernel(None, T, force=False, tangent=True, geometric=False)
+        assert Ke is not None  # tangent=True
         return self.assemble_matrix(Ke, penalty=constrained)
 
     def membrane_resultants(self, u: Array | None, T: TemperatureLike = None,
@@ -505,7 +513,7 @@ class StructuralModel:
         # zeros: the same sums)
         Me = mass_kernel(self.q3, I1, I2, I3).ravel()
         sel, slots = self._mass_entries
-        M = self._csr(np.bincount(slots, weights=Me[sel], minlength=self._nnz))
+        M = self._csr(cast(Array, np.bincount(slots, weights=Me[sel], minlength=self._nnz)))
         if len(self._mass_cache) > 8:
             self._mass_cache.clear()
         self._mass_cache[key] = M
@@ -558,7 +566,7 @@ class StructuralModel:
                          f"({self.mesh.n_elem}, 9), got {p.shape}")
 
     # -- helpers ----------------------------------------------------------------------
-    def dofs(self, k: int) -> Array:
+    def dofs(self, k: int) -> NDArray[np.intp]:
         """Global indices of DOF ``k`` (0..4 = u, v, w, psi_x, psi_y) of every node."""
         return NDOF * np.arange(self.n_nodes) + k
 
@@ -567,5 +575,6 @@ class StructuralModel:
         return np.asarray(u)[W::NDOF]
 
     def factor(self, K: sp.csr_matrix) -> Factor:
-        """Factorize a matrix with the model's pattern (see :mod:`hypate.solvers.numerics.sparse`)."""
+        """Factorize a matrix with the model's pattern (see
+        :mod:`hypate.solvers.numerics.sparse`)."""
         return self.solver.factor(K)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 import scipy.sparse as sp
@@ -99,7 +100,9 @@ class _Problem:
                  - self.model.internal_force(u, self.T(lam - h))) / (2.0 * h) - self.Fp)
 
     def scale(self) -> float:
-        ref = np.linalg.norm(self.Fp) + np.linalg.norm(self.model.thermal_load(self.T(1.0)))
+        # an np.float64, a float (numpy's stub: norm gives floating)
+        ref = cast(float, np.linalg.norm(self.Fp)
+                   + np.linalg.norm(self.model.thermal_load(self.T(1.0))))
         return ref if ref > 0.0 else 1.0
 
 
@@ -278,7 +281,7 @@ def _arc_length(prob: _Problem, u: Array, lam: float, result: StaticResult, rtol
             dl, du_tot = -dl, -du_tot
         u_i, lam_i = u + du_tot, lam + dl
         ok = False
-        for it in range(max_iter):
+        for it in range(max_iter):  # noqa: B007 - `it` is read after the loop
             total += 1
             R, K = prob.residual_tangent(u_i, lam_i)
             if _free_norm(model, R) <= rtol * ref:

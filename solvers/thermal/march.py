@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -117,7 +117,7 @@ def simulate(model: SteppedModel, T0: ArrayLike | None, dt: float, n_steps: int,
     """
     T = model.initial_state() if T0 is None else model.check_temperature(T0).copy()
     n_steps = int(n_steps)
-    times = dt * np.arange(n_steps + 1)
+    times = cast(Array, dt * np.arange(n_steps + 1))  # float64 (numpy's stub: floating[Any])
     top = np.empty(n_steps + 1)
     bot = np.empty(n_steps + 1)
     mean = np.empty(n_steps + 1)

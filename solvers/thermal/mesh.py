@@ -173,6 +173,6 @@ def build_hex_mesh(panel: PanelSpec) -> HexMesh:
     size[:, 0] = np.tile(hx, nl - 1)
     size[:, 1] = np.tile(hy, nl - 1)
     size[:, 2] = np.repeat(hz, n_cells)
-    layer = np.repeat(layer_of_level_interval(panel), n_cells).astype(np.int64)
+    element_layer = np.repeat(layer_of_level_interval(panel), n_cells).astype(np.int64)
     return HexMesh(x=x, y=y, z=z, elements=elements.astype(np.int64), element_size=size,
-                   element_layer=layer, faces=faces, face_size=face_size)
+                   element_layer=element_layer, faces=faces, face_size=face_size)

@@ -33,6 +33,7 @@ from hypate.solvers.aero.rom.pod import PodKriging
 from hypate.solvers.aero.rom.snapshots import generate_samples, read_snapshots
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
+from hypate.solvers.numerics.kriging import KernelName
 from hypate.solvers.numerics.random import as_rng
 
 __all__ = ["BUILD_STEPS", "build_rom", "build_rom_from_config", "check_holdout", "check_rom",
@@ -67,7 +68,7 @@ def nrmse(reference: Array, predicted: Array, weights: Array) -> Array:
 
 def build_rom(geometry: RomGeometry, reference: FlowCondition, inputs: Array,
               pressure: Array, heat_flux: Array, *, bounds: Array | None = None,
-              kind: str = "scaled", tolerance: float = 0.005, kernel: str = "rbf",
+              kind: str = "scaled", tolerance: float = 0.005, kernel: KernelName = "rbf",
               trend: str = "linear", n_restarts: int = 2,
               source: dict[str, Any] | None = None, regime: str = "turbulent",
               rng: np.random.Generator | int | None = None,
@@ -175,8 +176,9 @@ def build_rom_from_config(cfg: RomBuildConfig, base_dir: str | Path | None = Non
     rng = np.random.default_rng(tr.seed)
     a_bounds = np.array([m.range for m in cfg.modes], float)
     t_bounds = np.array([cfg.wall_temperature.range], float)
-    src = {"kind": cfg.source.kind, "boundary_layer": cfg.source.boundary_layer,
-           "regime": cfg.source.regime}
+    src: dict[str, Any] = {"kind": cfg.source.kind,
+                           "boundary_layer": cfg.source.boundary_layer,
+                           "regime": cfg.source.regime}
     n_s = geometry.n_modes
     if cfg.conventional is not None:
         if cfg.source.kind != "shock-expansion":

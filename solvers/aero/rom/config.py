@@ -121,6 +121,8 @@ class RomReference(InputModel):
     def flow(self) -> FlowCondition:
         if self.altitude is not None:
             return FlowCondition.from_altitude(self.mach, self.altitude)
+        # _one_state: both given without an altitude
+        assert self.pressure is not None and self.temperature is not None
         return FlowCondition.from_static(self.mach, self.pressure, self.temperature)
 
 

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 from hypate.solvers.aero.base import Array, SurfacePoints
+from numpy.typing import NDArray
 
 __all__ = ["MAX_N_X", "MAX_N_Y", "RomGeometry", "eq76_wall_temperature",
            "interpolation_matrix"]
@@ -134,7 +135,7 @@ def interpolation_matrix(geom: RomGeometry, x_ref: Array, y_ref: Array) -> sp.cs
     """Piecewise-(bi)linear interpolation from the reference grid to points (n_pts, n_rom)."""
     xs = np.linspace(0.0, geom.length, geom.n_x)
 
-    def weights_1d(grid: Array, v: Array) -> tuple[Array, Array]:
+    def weights_1d(grid: Array, v: Array) -> tuple[NDArray[np.intp], Array]:
         i = np.clip(np.searchsorted(grid, v) - 1, 0, grid.size - 2)
         t = np.clip((v - grid[i]) / (grid[i + 1] - grid[i]), 0.0, 1.0)
         return i, t

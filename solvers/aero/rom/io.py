@@ -93,7 +93,7 @@ def save_rom(rom: RomFluid, path: str | Path) -> None:
     arrays["digest"] = np.array(_digest(arrays))
     path = Path(path)
     with atomic_file(path) as fh:
-        np.savez_compressed(fh, **arrays)
+        np.savez_compressed(fh, **arrays)  # type: ignore[arg-type]  # no allow_pickle key in **arrays
 
 
 def load_rom(path: str | Path, correction: str | None = None, unsteady: bool = True,
@@ -141,7 +141,8 @@ def load_rom(path: str | Path, correction: str | None = None, unsteady: bool = T
         provenance = json.loads(str(data["provenance"])) if "provenance" in data else {}
         holdout = None
         if all(k in data for k in _HOLDOUT):
-            holdout = tuple(np.asarray(data[k], float) for k in _HOLDOUT)
+            x, p, q = (np.asarray(data[k], float) for k in _HOLDOUT)
+            holdout = (x, p, q)
     except KeyError as exc:
         raise InputError(field, f"missing key {exc.args[0]!r} (not a hypate ROM file?)") \
             from None

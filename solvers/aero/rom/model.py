@@ -56,8 +56,9 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import scipy.sparse as sp
@@ -68,6 +69,7 @@ from hypate.solvers.aero.analytic import (
 )
 from hypate.solvers.aero.base import (
     Array,
+    BlockJacobians,
     FluidLoads,
     FluidModel,
     SurfacePoints,
@@ -270,7 +272,8 @@ class RomFluid(FluidModel):
         W = points.weights[sel]
         G = Phi.T @ (W[:, None] * Phi)
         try:
-            P = np.linalg.solve(G, Phi.T * W[None, :])
+            # float64 (numpy's stub: solve gives floating)
+            P = cast(Array, np.linalg.solve(G, Phi.T * W[None, :]))
         except np.linalg.LinAlgError:
             raise InputError("rom", "the points cannot resolve the ROM's deformation modes "
                              "(refine the fluid grid)") from None
@@ -476,8 +479,9 @@ class RomFluid(FluidModel):
             return out if local is None else (out + local).tocsr()
 
         mw = c.mean_weights[None, :]
-        diag = (lambda v: sp.diags(v, format="csr")) if (groups > 1 or n <= SPARSE_JACOBIAN_MAX) \
-            else np.diag
+        diag: Callable[[Array], object] = (
+            (lambda v: sp.diags(v, format="csr")) if (groups > 1 or n <= SPARSE_JACOBIAN_MAX)
+            else cast(Callable[[Array], object], np.diag))  # (mypy joins the two to `function`)
         jac = {
             "dp_dw": assemble(blocks(dpst_dd[:, i_a], dd_dw), None),  # Eqs. (2.74a), (2.75)
             "dp_dws": diag(dpst_dws + dpu_dws), "dp_dwdot": diag(dpu_dwdot),
@@ -487,5 +491,5 @@ class RomFluid(FluidModel):
             "dq_dwdot": sp.csr_matrix((n, n)) if diag is not np.diag else np.zeros((n, n)),
             "dq_dTw": assemble(blocks(dq_dd[:, -1:], mw), dq_dTloc),
         }
-        loads.jacobians = jac
+        loads.jacobians = BlockJacobians(jac)
         return loads

@@ -240,7 +240,7 @@ class SnapshotStore:
         fd, tmp = tempfile.mkstemp(prefix=f".{key}-", suffix=".tmp", dir=self.folder)
         try:
             with os.fdopen(fd, "wb") as fh:
-                np.savez(fh, **record.arrays())
+                np.savez(fh, **record.arrays())  # type: ignore[arg-type]  # no allow_pickle key in **arrays
                 fh.flush()
                 os.fsync(fh.fileno())
             os.replace(tmp, self.path(key))

@@ -22,6 +22,7 @@ supersonic outflow (zero gradient).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -211,7 +212,7 @@ def _block_mesh(spec: CaseSpec) -> str:
                          + ")")
     lines += [");", "boundary", "("]
 
-    def patch(name: str, kind: str, faces: list[tuple[int, ...]]) -> None:
+    def patch(name: str, kind: str, faces: Sequence[tuple[int, ...]]) -> None:
         lines.append(f"    {name} {{ type {kind}; faces ("
                      + " ".join(f"({' '.join(map(str, f))})" for f in faces) + "); }")
 
@@ -222,8 +223,8 @@ def _block_mesh(spec: CaseSpec) -> str:
         kind = "symmetryPlane" if name == "upstream" else "wall"
         patch(name, kind, [(b, 2 * n + b, 2 * n + b + 1, b + 1)])
     front = [(b, b + 1, n + b + 1, n + b) for b in range(n - 1)]
-    back = [(2 * n + b, 3 * n + b, 3 * n + b + 1, 2 * n + b + 1) for b in range(n - 1)]
-    patch("frontAndBack", "empty", front + back)
+    back_faces = [(2 * n + b, 3 * n + b, 3 * n + b + 1, 2 * n + b + 1) for b in range(n - 1)]
+    patch("frontAndBack", "empty", front + back_faces)
     lines += [");", "mergePatchPairs ();", ""]
     return "\n".join(lines)
 

@@ -24,6 +24,7 @@ their ``(x, y)`` centres.
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -138,7 +139,7 @@ def _block_mesh(case: PanelCase3D) -> str:
     def quad(face: tuple[int, ...]) -> str:
         return f"({' '.join(map(str, face))})"
 
-    def patch(name: str, kind: str, faces: list[tuple[int, ...]]) -> None:
+    def patch(name: str, kind: str, faces: Sequence[tuple[int, ...]]) -> None:
         lines.append(f"    {name} {{ type {kind}; faces ({' '.join(quad(f) for f in faces)}); }}")
 
     bottom = {(i, j): (v(i, j, 0), v(i, j + 1, 0), v(i + 1, j + 1, 0), v(i + 1, j, 0))

@@ -9,9 +9,9 @@ every ``sample_every`` pseudo-time iterations; the run is watched while it goes 
 once the averages have stopped drifting (density-based local time stepping has no residuals
 worth watching): the solver is then ended, the samples hold all a snapshot needs. The
 snapshot is the average over the first window that met the tolerance, so that it does not
-depend on how late the watcher saw it (the machine's load). The distributions of the last ``window`` samples are averaged.
-A case that fails, stays unconverged or holds NaN gives a :class:`CaseResult` with
-``converged = False`` and a stated ``reason``; nothing is raised for it, so that a campaign
+depend on how late the watcher saw it (the machine's load). The distributions of the last ``window``
+samples are averaged. A case that fails, stays unconverged or holds NaN gives a :class:`CaseResult`
+with ``converged = False`` and a stated ``reason``; nothing is raised for it, so that a campaign
 can record the reason and go on.
 """
 from __future__ import annotations

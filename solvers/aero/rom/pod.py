@@ -14,11 +14,12 @@ Both know nothing of panels or flows: inputs ``d`` and snapshots ``y`` are plain
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import cast
 
 import numpy as np
 from hypate.solvers.aero.base import Array
 from hypate.solvers.errors import InputError
-from hypate.solvers.numerics.kriging import KrigingRegressor
+from hypate.solvers.numerics.kriging import KernelName, KrigingRegressor
 from hypate.solvers.numerics.random import as_rng
 
 __all__ = ["PodBasis", "PodKriging"]
@@ -114,9 +115,9 @@ class PodKriging:
         POD coefficients whose hyperparameters are optimized; later ones inherit.
     """
 
-    def __init__(self, tolerance: float = 0.005, kernel: str = "rbf", trend: str = "linear",
-                 n_restarts: int = 2, rng: np.random.Generator | int | None = None,
-                 optimized_modes: int = 3) -> None:
+    def __init__(self, tolerance: float = 0.005, kernel: KernelName = "rbf",
+                 trend: str = "linear", n_restarts: int = 2,
+                 rng: np.random.Generator | int | None = None, optimized_modes: int = 3) -> None:
         self.tolerance = tolerance
         self.optimized_modes = optimized_modes
         self.kernel = kernel
@@ -246,7 +247,8 @@ class PodKriging:
     def from_state(cls, data: dict[str, np.ndarray], prefix: str) -> PodKriging:
         """Rebuild from :meth:`state` arrays (kriging refactorized, hyperparameters fixed)."""
         g = lambda key: data[f"{prefix}_{key}"]  # noqa: E731
-        self = cls(tolerance=float(g("tolerance")), kernel=str(g("kernel")),
+        self = cls(tolerance=float(g("tolerance")),
+                   kernel=cast(KernelName, str(g("kernel"))),  # checked below
                    trend=str(g("trend")))
         self.trend_ = str(g("trend"))
         if self.trend_ not in ("constant", "linear", "quadratic") or self.kernel not in (

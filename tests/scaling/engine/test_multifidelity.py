@@ -5,8 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypate.scaling.engine.multifidelity import (MultiFidelityKriging, MultiFidelityModel,
-                                                 gls_coefficients)
+from hypate.scaling.engine.multifidelity import (
+    MultiFidelityKriging,
+    MultiFidelityModel,
+    gls_coefficients,
+)
 from hypate.solvers.numerics.kriging import KrigingRegressor
 from scipy.stats import qmc
 

@@ -9,9 +9,9 @@ from hypate.scaling.engine.pareto import (
     hypervolume_2d,
     hypervolume_improvement,
     non_dominated_mask,
-    pareto_order,
     nondominated_boxes,
     pareto_front,
+    pareto_order,
 )
 from pymoo.indicators.hv import HV
 from pymoo.util.nds.non_dominated_sorting import NonDominatedSorting

@@ -22,16 +22,17 @@ from conftest import REPO, tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.workflow.integrity import record_outputs
+from hypate.scaling.workflow.laws import load_sweep
+from hypate.scaling.workflow.measured import read_measured
+from hypate.scaling.workflow.objectives import relative_rms
 from hypate.scaling.workflow.predict import (
     COVERAGE,
     design_point_basis,
     predict,
-    read_measured,
     scatter_sigma,
     sweep_basis,
 )
-from hypate.scaling.workflow.problem import ScalingProblem, relative_rms
-from hypate.scaling.workflow.laws import load_sweep
+from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 from hypate.studies.scripts.make_model_test import Config, add_noise, rms

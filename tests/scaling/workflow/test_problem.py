@@ -120,7 +120,7 @@ def test_fields_projection_resolves_the_thickness() -> None:
     # the groups are the Eq. (3.17b) fields: a response compared with itself is exact
     proto = fields.prototype_response
     assert fields.spec.projection == "fields" and len(proto.u) == len(proto.times)
-    from hypate.scaling.workflow.problem import response_errors
+    from hypate.scaling.workflow.objectives import response_errors
     assert response_errors(proto, proto, "fields")["J_u"] == 0.0
 
 

@@ -14,7 +14,8 @@ import pytest
 from conftest import kill_after, tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.store import EvaluationStore
-from hypate.scaling.workflow.problem import ScalingProblem, response_errors
+from hypate.scaling.workflow.objectives import response_errors
+from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.robust import INPUT_PREFIX, JointProblem, verified_statistic
 from hypate.scaling.workflow.study import load_study
 from hypate.scaling.workflow.uncertainty import scattered_configuration

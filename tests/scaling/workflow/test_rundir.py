@@ -10,14 +10,14 @@ import pandas as pd
 import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
-from hypate.scaling.cli.run import default_run_dir
-from hypate.scaling.workflow.rundir import (
+from hypate.scaling.engine.design_point import (
     DESIGN_POINT_RULES,
     describe_rule,
     design_point_index,
     knee_distances,
     rank_designs,
 )
+from hypate.scaling.workflow.execute import default_run_dir
 from hypate.scaling.workflow.study import load_study
 from hypate.solvers.errors import InputError
 
@@ -33,7 +33,7 @@ def test_default_run_dir_numbers_new_runs_and_resumes_the_latest(tmp_path: Path)
     assert default_run_dir("other", True, root) == root / "other"
 
 
-# -- the design-point rules (rundir.design_point_index) --------------------------------------
+# -- the design-point rules (engine.design_point.design_point_index) --------------------------------------
 #: A convex two-objective front (rows 0-4) plus two dominated designs (5, 6).
 FRONT = np.array([[0.0, 1.0], [0.1, 0.5], [0.3, 0.32], [0.6, 0.12], [1.0, 0.0],
                   [0.7, 0.7], [0.4, 0.9]])

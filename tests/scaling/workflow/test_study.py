@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 from conftest import REPO, tiny_study_text
 from hypate.scaling.cli.main import main
-from hypate.scaling.workflow import run as run_module
+from hypate.scaling.workflow import optimizer_settings as settings_module
 from hypate.scaling.workflow.study import load_study
 
 TINY = tiny_study_text()
@@ -131,13 +131,13 @@ def test_v_final_reaches_the_optimizer_and_studies_default_to_a_constant_v(
     # the engine's own default is HVLCB's schedule ("auto"); a study without the key keeps
     # a constant v (its figures were measured so), a study with it hands it on
     seen: list[object] = []
-    real = run_module.OptimizerSettings
+    real = settings_module.OptimizerSettings
 
     def spy(**kw):
         seen.append(kw["v_final"])
         return real(**kw)
 
-    monkeypatch.setattr(run_module, "OptimizerSettings", spy)
+    monkeypatch.setattr(settings_module, "OptimizerSettings", spy)
     assert main(["run", str(_tiny(tmp_path)), "--out", str(tmp_path / "a")]) == 0
     text = TINY.replace("[optimizer]", "[optimizer]\nv_final = 0.25")
     assert main(["run", str(_tiny(tmp_path, text)), "--out", str(tmp_path / "b")]) == 0

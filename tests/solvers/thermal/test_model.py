@@ -22,8 +22,9 @@ from hypate.solvers.materials import (
     orthotropic,
 )
 from hypate.solvers.panel import Layer, PanelSpec
+from hypate.solvers.thermal.loads import SurfaceCondition, ThermalLoads
 from hypate.solvers.thermal.mesh import build_hex_mesh
-from hypate.solvers.thermal.model import SurfaceCondition, ThermalLoads, ThermalModel
+from hypate.solvers.thermal.model import ThermalModel
 
 
 def const_material(name: str, k: float, rho: float = 8000.0, cp: float = 500.0):
