@@ -35,7 +35,7 @@ from hypate.scaling.cli.failures import (
 )
 from hypate.scaling.cli.progress import StepProgress
 from hypate.scaling.engine.design_point import worst_objective
-from hypate.scaling.engine.executors import LOST_AFTER, auto_workers
+from hypate.scaling.engine.executors import LOST_AFTER, auto_workers, usable_cores
 from hypate.scaling.engine.faults import InfrastructureError
 from hypate.scaling.engine.pareto import hypervolume
 from hypate.scaling.engine.problem import summarize_warnings, tally_warnings
@@ -389,7 +389,8 @@ def _print_scatter(what: str, scatter: dict[str, Any] | None) -> None:
 
 def resolve_workers(value: str | int, study: Study) -> int:
     """The ``--workers`` count: a number >= 1, or ``auto``
-    (:func:`~hypate.scaling.engine.executors.auto_workers` of the study's batch)."""
+    (:func:`~hypate.scaling.engine.executors.auto_workers` of the study's batch); a number
+    above the usable cores is capped to them, with one line saying so."""
     if value == "auto":
         return auto_workers(study.optimizer.batch_size)
     try:
@@ -398,6 +399,11 @@ def resolve_workers(value: str | int, study: Study) -> int:
         workers = 0
     if workers < 1:
         raise InputError("--workers", f"must be >= 1 (a number, or auto); got {value!r}")
+    cores = usable_cores()
+    if workers > cores:  # more processes than cores only share them: said once
+        print(f"--workers {workers}: this machine gives the run {cores} core"
+              f"{'s' * (cores > 1)}; using {cores} workers", file=sys.stderr)
+        return cores
     return workers
 
 

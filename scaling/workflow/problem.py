@@ -261,7 +261,8 @@ def simulate_configuration(config: Configuration, keep_fields: bool = False) -> 
 class AnalyticCheck:
     """An analytic admissibility check of a scaling problem as a cheap inequality
     ``fun(x) <= 0`` (relative violation), with a forward-difference Jacobian (step
-    :attr:`REL_STEP` of each bound's span; the value at ``x`` is cached, as SLSQP asks for
+    :attr:`REL_STEP` of each bound's span, backward on the upper bound; the value at ``x`` is
+    cached, as SLSQP asks for
     it and its Jacobian at the same point). Picklable: the inner SLSQP starts run on the
     run's workers.
 
@@ -349,9 +350,14 @@ class AnalyticCheck:
         for i in range(p.n_var):
             if i == p.spec.material_index:  # a level: no derivative
                 continue
+            # forward, or backward on the upper bound: a design past a bound may not exist
+            # (an emissivity above 1 is refused)
+            step = self.REL_STEP * span[i]
+            if x[i] + step > p.xu[i]:
+                step = -step
             xp = x.copy()
-            xp[i] += self.REL_STEP * span[i]
-            J[0, i] = (self._value(xp) - f0) / (self.REL_STEP * span[i])
+            xp[i] += step
+            J[0, i] = (self._value(xp) - f0) / step
         return J
 
     def constraint(self) -> CheapConstraint:

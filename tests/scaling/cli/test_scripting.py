@@ -165,3 +165,18 @@ def test_solver_warnings_are_collected_and_summarized_once(capsys: pytest.Captur
     with pytest.warns(RuntimeWarning), collected_warnings(verbose=True) as shown:
         warnings.warn("shown", RuntimeWarning, stacklevel=1)
     assert shown == [] and warning_summary(shown) == []
+
+
+def test_workers_beyond_the_cores_are_capped_with_one_line(capsys: pytest.CaptureFixture,
+                                                           monkeypatch: pytest.MonkeyPatch
+                                                           ) -> None:
+    from hypate.scaling.cli import run as run_cli
+    from hypate.scaling.workflow.shipped import default_study
+    from hypate.scaling.workflow.study import load_study
+
+    study = load_study(default_study())
+    monkeypatch.setattr(run_cli, "usable_cores", lambda: 2)
+    assert run_cli.resolve_workers("99", study) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["--workers 99: this machine gives the run 2 cores; using 2 workers"]
+    assert run_cli.resolve_workers("2", study) == 2 and not capsys.readouterr().err

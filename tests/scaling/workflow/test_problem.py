@@ -212,3 +212,26 @@ def test_2d_case_with_a_study_mesh_override_runs(tmp_path: Path) -> None:
     assert prob.prototype_response.status == "completed"
     err = prob.errors(np.array([0.00125]))
     assert all(math.isfinite(v) for v in err.values()), err
+
+
+def test_analytic_checks_differentiate_inside_the_box_on_its_upper_bound() -> None:
+    # The size check of a WT5 study (a 3-D panel: its width, and with it the free jet's
+    # core it must fit, follows L). On the upper bound of L and of the emissivity (1: a
+    # design past it does not exist) the finite difference steps back inside the box and
+    # matches a second-order one-sided difference taken inside it.
+    from hypate.scaling.workflow.problem import AnalyticCheck
+    from hypate.scaling.workflow.study import load_study
+
+    study = load_study("sec9_2_3_case2_wt5")
+    pb = ScalingProblem(study.spec)
+    names = study.spec.names
+    x = 0.5 * (np.asarray(pb.xl, float) + np.asarray(pb.xu, float))
+    iL, ie = names.index("L"), names.index("emissivity")
+    x[iL], x[ie] = pb.xu[iL], 1.0
+    size = AnalyticCheck(pb, "size")
+    J = size.jac(x)  # the old forward step asked for emissivity 1 + 5e-7: InputError
+    h = 1e-3 * (pb.xu[iL] - pb.xl[iL])
+    f = [size.fun(x - k * h * np.eye(len(x))[iL])[0] for k in (0, 1, 2)]
+    assert J[0, iL] == pytest.approx((3 * f[0] - 4 * f[1] + f[2]) / (2 * h), rel=1e-4)
+    assert J[0, ie] == 0.0  # the plate and the core do not depend on the emissivity
+    AnalyticCheck(pb, "duration").jac(x)  # the duration check too
