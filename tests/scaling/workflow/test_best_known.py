@@ -9,10 +9,12 @@ from hypate.scaling.cli.main import main
 from hypate.scaling.workflow.best_known import best_known
 
 
-def test_the_quickstart_record_is_its_design_evaluated(capsys: pytest.CaptureFixture) -> None:
-    record = best_known("quickstart")
+@pytest.mark.parametrize("study", ["quickstart", "sec9_2_2_xi4"])
+def test_each_record_is_its_design_evaluated(study: str, capsys: pytest.CaptureFixture
+                                             ) -> None:
+    record = best_known(study)
     assert record is not None and record.value == max(record.J_u, record.J_T)
-    argv = ["whatif", "quickstart", "--json"]
+    argv = ["whatif", study, "--json"]
     for name, value in record.design.items():
         argv += ["--set", f"{name}={value!r}"]
     assert main(argv) == 0
