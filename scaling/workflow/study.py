@@ -76,6 +76,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal, cast, overload
 
+from hypate.scaling.engine.acquisition import (
+    ACQUISITIONS,
+    MULTI_OBJECTIVE_ACQUISITIONS,
+    SINGLE_OBJECTIVE_ACQUISITIONS,
+)
 from hypate.scaling.engine.stopping import StoppingRule
 from hypate.scaling.workflow import uncertainty as scatter
 from hypate.scaling.workflow.admissibility import AdmissibilitySection
@@ -115,7 +120,7 @@ from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.panel import Layer, PanelSpec
 from hypate.solvers.settings import DEFAULTS, MAX_STEPS, SimulationSettings
-from pydantic import Field, ValidationError, model_validator
+from pydantic import Field, ValidationError, field_validator, model_validator
 
 PosFloat = Annotated[float, Field(gt=0.0)]
 #: Largest seed: the store keeps it as a signed 64-bit SQLite integer (``[0, 2**63)``).
@@ -271,8 +276,8 @@ class ConstraintsSection(InputModel):
 
 class OptimizerSection(InputModel):
     approach: Literal["indirect", "direct"] = "indirect"
-    acquisition: Literal["hvlcb", "hvei", "hvpoi", "ws", "cheb", "mmei", "mmlcb", "lcb", "ei",
-                         "poi"] | None = None
+    #: a name of the engine's registry (:data:`hypate.scaling.engine.acquisition.ACQUISITIONS`)
+    acquisition: str | None = None
     v: Annotated[float, Field(ge=0.0, le=100.0)] | None = None
     #: The exploration weight of the last iteration (v falls linearly to it; None: constant v).
     v_final: Annotated[float, Field(ge=0.0, le=100.0)] | None = None
@@ -307,6 +312,13 @@ class OptimizerSection(InputModel):
     exploit_last: Annotated[int, Field(ge=0, le=1000)] = 0
     p_exploit: Annotated[float, Field(gt=0.0, lt=1.0)] | None = None
 
+    @field_validator("acquisition")
+    @classmethod
+    def _registered(cls, name: str | None) -> str | None:
+        if name is not None and name not in ACQUISITIONS:
+            raise ValueError(f"must be one of {', '.join(ACQUISITIONS)}")
+        return name
+
 
 class StudyFile(InputModel):
     study: StudySection = StudySection()
@@ -326,6 +338,7 @@ class StudyFile(InputModel):
     robust: scatter.RobustSection | None = None
     fidelity: list[FidelitySection] = []
 
+
     @model_validator(mode="after")
     def _check(self) -> StudyFile:
         if not self.variables:
@@ -337,11 +350,12 @@ class StudyFile(InputModel):
         n_obj = len(self.study.objectives)
         acq = self.optimizer.acquisition
         if acq is not None:
-            single = acq in ("lcb", "ei", "poi")
+            single = not ACQUISITIONS[acq].multi_objective
             if single != (n_obj == 1):
                 raise ValueError(f"optimizer.acquisition: {acq!r} does not fit "
                                  f"{n_obj} objective(s) "
-                                 "(lcb/ei/poi for one; hvlcb/hvei/hvpoi/ws/cheb for two)")
+                                 f"({'/'.join(SINGLE_OBJECTIVE_ACQUISITIONS)} for one; "
+                                 f"{'/'.join(MULTI_OBJECTIVE_ACQUISITIONS)} for two)")
         opt = self.optimizer
         if opt.iterations == "auto" and opt.min_iterations >= opt.max_iterations:
             raise ValueError(f"optimizer.min_iterations: must be below max_iterations "
