@@ -162,8 +162,7 @@ def execute(study: Study, out: str | Path | None = None, *, resume: bool = False
     kind = check_request(study, seeds, seed_runs)
     out = Path(out) if out is not None else default_run_dir(study.name, resume)
     common: dict[str, Any] = dict(workers=workers, scheduler=scheduler, lost_after=lost_after,
-                                  force=force,
-                  on_written=on_written, progress=progress)
+                                  force=force, on_written=on_written, progress=progress)
     if kind == "sweep":
         def on_point(i: int, n: int, point: Any) -> None:
             if on_run is not None:
@@ -206,8 +205,12 @@ def execute(study: Study, out: str | Path | None = None, *, resume: bool = False
         try:
             result.runs[s] = one(RunStart("seeds", k, len(chosen), f"seed {s}", sub,
                                           resume and (sub / STORE).is_file(), s))
-        finally:  # an interrupted seed leaves the summary of the seeds finished so far
-            result.summary = write_seeds_summary(study, out, chosen)
+        except InputError:
+            raise  # refused before it ran: nothing to summarize
+        except BaseException:  # interrupted: the summary of the seeds finished so far
+            write_seeds_summary(study, out, chosen)
+            raise
+        result.summary = write_seeds_summary(study, out, chosen)
     again = on_written if on_seeds_written is None else on_seeds_written
     if again is not None:  # every report shows the spread over all seeds
         for s in chosen:
