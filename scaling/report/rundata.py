@@ -429,7 +429,7 @@ def _attach_point(run: RunData, point: dict[str, Any] | None, simulate: bool) ->
 
 def _rebuild_point(run: RunData, simulate: bool) -> dict[str, Any] | None:
     """Design point of an interrupted run: the runner's rule (:attr:`RunData.rule`,
-    :func:`~hypate.scaling.workflow.rundir.design_point_index`) over the successful
+    :func:`~hypate.scaling.engine.design_point.design_point_index`) over the successful
     evaluations."""
     ok = run.ok
     if ok.empty:

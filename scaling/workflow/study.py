@@ -34,7 +34,7 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
                    by their null space), polish (final Nelder-Mead evaluations from
                    the best design, one objective only), timeout,
                    design_point ("minmax" | "weighted" | "knee": how the design point
-                   is chosen, see rundir.design_point_index; default "minmax")
+                   is chosen, see engine.design_point.design_point_index; default "minmax")
     [sweep]        one optimization per sweep point into sub-directories of one run
                    directory (``hypate run``; Sec. 9.1.3, 9.2.2, 9.2.4):
                    xi = [2, 3, 4]            geometric scales (sub-directories ``xi_2`` ...)

@@ -98,7 +98,7 @@ def choose_admissible_point(result: OptimizationResult, admissible_rows: np.ndar
     """The design point's row and whether it is admissible.
 
     Among the admissible evaluations by the study's design-point ``rule``
-    (:func:`~hypate.scaling.workflow.rundir.design_point_index`); with none admissible the
+    (:func:`~hypate.scaling.engine.design_point.design_point_index`); with none admissible the
     successful evaluation with the smallest summed relative violation (ties: the rule's
     score, then the earlier evaluation); None without a successful evaluation.
     """
