@@ -21,6 +21,11 @@ Materials expose what the solvers need, vectorized over temperature arrays of an
 plane-stress reduced stiffness ``Q(T)`` (Eq. 3.8) in material axes, transverse shear moduli,
 secant thermal expansion and thermal strain, conductivity tensor diagonal (Eq. 4.2) and
 volumetric heat capacity ``rho c_p``, each with its temperature derivative.
+
+Size: about 640 lines: the Property type (interpolation, the out-of-data guard), the Material
+with every vectorized property and its derivative, the library loader and the derived
+materials of the shipped cases (stiffened skin, honeycomb core); one vocabulary the
+structural and thermal solvers share.
 """
 from __future__ import annotations
 

@@ -20,6 +20,9 @@ and Eq. (6.27) factorize per box and per objective, so HVPoI and HVEI are exact 
 products of one-dimensional Gaussian integrals (for any number of objectives whose grid
 decomposition fits in ``max_cells``; otherwise HVEI falls back to a Monte Carlo estimate
 with fixed base samples, which is smooth in x).
+
+Size: about 620 lines: eleven acquisitions of one pattern (C(mu, sigma) and its two
+partials, ``from_context``) beside their registry; split by family if more are added.
 """
 from __future__ import annotations
 

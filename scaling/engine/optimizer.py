@@ -47,7 +47,7 @@ Reproducibility: the random numbers of iteration ``t`` come from
 ``numpy.random.default_rng([seed, t])`` and a proposal depends only on the evaluations of
 earlier iterations, so a resumed run proposes exactly what the uninterrupted run proposed.
 
-Size: about 680 lines: the loop, the proposal (one method with its batch and exploitation
+Size: about 700 lines: the loop, the proposal (one method with its batch and exploitation
 rules) and the surrogate plumbing.
 """
 from __future__ import annotations

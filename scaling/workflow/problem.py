@@ -29,6 +29,10 @@ expensive constraint columns ``G <= 0`` (relative violations), the analytic ones
 the free jet's core, test duration against the run time) further cheap inequalities; every
 evaluation also returns, as its auxiliary outputs (``aux``), what the model went through
 (:meth:`Response.extremes`), from which its admissibility rows are rebuilt.
+
+Size: about 690 lines: :class:`ScalingProblem` is one pymoo problem (the design vector's
+mapping, one evaluation, the cheap constraints and the admissibility rows read one spec);
+the objectives, the configuration and its simulation already live in their own modules.
 """
 from __future__ import annotations
 
@@ -53,6 +57,7 @@ from hypate.scaling.workflow.admissibility import (
 from hypate.scaling.workflow.configuration import (
     Configuration,
     apply_design,
+    simulate_configuration,
     with_material,
 )
 from hypate.scaling.workflow.objectives import (
@@ -71,11 +76,7 @@ from hypate.scaling.workflow.similarity import (
 )
 from hypate.scaling.workflow.tunnels import TunnelEnvelope
 from hypate.scaling.workflow.variables import CATEGORICAL, base_name, schedule_point
-from hypate.solvers.aero.factory import make_fluid_model
-from hypate.solvers.coupling.lc import run_lc
-from hypate.solvers.coupling.model import PanelModel
 from hypate.solvers.coupling.response import Response
-from hypate.solvers.coupling.tc import run_tc
 from hypate.solvers.errors import InputError
 from hypate.solvers.materials import Material
 from hypate.solvers.settings import SimulationSettings
@@ -239,23 +240,6 @@ class ScalingSpec:
     @property
     def names(self) -> list[str]:
         return [v.name for v in self.variables]
-
-
-# -- simulation of one configuration --------------------------------------------------------
-def simulate_configuration(config: Configuration, keep_fields: bool = False) -> Response:
-    """Run the simulator on one configuration with its own settings
-    (:meth:`Configuration.run_settings`): what the similarity table of ``config`` describes
-    is what runs. The TC scheme runs with LSA each step; the aeroelastic S2 scheme records
-    every step and runs past a snap-through (the comparison needs the whole history). The
-    explicit external heat flux q_ext (Eq. 6.1d) heats the upper surface; a radiant heater's
-    part of q_ext is the radiation exchange with ``radiation_temperature``.
-    """
-    settings = config.run_settings(keep_fields=keep_fields)
-    fluid = make_fluid_model(settings.aero, settings.heating, settings.boundary_layer)
-    model = PanelModel(config.panel, config.flow, fluid, settings)
-    if settings.scheme == "tc":
-        return run_tc(model)
-    return run_lc(model, settings.scheme, record_every=1, stop_on_snap=False)
 
 
 class AnalyticCheck:

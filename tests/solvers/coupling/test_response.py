@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypate.scaling.workflow.problem import simulate_configuration
+from hypate.scaling.workflow.configuration import simulate_configuration
 from hypate.scaling.workflow.study import load_study
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.coupling.model import PanelModel
