@@ -60,6 +60,9 @@ Pair = Annotated[list[float], Field(min_length=2, max_length=2)]
 #: A material property: a constant or a table ``[[T, value], ...]``.
 PropertySpec = float | list[Pair]
 Positive = Annotated[float, Field(gt=0.0)]
+#: Most elements along one side of a panel mesh (a case's ``[panel] mesh``, a study's
+#: ``[simulation] mesh`` override).
+MAX_MESH = 200
 
 
 class LayerConfig(InputModel):
@@ -76,7 +79,7 @@ class PanelConfig(InputModel):
     boundary: Literal["simply_supported", "clamped"] = "simply_supported"
     leading_edge_length: Annotated[float, Field(ge=0.0, le=100.0)] = 1.0
     flow_angle: Annotated[float, Field(ge=-90.0, le=90.0)] = 0.0
-    mesh: Annotated[list[Annotated[int, Field(ge=1, le=200)]],
+    mesh: Annotated[list[Annotated[int, Field(ge=1, le=MAX_MESH)]],
                     Field(min_length=1, max_length=2)] = [8, 8]
     initial_temperature: Annotated[float, Field(gt=0.0, le=5000.0)] = 300.0
     emissivity: Annotated[float, Field(ge=0.0, le=1.0)] = 0.85
@@ -158,26 +161,36 @@ class FlowConfig(InputModel):
         return self
 
 
-class SimulationConfig(InputModel):
-    """``[simulation]`` of a case file: the keys of :class:`SimulationSettings`, with its
-    defaults (one set, :data:`hypate.solvers.settings.DEFAULTS`)."""
+class SimulationKeys(InputModel):
+    """The ``[simulation]`` keys a case file and a study share: one key set, one set of
+    limits, the defaults of :class:`SimulationSettings` (:data:`DEFAULTS`). A case file adds
+    its scheme, duration and external loads (:class:`SimulationConfig`); a study its step
+    count, mesh and simulator (``scaling.workflow.study.SimulationSection``)."""
 
-    scheme: Literal["s1", "s2", "tc"] = DEFAULTS.scheme
     aero: str = DEFAULTS.aero
     heating: Literal["eckert", "none"] = DEFAULTS.heating
     boundary_layer: Literal["turbulent", "laminar"] = DEFAULTS.boundary_layer
     time_step: Positive = DEFAULTS.time_step
+    initial_deflection: Annotated[float, Field(ge=-10.0, le=10.0)] = DEFAULTS.initial_deflection
+    lsa_modes: Annotated[int, Field(ge=1, le=50)] = DEFAULTS.lsa_modes
+    unstable_steps: Annotated[int, Field(ge=1, le=1000)] = DEFAULTS.unstable_steps
+    rho_bar: Annotated[float, Field(ge=0.0, le=1.0)] = DEFAULTS.rho_bar
+
+
+class SimulationConfig(SimulationKeys):
+    """``[simulation]`` of a case file: the shared keys (:class:`SimulationKeys`) and the
+    rest of :class:`SimulationSettings`' keys, with its defaults (one set,
+    :data:`hypate.solvers.settings.DEFAULTS`)."""
+
+    scheme: Literal["s1", "s2", "tc"] = DEFAULTS.scheme
     duration: Positive = DEFAULTS.duration
     radiation_temperature: Annotated[float, Field(gt=0.0, le=5000.0)] | None = \
         DEFAULTS.radiation_temperature
     external_pressure: Annotated[float, Field(ge=-1e7, le=1e7)] = DEFAULTS.external_pressure
     external_heat_flux: Annotated[float, Field(ge=-1e7, le=1e7)] = \
         DEFAULTS.external_heat_flux
-    lsa_modes: Annotated[int, Field(ge=1, le=50)] = DEFAULTS.lsa_modes
-    unstable_steps: Annotated[int, Field(ge=1, le=1000)] = DEFAULTS.unstable_steps
     passes: Annotated[int, Field(ge=1, le=20)] = DEFAULTS.passes
     fluid_density: Annotated[int, Field(ge=1, le=8)] = DEFAULTS.fluid_density
-    rho_bar: Annotated[float, Field(ge=0.0, le=1.0)] = DEFAULTS.rho_bar
 
     @model_validator(mode="after")
     def _check(self) -> SimulationConfig:

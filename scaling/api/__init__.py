@@ -15,7 +15,10 @@ The documented Python API:
   expensive and cheap constraints and a scipy-style result;
 - :class:`Optimizer` -- the engine driven from outside: ``ask`` for designs, ``tell`` their
   results (an external code, an experiment), crash-safe and resumable;
-- :class:`CheapConstraint` -- an analytic constraint with its Jacobian, enforced exactly.
+- :class:`CheapConstraint` -- an analytic constraint with its Jacobian, enforced exactly;
+- :class:`SimulatedHistories`, :class:`ModelFailure` -- what a scaling study's own
+  simulator (``[simulation] simulator``, :mod:`hypate.scaling.workflow.external`) returns,
+  and what it raises on a design it cannot simulate.
 
 The names load on first use (PEP 562 ``__getattr__``): ``import hypate`` itself is instant,
 and the ``hypate`` command can answer a Ctrl-C at once instead of after numpy, scipy, pandas
@@ -29,16 +32,18 @@ if TYPE_CHECKING:  # what the names are, for type checkers and readers
     from hypate._api import (
         BayesianOptimizer,
         CheapConstraint,
+        ModelFailure,
         Optimizer,
         RunOutcome,
+        SimulatedHistories,
         Study,
         load_study,
         minimize,
         run_study,
     )
 
-__all__ = ["BayesianOptimizer", "CheapConstraint", "Optimizer", "RunOutcome", "Study",
-           "load_study", "minimize", "run_study"]
+__all__ = ["BayesianOptimizer", "CheapConstraint", "ModelFailure", "Optimizer", "RunOutcome",
+           "SimulatedHistories", "Study", "load_study", "minimize", "run_study"]
 
 
 def __getattr__(name: str) -> Any:

@@ -23,13 +23,15 @@ from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.report.html import write_report_safely
 from hypate.scaling.workflow.execute import Outcome, execute
+from hypate.scaling.workflow.external import SimulatedHistories
+from hypate.scaling.workflow.objectives import ModelFailure
 from hypate.scaling.workflow.run import RunOutcome
 from hypate.scaling.workflow.study import Study, load_study
 from pymoo.core.problem import Problem
 from scipy.optimize import OptimizeResult
 
-__all__ = ["BayesianOptimizer", "CheapConstraint", "Optimizer", "RunOutcome", "Study",
-           "load_study", "minimize", "run_study"]
+__all__ = ["BayesianOptimizer", "CheapConstraint", "ModelFailure", "Optimizer", "RunOutcome",
+           "SimulatedHistories", "Study", "load_study", "minimize", "run_study"]
 
 
 def run_study(study: Study, out: str | Path | None = None, *,

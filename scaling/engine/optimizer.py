@@ -195,9 +195,6 @@ class BayesianOptimizer:
             cont = self.bounds if cat is None else np.delete(self.bounds, cat.index, axis=0)
             if not np.all(cont > 0.0):
                 raise ValueError("log-linear coordinates need positive bounds xl, xu")
-        if s.polish and self.n_obj != 1:
-            raise SettingError("polish", "0 for more than one objective (a polish needs a "
-                               "single objective)", s.polish)
 
     # -------------------------------------------------------------- helpers
     def _rng(self, iteration: int) -> np.random.Generator:

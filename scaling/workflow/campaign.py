@@ -2,10 +2,11 @@
 the preflight that runs before any simulation.
 
 A campaign's identity is the content of what decides its results: the parsed study, the
-prototype case file it reads, the ROM archive of a ``rom:PATH`` fluid model (by hash), the
-simulation settings, the seed and the package version. The store keeps the identity itself
-(``meta`` key ``campaign``) and its SHA-256 (``fingerprint``), so that ``--resume`` can say
-which keys changed, old -> new, and refuse before anything in the directory is touched.
+prototype case file it reads, the ROM archive of a ``rom:PATH`` fluid model and the file of
+a user's own simulator (by hash), the simulation settings, the seed and the package version.
+The store keeps the identity itself (``meta`` key ``campaign``) and its SHA-256
+(``fingerprint``), so that ``--resume`` can say which keys changed, old -> new, and refuse
+before anything in the directory is touched.
 """
 from __future__ import annotations
 
@@ -122,6 +123,9 @@ def campaign_identity(study: Study, seed: int) -> dict[str, Any]:
     files: dict[str, Any] = {"case": read_toml(case_path)}
     if aero.startswith(ROM_PREFIX):
         files["rom_sha256"] = _file_sha256(Path(aero[len(ROM_PREFIX):]))
+    simulator = study.spec.simulator  # a user's simulator file decides the results too
+    if simulator is not None and (source := simulator.rpartition(":")[0]).endswith(".py"):
+        files["simulator_sha256"] = _file_sha256(Path(source))
     return {"study": data, "files": files, "seed": int(seed), "version": package_version(),
             "simulation": dataclasses.asdict(study.spec.prototype.simulation)}
 

@@ -17,6 +17,7 @@ from hypate.scaling.workflow.variables import (
     DESIGN_VARIABLES,
     LAYER_PATTERN,
     SCHEDULE_POINTS,
+    DesignVariable,
     is_design_variable,
     schedule_point,
 )
@@ -160,7 +161,6 @@ class Configuration:
 
 
 # -- building model configurations from design variables ------------------------------------------
-_STATIC = ("p_inf", "T_inf")
 
 
 def scaled_panel(template: PanelSpec, *, length: float | None = None,
@@ -229,7 +229,6 @@ def apply_design(template: Configuration, design: Mapping[str, float]) -> Config
         Unknown names, non-positive values, mixed stagnation/static flow variables.
     """
 
-    panel = template.panel
     unknown = [n for n in design if not is_design_variable(n) or n.endswith("[k]")]
     if unknown:
         raise InputError(f"design.{unknown[0]}", "unknown design variable; known: "
@@ -238,8 +237,57 @@ def apply_design(template: Configuration, design: Mapping[str, float]) -> Config
     if categorical:  # a level number means nothing without the study's list of values
         raise InputError(f"design.{categorical[0]}", "is categorical: the scaling problem "
                          "sets it (ScalingProblem.configure), not a number")
-    panel = scaled_panel(panel, length=design.get("L"), thickness=design.get("h"),
-                         leading_edge_length=design.get("L_le"), width=design.get("width"))
+    # every row's value into the part its target names (field -> (variable, value))
+    parts: dict[str, dict[str, tuple[str, float]]] = {part: {} for part in PARTS}
+    for name, value in design.items():
+        var = DESIGN_VARIABLES.get(name)
+        if var is not None and var.target:
+            part, *fields = var.target
+            for f in fields:
+                parts[part][f] = (name, _checked(var, value))
+    changes: dict[str, Any] = {"panel": _panel(template.panel, parts["panel"], design),
+                               "flow": _flow(template.flow, parts["flow"]),
+                               "temperatures": template.temperatures}
+    if parts["temperatures"]:
+        changes["temperatures"] = dataclasses.replace(
+            template.temperatures or ReferenceTemperatures(),
+            **{f: v for f, (_, v) in parts["temperatures"].items()})
+    changes.update({f: v for f, (_, v) in parts["configuration"].items()})
+    loads: dict[str, Any] = {f: v for f, (_, v) in parts["simulation"].items()}
+    schedule = heater_schedule(design)
+    if schedule is not None:
+        loads.update(radiation_schedule=schedule, radiation_temperature=None)
+    if loads:
+        changes["simulation"] = dataclasses.replace(template.simulation, **loads)
+    return dataclasses.replace(template, **changes)
+
+
+#: The parts of a configuration a design variable's target names (variables.DesignVariable).
+PARTS = ("panel", "flow", "simulation", "temperatures", "configuration")
+#: Panel fields set by :func:`scaled_panel` (a length scales the width, a thickness every
+#: layer); the other panel fields are replaced as they are.
+_SCALED = ("length", "thickness", "leading_edge_length", "width")
+#: Static flow fields; the stagnation ones cannot be mixed with them.
+_STATIC = ("pressure", "temperature")
+_STAGNATION = ("stagnation_pressure", "stagnation_temperature")
+
+
+def _checked(var: DesignVariable, value: float) -> float:
+    """A design value as its row's ``check`` allows it (``design.NAME`` errors)."""
+    if var.check == "positive":
+        return positive(var.name, value, var.unit)
+    value = float(value)
+    if var.check == "fraction" and not 0.0 <= value <= 1.0:
+        raise InputError(f"design.{var.name}", f"must be in [0, 1]; got {value:g}")
+    return value
+
+
+def _panel(panel: PanelSpec, values: dict[str, tuple[str, float]],
+           design: Mapping[str, float]) -> PanelSpec:
+    """The panel part: the scaled fields, then the layers' own thicknesses ``h[k]``, then
+    the other fields."""
+    scaled: dict[str, Any] = {f: values[f][1] for f in _SCALED if f in values}
+    panel = scaled_panel(panel, **scaled)
     layer_changes = {int(m.group(1)): design[n] for n in design
                      if (m := LAYER_PATTERN.match(n)) is not None}
     if layer_changes:
@@ -250,53 +298,49 @@ def apply_design(template: Configuration, design: Mapping[str, float]) -> Config
             layers[k] = dataclasses.replace(layers[k], thickness=positive(f"h[{k}]", value,
                                                                             "m"))
         panel = dataclasses.replace(panel, layers=tuple(layers))
-    if "emissivity" in design:
-        eps = float(design["emissivity"])
-        if not 0.0 <= eps <= 1.0:
-            raise InputError("design.emissivity", f"must be in [0, 1]; got {eps:g}")
-        panel = dataclasses.replace(panel, emissivity=eps)
+    rest: dict[str, Any] = {f: v for f, (_, v) in values.items() if f not in _SCALED}
+    return dataclasses.replace(panel, **rest) if rest else panel
 
-    flow = template.flow
-    stag = [n for n in ("p0", "T0") if n in design]
-    static = [n for n in _STATIC if n in design]
+
+def _flow(flow: FlowCondition, values: dict[str, tuple[str, float]]) -> FlowCondition:
+    """The flow part: an isentropic nozzle's stagnation state or a static state at the
+    design's (or the template's) Mach number; unspecified values from the template."""
+    static = [values[f][0] for f in _STATIC if f in values]
+    stag = [values[f][0] for f in _STAGNATION if f in values]
     if stag and static:
         raise InputError(f"design.{static[0]}", "cannot mix stagnation (p0, T0) and static "
                          "(p_inf, T_inf) flow variables")
-    mach = float(design.get("M", flow.mach))
+    mach = values["mach"][1] if "mach" in values else float(flow.mach)
+    get = {f: v for f, (_, v) in values.items()}
     try:
         if static:
-            flow = FlowCondition.from_static(mach, float(design.get("p_inf", flow.pressure)),
-                                             float(design.get("T_inf", flow.temperature)))
-        elif stag or "M" in design:
-            flow = FlowCondition.from_stagnation(
-                mach, float(design.get("p0", flow.stagnation_pressure)),
-                float(design.get("T0", flow.stagnation_temperature)))
+            return FlowCondition.from_static(mach, get.get("pressure", float(flow.pressure)),
+                                             get.get("temperature", float(flow.temperature)))
+        if stag or "mach" in values:
+            return FlowCondition.from_stagnation(
+                mach, get.get("stagnation_pressure", float(flow.stagnation_pressure)),
+                get.get("stagnation_temperature", float(flow.stagnation_temperature)))
     except InputError as exc:
         raise InputError(f"design.{exc.field}", exc.message) from None
+    return flow
 
-    temps = template.temperatures
-    if "T_w" in design:
-        tw = positive("T_w", design["T_w"], "K")
-        temps = dataclasses.replace(temps or ReferenceTemperatures(), wall=tw, structural=tw,
-                                    thermal=tw)
-    changes: dict[str, Any] = {"panel": panel, "flow": flow, "temperatures": temps}
-    if "delta_T" in design:
-        changes["delta_T"] = positive("delta_T", design["delta_T"], "K")
-    if "time" in design:
-        changes["time"] = positive("time", design["time"], "s")
-    loads: dict[str, Any] = {}
-    if "p_ext" in design:
-        loads["external_pressure"] = float(design["p_ext"])
-    if "q_ext" in design:
-        loads["external_heat_flux"] = float(design["q_ext"])
-    if "T_rad" in design:
-        loads["radiation_temperature"] = positive("T_rad", design["T_rad"], "K")
-    schedule = heater_schedule(design)
-    if schedule is not None:
-        loads.update(radiation_schedule=schedule, radiation_temperature=None)
-    if loads:
-        changes["simulation"] = dataclasses.replace(template.simulation, **loads)
-    return dataclasses.replace(template, **changes)
+
+def nominal_values(config: Configuration) -> dict[str, float]:
+    """The value of every optimizable design variable ``config`` holds, read back through
+    its row's target (:mod:`hypate.scaling.workflow.variables`): a robust study's nominal
+    values, the defaults of a recycled design, the prototype's values of the laws. A
+    quantity the configuration does not have (no heater: ``T_rad``; no ``delta_T``) is left
+    out."""
+    out: dict[str, float] = {}
+    for name, var in DESIGN_VARIABLES.items():
+        if not (var.optimizable and var.target):
+            continue
+        part, f = var.target[0], var.target[1]
+        holder = config if part == "configuration" else getattr(config, part)
+        value = None if holder is None else getattr(holder, f)
+        if value is not None:
+            out[name] = float(value)
+    return out
 
 
 def heater_schedule(design: Mapping[str, float]) -> tuple[float, ...] | None:
@@ -328,8 +372,8 @@ def heater_schedule(design: Mapping[str, float]) -> tuple[float, ...] | None:
     return tuple(positive(f"T_rad[{k}]", points[k], "K") for k in range(n))
 
 
-__all__ = ["Configuration", "ReferenceTemperatures", "apply_design", "heater_schedule",
-           "positive", "scaled_panel", "with_material"]
+__all__ = ["PARTS", "Configuration", "ReferenceTemperatures", "apply_design", "heater_schedule",
+           "nominal_values", "positive", "scaled_panel", "with_material"]
 
 
 def simulate_configuration(config: Configuration, keep_fields: bool = False) -> Response:

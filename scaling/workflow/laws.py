@@ -56,6 +56,7 @@ from typing import Any
 import cvxpy as cp
 import numpy as np
 from hypate.scaling.engine.problem import project_cheap
+from hypate.scaling.workflow.configuration import nominal_values
 from hypate.scaling.workflow.derived import study_at, study_data
 from hypate.scaling.workflow.integrity import verify_run
 from hypate.scaling.workflow.objectives import ModelFailure
@@ -67,14 +68,14 @@ from hypate.scaling.workflow.similarity import (
     time_scale,
 )
 from hypate.scaling.workflow.study import load_study
-from hypate.scaling.workflow.variables import CATEGORICAL, base_name
+from hypate.scaling.workflow.variables import CATEGORICAL, DESIGN_VARIABLES, base_name
 from hypate.solvers.errors import InputError
 from scipy import stats
 
-#: Analytical exponents of the design variables (table in the module docstring).
-ANALYTICAL_EXPONENTS: dict[str, float] = {
-    "h": -1.0, "L": -1.0, "L_le": -1.0, "p_inf": 0.0, "delta_T": 0.0, "M": 0.0, "p0": 0.0,
-    "T0": 0.0, "T_inf": 0.0, "T_rad": 0.0, "emissivity": 0.0, "p_ext": 0.0}
+#: Analytical exponents of the design variables (table in the module docstring): their
+#: rows' ``exponent`` (scaling.workflow.variables).
+ANALYTICAL_EXPONENTS: dict[str, float] = {n: v.exponent for n, v in DESIGN_VARIABLES.items()
+                                          if v.exponent is not None}
 #: Analytical exponent of the model time step by time scaling (Eqs. 9.3, 9.5/9.6).
 TIME_EXPONENTS: dict[str, float] = {"fourier": -2.0, "fourier_thickness": -2.0,
                                     "structural": -1.0}
@@ -332,13 +333,11 @@ def analytical_laws(study: Any) -> dict[str, tuple[float | None, float | None]]:
 
     spec = study.spec
     proto = spec.prototype
-    flow = proto.flow
+    values = nominal_values(proto)  # the prototype's own values, read through the rows
     coef: dict[str, float | None] = {
-        "h": proto.panel.thickness, "L": proto.panel.length,
-        "L_le": proto.panel.leading_edge_length, "M": flow.mach,
-        "p0": flow.stagnation_pressure, "T0": flow.stagnation_temperature,
-        "T_inf": flow.temperature, "emissivity": proto.panel.emissivity,
-        "T_rad": None, "p_ext": None, "p_inf": None, "delta_T": None, TIME_STEP: None}
+        n: values.get(n) if DESIGN_VARIABLES[n].coefficient == "prototype" else None
+        for n in ANALYTICAL_EXPONENTS}
+    coef[TIME_STEP] = None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:

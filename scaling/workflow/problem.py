@@ -60,6 +60,7 @@ from hypate.scaling.workflow.configuration import (
     simulate_configuration,
     with_material,
 )
+from hypate.scaling.workflow.external import check_checks, external_response, load_simulator
 from hypate.scaling.workflow.objectives import (
     PROJECTIONS,
     ModelFailure,
@@ -147,6 +148,9 @@ class ScalingSpec:
         and duration checks).
     admissibility : Admissibility
         The study's admissibility checks (``[admissibility]``).
+    simulator : str or None
+        The user's own simulator (:mod:`hypate.scaling.workflow.external`, by its import
+        name); None: hypate's (:func:`simulate_configuration`).
     """
 
     prototype: Configuration
@@ -163,6 +167,7 @@ class ScalingSpec:
     materials: tuple[tuple[str, Material], ...] = ()
     tunnel: TunnelEnvelope | None = None
     admissibility: Admissibility = Admissibility()
+    simulator: str | None = None
 
     def __post_init__(self) -> None:
         if not self.variables:
@@ -424,8 +429,8 @@ class ScalingProblem(Problem):
     def prototype_response(self) -> Response:
         """The prototype's response (simulated once, then cached)."""
         if self._prototype_response is None:
-            resp = simulate_configuration(self.spec.prototype,
-                                          keep_fields=self.spec.projection == "fields")
+            resp = self.simulate(self.spec.prototype,
+                                 keep_fields=self.spec.projection == "fields", prototype=True)
             if resp.status == "failed":
                 raise InputError("prototype", f"the prototype simulation failed: {resp.message}")
             self._prototype_response = resp
@@ -479,7 +484,21 @@ class ScalingProblem(Problem):
     def simulate_model(self, x: DesignVector, keep_fields: bool = False
                        ) -> tuple[Configuration, Response]:
         config = self.model_configuration(x)
-        return config, simulate_configuration(config, keep_fields=keep_fields)
+        return config, self.simulate(config, keep_fields=keep_fields)
+
+    def simulate(self, config: Configuration, keep_fields: bool = False,
+                 prototype: bool = False) -> Response:
+        """One configuration's response from the study's simulator: hypate's
+        (:func:`simulate_configuration`) or the user's (``spec.simulator``,
+        :mod:`hypate.scaling.workflow.external`; the prototype's histories are checked
+        against the admissibility checks they must feed)."""
+        if self.spec.simulator is None:
+            return simulate_configuration(config, keep_fields=keep_fields)
+        histories = load_simulator(self.spec.simulator)(config)
+        resp = external_response(histories, config)
+        if prototype:
+            check_checks(histories, {r.name: r.mode for r in self.spec.admissibility.rules})
+        return resp
 
     def errors(self, x: DesignVector) -> dict[str, float]:
         """J_u, J_T, J_s of one design; raises :class:`ModelFailure` when not comparable."""
@@ -529,7 +548,7 @@ class ScalingProblem(Problem):
         comparable with the prototype's (as long, stable while the prototype is, within
         the moderate-rotation model)."""
         proto = self.prototype_response
-        resp = simulate_configuration(config, keep_fields=self.spec.projection == "fields")
+        resp = self.simulate(config, keep_fields=self.spec.projection == "fields")
         n_p = len(proto.times)
         if resp.status == "failed" or len(resp.times) < 2:
             raise ModelFailure(f"model simulation failed: {resp.message}")

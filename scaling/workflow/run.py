@@ -53,7 +53,7 @@ from hypate.scaling.workflow.classical import (
     similarity_basis,
     similarity_exponents,
 )
-from hypate.scaling.workflow.configuration import Configuration, with_material
+from hypate.scaling.workflow.configuration import Configuration, nominal_values, with_material
 from hypate.scaling.workflow.fidelity import (
     FidelityProblem,
     fidelity_optimizer,
@@ -231,14 +231,9 @@ SEEDS_PER_RUN = 10
 
 
 def _template_values(study: Study) -> dict[str, float]:
-    """Values the model template implies for variables a study may not optimize."""
-    m = study.spec.model
-    vals = {"L": m.panel.length, "L_le": m.panel.leading_edge_length,
-            "h": m.panel.thickness, "emissivity": m.panel.emissivity,
-            "T_rad": m.radiation_temperature or 0.0,  # no heater: nearest bound
-            "p_ext": m.external_pressure}
-    if m.delta_T is not None:
-        vals["delta_T"] = m.delta_T
+    """Values the model template implies for variables a study may not optimize (its rows'
+    read-back, :func:`nominal_values`; no heater: ``T_rad`` 0, the nearest bound)."""
+    vals = {"T_rad": 0.0, **nominal_values(study.spec.model)}
     vals.update(study.spec.fixed)
     for name in study.spec.names:  # a heater schedule's points: the constant heater's value
         if (point := schedule_point(name)) is not None and point[0] in vals:

@@ -10,7 +10,8 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
                    condition: ``mach`` alone keeps the case's static p and T, ``altitude``
                    (m, 1976 standard atmosphere) needs ``mach`` or a case Mach number)
     [simulation]   time_step, steps, aero, heating, boundary_layer, initial_deflection,
-                   lsa_modes, unstable_steps, rho_bar, mesh
+                   lsa_modes, unstable_steps, rho_bar, mesh, simulator (the user's own:
+                   "package.module:function" or "file.py:function", scaling.workflow.external)
     [model]        material (a library name or a [materials.NAME] of the study), thickness,
                    sublayers, boundary, emissivity, initial_temperature,
                    temperature_independent
@@ -31,8 +32,8 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
                    batch_size, seed, classical_seed, transform ("none" | "log"),
                    coordinates ("design" | "log" | "similarity": the surrogates' inputs;
                    "similarity" = logs of the matched similarity parameters, completed
-                   by their null space), polish (final Nelder-Mead evaluations from
-                   the best design, one objective only), timeout,
+                   by their null space), polish (final Nelder-Mead evaluations of the
+                   design-point score max(J) from the best design; "minmax" only), timeout,
                    design_point ("minmax" | "weighted" | "knee": how the design point
                    is chosen, see engine.design_point.design_point_index; default "minmax")
     [sweep]        one optimization per sweep point into sub-directories of one run
@@ -90,6 +91,7 @@ from hypate.scaling.workflow.design_space import (
     study_levels,
     study_variables,
 )
+from hypate.scaling.workflow.external import load_simulator, resolve_simulator
 from hypate.scaling.workflow.fidelity import (
     FidelitySection,
     check_fidelity,
@@ -108,9 +110,11 @@ from hypate.scaling.workflow.variables import CATEGORICAL, HARD_LIMITS, OPTIMIZA
 from hypate.solvers import materials as mat
 from hypate.solvers.aero.factory import AERO_NAMES, is_aero_name
 from hypate.solvers.config import (
+    MAX_MESH,
     InputModel,
     MaterialConfig,
     Pair,
+    SimulationKeys,
     load_case,
     pydantic_input_error,
     read_toml,
@@ -228,21 +232,18 @@ class LawsSection(InputModel):
         return self
 
 
-class SimulationSection(InputModel):
-    """``[simulation]`` of a study: the keys of :class:`SimulationSettings` a study sets,
-    with its defaults, plus ``steps`` (of the prototype time step) and a ``mesh`` override."""
+class SimulationSection(SimulationKeys):
+    """``[simulation]`` of a study: the keys it shares with a case file
+    (:class:`~hypate.solvers.config.SimulationKeys`: one key set, one set of limits, the
+    defaults of :class:`SimulationSettings`), plus ``steps`` (of the prototype time step), a
+    ``mesh`` override (a case file's limits) and the user's own ``simulator``."""
 
-    time_step: PosFloat = DEFAULTS.time_step
     steps: Annotated[int, Field(ge=1, le=MAX_STEPS)] = DEFAULTS.n_steps
-    aero: str = DEFAULTS.aero
-    heating: Literal["eckert", "none"] = DEFAULTS.heating
-    boundary_layer: Literal["turbulent", "laminar"] = DEFAULTS.boundary_layer
-    initial_deflection: Annotated[float, Field(ge=-10.0, le=10.0)] = DEFAULTS.initial_deflection
-    lsa_modes: Annotated[int, Field(ge=1, le=50)] = DEFAULTS.lsa_modes
-    unstable_steps: Annotated[int, Field(ge=1, le=1000)] = DEFAULTS.unstable_steps
-    rho_bar: Annotated[float, Field(ge=0.0, le=1.0)] = DEFAULTS.rho_bar
-    mesh: Annotated[list[Annotated[int, Field(ge=1, le=100)]], Field(min_length=2,
-                                                                      max_length=2)] | None = None
+    mesh: Annotated[list[Annotated[int, Field(ge=1, le=MAX_MESH)]],
+                    Field(min_length=2, max_length=2)] | None = None
+    #: The user's own simulator, ``"package.module:function"`` or ``"file.py:function"``
+    #: (scaling.workflow.external); None: hypate's.
+    simulator: str | None = None
 
     @model_validator(mode="after")
     def _finite_duration(self) -> SimulationSection:
@@ -367,9 +368,10 @@ class StudyFile(InputModel):
         if opt.iterations == "auto" and (self.robust is not None or self.fidelity):
             raise ValueError("optimizer.iterations: \"auto\" stops a single-fidelity search "
                              "(not a [robust] or [[fidelity]] one); give a number")
-        if self.optimizer.polish and n_obj != 1:
-            raise ValueError(f"optimizer.polish: a local polish needs one objective, the "
-                             f"study has {n_obj}")
+        if self.optimizer.polish and n_obj != 1 and self.optimizer.design_point != "minmax":
+            raise ValueError(f"optimizer.polish: the polish minimizes max(J) (the \"minmax\" "
+                             f"design point); with {n_obj} objectives and design_point = "
+                             f"{self.optimizer.design_point!r} set polish = 0")
         if self.optimizer.weights is not None and len(self.optimizer.weights) != n_obj:
             raise ValueError(f"optimizer.weights: need {n_obj} values")
         if self.robust is not None and not self.uncertainty:
@@ -629,13 +631,22 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
     if not is_aero_name(aero):
         raise InputError("simulation.aero", f"must be one of {', '.join(AERO_NAMES)} or "
                          f"'rom:PATH'; got {aero!r}")
+    simulator = None
+    if sim_cfg.simulator is not None:
+        if cfg.study.projection != "center":
+            raise InputError("simulation.simulator", f"the user's simulator returns the centre "
+                             f"deflection: projection must be \"center\", not "
+                             f"{cfg.study.projection!r}")
+        simulator = resolve_simulator(sim_cfg.simulator, base)
+        load_simulator(simulator)  # refused now, not at the first simulation
     spec = ScalingSpec(prototype=prototype, model=model, variables=variables, fixed=fixed,
                        objectives=tuple(cfg.study.objectives),
                        time_scaling=cfg.study.time_scaling, projection=cfg.study.projection,
                        equalities=tuple(cfg.constraints.equality), xi=xi,
                        increasing=increasing, decreasing=decreasing,
                        materials=materials if "material" in cfg.variables else (),
-                       tunnel=tunnel, admissibility=cfg.admissibility.rules())
+                       tunnel=tunnel, admissibility=cfg.admissibility.rules(),
+                       simulator=simulator)
     uncertainty = scatter.parse_uncertainty(  # without [robust]: a nominal design
         cfg.uncertainty, cfg.robust or scatter.RobustSection(optimize=False),
         ScalingProblem(spec)) if cfg.uncertainty else None

@@ -18,10 +18,11 @@ Public keys::
 
 Every entry is a factor on a nominal value (:mod:`hypate.scaling.engine.propagation`): a
 design value of the study (a variable or a ``[fixed]`` value), a model/tunnel value the
-template sets (:data:`NOMINAL`), or a material property of every model layer
-(:data:`MATERIAL_FACTORS`). ``T_rad`` of a study with a heater schedule is one factor on
-every control point ``T_rad[k]`` (a heater bank's calibration scatters the whole
-programme); a categorical ``material`` has no scatter (its properties do: ``model.NAME``).
+template sets (read back through its design-variable row,
+:func:`~hypate.scaling.workflow.configuration.nominal_values`), or a material property of
+every model layer (:data:`MATERIAL_FACTORS`). ``T_rad`` of a study with a heater schedule
+is one factor on every control point ``T_rad[k]`` (a heater bank's calibration scatters the
+whole programme); a categorical ``material`` has no scatter (its properties do: ``model.NAME``).
 
 The test is planned on the nominal design: the model time step (the time mapping, Eq. 9.6)
 is the nominal design's, and the scatter acts on the article and the tunnel only -- a model
@@ -54,7 +55,7 @@ from hypate.scaling.engine.propagation import (
     robust_value,
     summary,
 )
-from hypate.scaling.workflow.configuration import Configuration
+from hypate.scaling.workflow.configuration import Configuration, nominal_values
 from hypate.scaling.workflow.objectives import ModelFailure, relative_rms, response_series
 from hypate.scaling.workflow.problem import ScalingProblem
 from hypate.scaling.workflow.variables import CATEGORICAL, schedule_point
@@ -63,16 +64,6 @@ from hypate.solvers.config import InputModel
 from hypate.solvers.errors import InputError
 from pydantic import Field, model_validator
 
-#: Nominal values the model template sets when the design does not (name -> getter).
-NOMINAL: dict[str, Callable[[Configuration], float]] = {
-    "p0": lambda c: c.flow.stagnation_pressure,
-    "T0": lambda c: c.flow.stagnation_temperature,
-    "M": lambda c: c.flow.mach,
-    "h": lambda c: c.panel.thickness,
-    "L": lambda c: c.panel.length,
-    "L_le": lambda c: c.panel.leading_edge_length,
-    "emissivity": lambda c: c.panel.emissivity,
-}
 #: ``model.NAME`` factors: the material properties (lamina fields) each one scales.
 MATERIAL_FACTORS = {
     "youngs_modulus": ("E1", "E2", "G12", "G13", "G23"),
@@ -177,6 +168,7 @@ def parse_uncertainty(entries: dict[str, UncertainEntry], robust: RobustSection,
                          f"J grows as C(d + 4, 4) terms); got {len(entries)}")
     x0 = np.array([0.5 * (v.lower + v.upper) for v in problem.spec.variables])
     design = problem.design(x0)
+    nominal = nominal_values(problem.spec.model)
     inputs = []
     for name, entry in entries.items():
         if name.startswith(MODEL_PREFIX):
@@ -186,9 +178,9 @@ def parse_uncertainty(entries: dict[str, UncertainEntry], robust: RobustSection,
         elif name in CATEGORICAL:
             raise InputError(f"uncertainty.{name}", "a categorical value has no scatter; "
                              "give its properties' (model.NAME)")
-        elif name not in design and name not in NOMINAL and not schedule_points(name, design):
+        elif name not in design and name not in nominal and not schedule_points(name, design):
             raise InputError(f"uncertainty.{name}", "not a design value of the study; known: "
-                             + ", ".join(dict.fromkeys([*design, *NOMINAL]))
+                             + ", ".join(dict.fromkeys([*design, *nominal]))
                              + ", " + ", ".join(MODEL_PREFIX + k for k in MATERIAL_FACTORS))
         inputs.append(entry.uncertain(name))
     unc = Uncertainty(tuple(inputs), robust.statistic, robust.order, robust.samples,
@@ -237,7 +229,8 @@ def scattered_configuration(problem: ScalingProblem, x: np.ndarray | Sequence[fl
         elif name not in design and (points := schedule_points(name, design)):
             changed.update({p: design[p] * f for p in points})  # the whole schedule
         else:
-            changed[name] = (design[name] if name in design else NOMINAL[name](nominal)) * f
+            changed[name] = (design[name] if name in design
+                             else nominal_values(nominal)[name]) * f
     config = problem.configure({**design, **changed})
     config = config.with_time_step(nominal.simulation.time_step)
     if props:
@@ -432,6 +425,6 @@ def monte_carlo_design(problem: ScalingProblem, x: np.ndarray | Sequence[float],
             "objectives": {k: summary(J[k]) for k in REPORTED}}
 
 
-__all__ = ["MATERIAL_FACTORS", "NOMINAL", "RobustSection", "UncertainEntry", "Uncertainty",
+__all__ = ["MATERIAL_FACTORS", "RobustSection", "UncertainEntry", "Uncertainty",
            "monte_carlo_design", "parse_uncertainty", "propagate_design",
            "propagate_or_failure", "scattered_configuration"]

@@ -1,8 +1,14 @@
 """THE design-variable table: every name a design, a what-if or a study may set, with its SI
-unit, meaning, hard limits and whether a study may optimize it (Tables 6.1, 9.2, 9.7).
+unit, meaning, hard limits, whether a study may optimize it (Tables 6.1, 9.2, 9.7), where it
+goes in a configuration and its analytical scaling law.
 
-How each enters a configuration is :func:`hypate.scaling.workflow.similarity.apply_design`,
-which accepts exactly these names; the study schema, the tunnel bound sets, the what-if, the
+One row is the variable's one home: :func:`hypate.scaling.workflow.configuration.apply_design`
+sets each row's value into its :attr:`DesignVariable.target` (a loop over rows; the parts a
+target names compose as the configuration module says), :func:`~hypate.scaling.workflow.
+configuration.nominal_values` reads every target back from a configuration (the nominal
+values of a robust study's scatter, the defaults of recycled designs, the prototype's values
+of the laws), and the laws take the row's exponent. A new continuous variable on an existing
+target part is one row here. The study schema, the tunnel bound sets, the what-if, the
 report and the laws read this table and nothing else.
 """
 from __future__ import annotations
@@ -33,6 +39,19 @@ class DesignVariable:
         Manufacturing / facility limits no design may leave (Table 9.7 and physics).
     optimizable : bool
         Whether a study's ``[variables]`` may list it.
+    target : tuple of str
+        Where the value goes in a configuration: a part (``"panel"``, ``"flow"``,
+        ``"simulation"``, ``"temperatures"``, ``"configuration"``) and its field(s), e.g.
+        ``("flow", "stagnation_pressure")``; empty for the names set otherwise (``h[k]``,
+        ``T_rad[k]``, the categorical ``material``).
+    check : {"positive", "fraction", "real"}
+        What a value must be: positive and finite, in [0, 1], or any number.
+    exponent : float or None
+        Analytical exponent k of the scaling law ``value ~ xi^k`` (laws; module table of
+        :mod:`hypate.scaling.workflow.laws`); None: no law.
+    coefficient : {"prototype", "analytical"} or None
+        The analytical law's coefficient: the prototype's own value (read from its
+        configuration), Eq. 9.2's (computed by the laws), or none.
     """
 
     name: str
@@ -40,34 +59,49 @@ class DesignVariable:
     description: str
     limits: Bounds | None = None
     optimizable: bool = False
+    target: tuple[str, ...] = ()
+    check: str = "positive"
+    exponent: float | None = None
+    coefficient: str | None = None
 
 
 DESIGN_VARIABLES: dict[str, DesignVariable] = {v.name: v for v in (
     DesignVariable("M", "-", "free-stream Mach number (continuous only in an 'ideal' tunnel)",
-                   (1.0001, 30.0), True),
-    DesignVariable("p0", "Pa", "tunnel stagnation pressure (Table 9.6)", (1.0, 1e9), True),
-    DesignVariable("T0", "K", "tunnel stagnation temperature (Table 9.6)", (1.0, 1e4), True),
-    DesignVariable("p_inf", "Pa", "free-stream static pressure (Table 9.2)", (1e-3, 1e7), True),
-    DesignVariable("T_inf", "K", "free-stream static temperature", (1.0, 5000.0), True),
+                   (1.0001, 30.0), True, ("flow", "mach"), "real", 0.0, "prototype"),
+    DesignVariable("p0", "Pa", "tunnel stagnation pressure (Table 9.6)", (1.0, 1e9), True,
+                   ("flow", "stagnation_pressure"), "real", 0.0, "prototype"),
+    DesignVariable("T0", "K", "tunnel stagnation temperature (Table 9.6)", (1.0, 1e4), True,
+                   ("flow", "stagnation_temperature"), "real", 0.0, "prototype"),
+    DesignVariable("p_inf", "Pa", "free-stream static pressure (Table 9.2)", (1e-3, 1e7), True,
+                   ("flow", "pressure"), "real", 0.0, "analytical"),
+    DesignVariable("T_inf", "K", "free-stream static temperature", (1.0, 5000.0), True,
+                   ("flow", "temperature"), "real", 0.0, "prototype"),
     DesignVariable("L", "m", "panel length a (width scaled with it: same aspect ratio)",
-                   (0.01, 5.0), True),
-    DesignVariable("width", "m", "panel width b"),
+                   (0.01, 5.0), True, ("panel", "length"), "real", -1.0, "prototype"),
+    DesignVariable("width", "m", "panel width b", target=("panel", "width"), check="real"),
     DesignVariable("L_le", "m", "leading-edge (rigid wall) length ahead of the panel",
-                   (0.0, 10.0), True),
+                   (0.0, 10.0), True, ("panel", "leading_edge_length"), "real", -1.0,
+                   "prototype"),
     DesignVariable("h", "m", "total thickness (all layers scaled proportionally)",
-                   (1e-4, 0.05), True),
+                   (1e-4, 0.05), True, ("panel", "thickness"), "real", -1.0, "prototype"),
     DesignVariable("h[k]", "m", "thickness of layer k (bottom = 0)"),
-    DesignVariable("emissivity", "-", "upper-surface emissivity of the model", (0.0, 1.0), True),
+    DesignVariable("emissivity", "-", "upper-surface emissivity of the model", (0.0, 1.0), True,
+                   ("panel", "emissivity"), "fraction", 0.0, "prototype"),
     DesignVariable("T_rad", "K", "radiant heater temperature (incomplete testing)",
-                   (1.0, 5000.0), True),
+                   (1.0, 5000.0), True, ("simulation", "radiation_temperature"), "positive",
+                   0.0),
     DesignVariable("T_rad[k]", "K", "radiant heater temperature at control point k of a "
                    "schedule: nondimensional time k/(n-1) of the test, linear in between"),
     DesignVariable("p_ext", "Pa", "external (cavity) pressure (incomplete testing)",
-                   (-1e7, 1e7), True),
-    DesignVariable("q_ext", "W/m^2", "external heat flux (incomplete testing)", (-1e7, 1e7), True),
-    DesignVariable("delta_T", "K", "uniform temperature rise (Sec. 9.1)", (1e-6, 2000.0), True),
-    DesignVariable("time", "s", "reference time (time step or duration)"),
-    DesignVariable("T_w", "K", "reference wall temperature; T_S = T_T = T_w (Eq. 9.7)"),
+                   (-1e7, 1e7), True, ("simulation", "external_pressure"), "real", 0.0),
+    DesignVariable("q_ext", "W/m^2", "external heat flux (incomplete testing)", (-1e7, 1e7), True,
+                   ("simulation", "external_heat_flux"), "real"),
+    DesignVariable("delta_T", "K", "uniform temperature rise (Sec. 9.1)", (1e-6, 2000.0), True,
+                   ("configuration", "delta_T"), "positive", 0.0, "analytical"),
+    DesignVariable("time", "s", "reference time (time step or duration)",
+                   target=("configuration", "time")),
+    DesignVariable("T_w", "K", "reference wall temperature; T_S = T_T = T_w (Eq. 9.7)",
+                   target=("temperatures", "wall", "structural", "thermal")),
     DesignVariable("material", "-", "model material, categorical: a [variables] list of "
                    "names; a design vector holds its level 0 .. k-1", None, True),
 )}

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 from hypate.scaling.cli.main import main
-from hypate.solvers.config import load_case, load_panel
+from hypate.solvers.config import load_case, load_panel, settings_from_config
 
 VALID = """
 [panel]
@@ -194,3 +194,29 @@ def test_values_are_taken_as_written(tmp_path: Path, key: str, value: str, field
     with pytest.raises(InputError) as info:
         load_case(path)
     assert (info.value.field, says in info.value.message) == (field, True), info.value
+
+
+def test_a_case_and_a_study_share_one_simulation_schema():
+    # issue 42: the keys both files offer are declared once (SimulationKeys): same defaults
+    # (SimulationSettings'), same limits, the same refusal; a case file takes a study's
+    # initial_deflection, a study the case files' mesh limit
+    from hypate.scaling.workflow.study import SimulationSection
+    from hypate.solvers.config import MAX_MESH, SimulationConfig, SimulationKeys
+    from hypate.solvers.settings import DEFAULTS
+    from pydantic import ValidationError
+
+    shared = set(SimulationKeys.model_fields)
+    assert {"aero", "time_step", "lsa_modes", "rho_bar", "initial_deflection"} <= shared
+    for schema in (SimulationConfig, SimulationSection):
+        assert shared <= set(schema.model_fields)
+        for name in shared:
+            field, base = schema.model_fields[name], SimulationKeys.model_fields[name]
+            assert (field.default, field.metadata) == (base.default, base.metadata), name
+            assert field.default == getattr(DEFAULTS, name)
+        for bad in ({"lsa_modes": 51}, {"rho_bar": 1.5}, {"initial_deflection": 11.0}):
+            with pytest.raises(ValidationError):
+                schema(**bad)
+    assert settings_from_config(SimulationConfig(initial_deflection=0.5)).initial_deflection == 0.5
+    assert SimulationSection(mesh=[MAX_MESH, 2]).mesh == [MAX_MESH, 2]
+    with pytest.raises(ValidationError):
+        SimulationSection(mesh=[MAX_MESH + 1, 2])

@@ -67,7 +67,7 @@ def test_studies_lists_every_shipped_study(capsys: pytest.CaptureFixture) -> Non
     assert main(["studies", "--json"]) == 0
     rows = {r["name"]: r for r in _json(capsys)}
     assert {"quickstart", "sec9_2_2_xi4", "sec9_1_xi2_equal_nu"} <= set(rows)
-    assert rows["quickstart"]["evaluations"] == 48 and rows["quickstart"]["duration"]
+    assert rows["quickstart"]["evaluations"] == 68 and rows["quickstart"]["duration"]
     # the stored count is the budget + the classical baseline evaluated first
     assert rows["quickstart"]["classical_baseline"] is True
     assert rows["sec9_2_4_envelope"]["sweep_points"] == 25  # Table 9.11's 25 conditions

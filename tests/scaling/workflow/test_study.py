@@ -52,6 +52,10 @@ MALFORMED = [
     ("bad equality", ("[optimizer]", '[constraints]\nequality = ["Mach"]\n[optimizer]'),
      "constraints.equality"),
     ("negative v_final", ("[optimizer]", "[optimizer]\nv_final = -0.5"), "optimizer.v_final"),
+    ("polish of a knee", ("[optimizer]", '[optimizer]\npolish = 4\ndesign_point = "knee"'),
+     "optimizer.polish"),
+    ("simulator not found", ('aero = "pt-bl"', 'aero = "pt-bl"\nsimulator = "nosuch.py:f"'),
+     "simulation.simulator"),
 ]
 
 
