@@ -243,8 +243,8 @@ def apply_design(template: Configuration, design: Mapping[str, float]) -> Config
         var = DESIGN_VARIABLES.get(name)
         if var is not None and var.target:
             part, *fields = var.target
-            for f in fields:
-                parts[part][f] = (name, _checked(var, value))
+            checked = _checked(var, value)
+            parts[part].update({f: (name, checked) for f in fields})
     changes: dict[str, Any] = {"panel": _panel(template.panel, parts["panel"], design),
                                "flow": _flow(template.flow, parts["flow"]),
                                "temperatures": template.temperatures}

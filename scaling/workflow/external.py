@@ -27,6 +27,7 @@ any other exception is a bug and stops the run.
 """
 from __future__ import annotations
 
+import hashlib
 import importlib.util
 import pkgutil
 import sys
@@ -157,8 +158,9 @@ def load_simulator(name: str, field: str = "simulation.simulator"
     try:
         if target.endswith(".py"):
             path = Path(target)
-            spec = importlib.util.spec_from_file_location(f"_hypate_simulator_{path.stem}",
-                                                          path)
+            # one module name per file: two studies' "sim.py" do not replace each other
+            key = hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:12]
+            spec = importlib.util.spec_from_file_location(f"_hypate_simulator_{key}", path)
             if spec is None or spec.loader is None or not path.is_file():
                 raise FileNotFoundError(f"no file {path}")
             module = importlib.util.module_from_spec(spec)
