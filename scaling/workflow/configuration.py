@@ -237,23 +237,22 @@ def apply_design(template: Configuration, design: Mapping[str, float]) -> Config
     if categorical:  # a level number means nothing without the study's list of values
         raise InputError(f"design.{categorical[0]}", "is categorical: the scaling problem "
                          "sets it (ScalingProblem.configure), not a number")
-    # every row's value into the part its target names (field -> (variable, value))
-    parts: dict[str, dict[str, tuple[str, float]]] = {part: {} for part in PARTS}
-    for name, value in design.items():
-        var = DESIGN_VARIABLES.get(name)
-        if var is not None and var.target:
+    # every row's value into the part its target names (field -> (row, value)), in the
+    # table's order; each part checks its values as it is composed: panel, flow, reference
+    # temperatures, configuration, loads (the first bad value of a design is reported)
+    parts: dict[str, dict[str, tuple[DesignVariable, Any]]] = {part: {} for part in PARTS}
+    for name, var in DESIGN_VARIABLES.items():
+        if var.target and design.get(name) is not None:
             part, *fields = var.target
-            checked = _checked(var, value)
-            parts[part].update({f: (name, checked) for f in fields})
+            parts[part].update({f: (var, design[name]) for f in fields})
     changes: dict[str, Any] = {"panel": _panel(template.panel, parts["panel"], design),
                                "flow": _flow(template.flow, parts["flow"]),
                                "temperatures": template.temperatures}
     if parts["temperatures"]:
         changes["temperatures"] = dataclasses.replace(
-            template.temperatures or ReferenceTemperatures(),
-            **{f: v for f, (_, v) in parts["temperatures"].items()})
-    changes.update({f: v for f, (_, v) in parts["configuration"].items()})
-    loads: dict[str, Any] = {f: v for f, (_, v) in parts["simulation"].items()}
+            template.temperatures or ReferenceTemperatures(), **_values(parts["temperatures"]))
+    changes.update(_values(parts["configuration"]))
+    loads = _values(parts["simulation"])
     schedule = heater_schedule(design)
     if schedule is not None:
         loads.update(radiation_schedule=schedule, radiation_temperature=None)
@@ -272,7 +271,7 @@ _STATIC = ("pressure", "temperature")
 _STAGNATION = ("stagnation_pressure", "stagnation_temperature")
 
 
-def _checked(var: DesignVariable, value: float) -> float:
+def _checked(var: DesignVariable, value: Any) -> float:
     """A design value as its row's ``check`` allows it (``design.NAME`` errors)."""
     if var.check == "positive":
         return positive(var.name, value, var.unit)
@@ -282,10 +281,15 @@ def _checked(var: DesignVariable, value: float) -> float:
     return value
 
 
-def _panel(panel: PanelSpec, values: dict[str, tuple[str, float]],
+def _values(part: dict[str, tuple[DesignVariable, Any]]) -> dict[str, Any]:
+    """A part's fields, each value checked by its row."""
+    return {f: _checked(var, value) for f, (var, value) in part.items()}
+
+
+def _panel(panel: PanelSpec, values: dict[str, tuple[DesignVariable, Any]],
            design: Mapping[str, float]) -> PanelSpec:
-    """The panel part: the scaled fields, then the layers' own thicknesses ``h[k]``, then
-    the other fields."""
+    """The panel part: the scaled fields (checked by :func:`scaled_panel`), then the
+    layers' own thicknesses ``h[k]``, then the other fields."""
     scaled: dict[str, Any] = {f: values[f][1] for f in _SCALED if f in values}
     panel = scaled_panel(panel, **scaled)
     layer_changes = {int(m.group(1)): design[n] for n in design
@@ -298,20 +302,21 @@ def _panel(panel: PanelSpec, values: dict[str, tuple[str, float]],
             layers[k] = dataclasses.replace(layers[k], thickness=positive(f"h[{k}]", value,
                                                                             "m"))
         panel = dataclasses.replace(panel, layers=tuple(layers))
-    rest: dict[str, Any] = {f: v for f, (_, v) in values.items() if f not in _SCALED}
+    rest = _values({f: v for f, v in values.items() if f not in _SCALED})
     return dataclasses.replace(panel, **rest) if rest else panel
 
 
-def _flow(flow: FlowCondition, values: dict[str, tuple[str, float]]) -> FlowCondition:
+def _flow(flow: FlowCondition, values: dict[str, tuple[DesignVariable, Any]]
+          ) -> FlowCondition:
     """The flow part: an isentropic nozzle's stagnation state or a static state at the
     design's (or the template's) Mach number; unspecified values from the template."""
-    static = [values[f][0] for f in _STATIC if f in values]
-    stag = [values[f][0] for f in _STAGNATION if f in values]
+    static = [values[f][0].name for f in _STATIC if f in values]
+    stag = [values[f][0].name for f in _STAGNATION if f in values]
     if stag and static:
         raise InputError(f"design.{static[0]}", "cannot mix stagnation (p0, T0) and static "
                          "(p_inf, T_inf) flow variables")
-    mach = values["mach"][1] if "mach" in values else float(flow.mach)
-    get = {f: v for f, (_, v) in values.items()}
+    get = {f: float(v) for f, (_, v) in values.items()}
+    mach = get.get("mach", float(flow.mach))
     try:
         if static:
             return FlowCondition.from_static(mach, get.get("pressure", float(flow.pressure)),

@@ -64,7 +64,8 @@ def sweep_points(study: Study) -> list[SweepPoint]:
 
 def study_data(study: Study) -> dict[str, Any]:
     """The study as a plain dict that :func:`parse_study` accepts anywhere (the prototype
-    case path made absolute, a ``rom:`` fluid model as the study found it); stored in sweep
+    case path and a user's simulator file made absolute, a ``rom:`` fluid model as the
+    study found it); stored in sweep
     run directories to rebuild sub-studies."""
     data = study.raw.model_dump(mode="json", exclude_none=True)
     for name in CATEGORICAL:  # the template's default would clash with the variable
@@ -73,6 +74,8 @@ def study_data(study: Study) -> dict[str, Any]:
     base = Path(study.path).parent if study.path != "<memory>" else Path.cwd()
     data["prototype"]["case"] = str(resolve(data["prototype"]["case"], "case", base).resolve())
     data["simulation"]["aero"] = study.spec.prototype.simulation.aero  # a ROM as found
+    if study.spec.simulator is not None:  # a user's simulator file as found (absolute)
+        data["simulation"]["simulator"] = study.spec.simulator
     return data
 
 

@@ -17,8 +17,9 @@ returns the nondimensional histories J compares (Eqs. 6.4, 9.8), one value per t
 and, for the simulated admissibility checks (``[admissibility]``, Sec. "Models a tunnel
 can test"), what the structure went through: ``layer_temperature`` (each layer's
 ``[min, max]`` temperature over the run, K, bottom layer first; the temperature and data
-checks) and ``max_stress_ratio`` (the largest von Mises stress over the yield strength; the
-stress check). A check whose input the simulator does not return must be ``"off"``.
+checks) and ``max_stress_ratio`` with ``stress_at_ratio`` (the largest von Mises stress over
+the yield strength, and the von Mises stress there, Pa; the stress check). A check whose
+input the simulator does not return must be ``"off"`` (every response is checked).
 
 A design the simulator cannot simulate raises :class:`~hypate.scaling.workflow.objectives.
 ModelFailure` (a failed evaluation the engine learns to avoid), or returns fewer time
@@ -60,6 +61,8 @@ class SimulatedHistories:
         Each layer's ``[min, max]`` temperature over the run (K), bottom first.
     max_stress_ratio : float, optional
         Largest von Mises stress over the yield strength over the run.
+    stress_at_ratio : float, optional
+        The von Mises stress (Pa) where that ratio is reached (with ``max_stress_ratio``).
     message : str
         A note stored with the evaluation (e.g. the code's version).
     """
@@ -68,6 +71,7 @@ class SimulatedHistories:
     temperature: Sequence[float]
     layer_temperature: Sequence[Sequence[float]] | None = None
     max_stress_ratio: float | None = None
+    stress_at_ratio: float | None = None
     message: str = ""
 
 
@@ -118,10 +122,10 @@ def external_response(histories: SimulatedHistories, config: Configuration,
             raise InputError(field, f"layer_temperature must be [min, max] K of each of the "
                              f"{len(panel.layers)} layers; got shape {layers.shape}")
         resp.layer_temperature.append(layers)
-    if histories.max_stress_ratio is not None:
+    if histories.max_stress_ratio is not None and histories.stress_at_ratio is not None:
         resp.max_stress_ratio.append(float(histories.max_stress_ratio))
         resp.stress_ratio_location.append(np.full(3, np.nan))
-        resp.stress_at_ratio.append(float("nan"))
+        resp.stress_at_ratio.append(float(histories.stress_at_ratio))
     complete = u.size == n
     resp.finish("completed" if complete else "unstable", histories.message,
                 None if complete else ((u.size - 1) * dt, "instability"))
@@ -132,12 +136,15 @@ def check_checks(histories: SimulatedHistories, modes: dict[str, str],
                  field: str = "simulation.simulator") -> None:
     """The simulated admissibility checks that are on (``modes``: check -> mode) need the
     simulator's extremes (module docstring); :class:`InputError` naming the first that
-    lacks its input."""
+    lacks its input (checked on every response: a simulator that stops returning them is
+    a broken protocol, not a design that passes)."""
+    stress = None if histories.stress_at_ratio is None else histories.max_stress_ratio
     needs = {"temperature": histories.layer_temperature, "data": histories.layer_temperature,
-             "stress": histories.max_stress_ratio}
+             "stress": stress}
     for check, given in needs.items():
         if modes.get(check, "off") != "off" and given is None:
-            what = "max_stress_ratio" if check == "stress" else "layer_temperature"
+            what = ("max_stress_ratio and stress_at_ratio" if check == "stress"
+                    else "layer_temperature")
             raise InputError(f"admissibility.{check}", f"the simulator returns no {what}; "
                              f"return it, or set {check} = \"off\"")
 

@@ -430,7 +430,7 @@ class ScalingProblem(Problem):
         """The prototype's response (simulated once, then cached)."""
         if self._prototype_response is None:
             resp = self.simulate(self.spec.prototype,
-                                 keep_fields=self.spec.projection == "fields", prototype=True)
+                                 keep_fields=self.spec.projection == "fields")
             if resp.status == "failed":
                 raise InputError("prototype", f"the prototype simulation failed: {resp.message}")
             self._prototype_response = resp
@@ -486,18 +486,16 @@ class ScalingProblem(Problem):
         config = self.model_configuration(x)
         return config, self.simulate(config, keep_fields=keep_fields)
 
-    def simulate(self, config: Configuration, keep_fields: bool = False,
-                 prototype: bool = False) -> Response:
+    def simulate(self, config: Configuration, keep_fields: bool = False) -> Response:
         """One configuration's response from the study's simulator: hypate's
         (:func:`simulate_configuration`) or the user's (``spec.simulator``,
-        :mod:`hypate.scaling.workflow.external`; the prototype's histories are checked
-        against the admissibility checks they must feed)."""
+        :mod:`hypate.scaling.workflow.external`; every response checked to carry what the
+        admissibility checks that are on need)."""
         if self.spec.simulator is None:
             return simulate_configuration(config, keep_fields=keep_fields)
         histories = load_simulator(self.spec.simulator)(config)
-        resp = external_response(histories, config)
-        if prototype:
-            check_checks(histories, {r.name: r.mode for r in self.spec.admissibility.rules})
+        resp = external_response(histories, config)  # refuses what is not the protocol's
+        check_checks(histories, {r.name: r.mode for r in self.spec.admissibility.rules})
         return resp
 
     def errors(self, x: DesignVector) -> dict[str, float]:

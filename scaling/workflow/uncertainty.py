@@ -182,6 +182,9 @@ def parse_uncertainty(entries: dict[str, UncertainEntry], robust: RobustSection,
             raise InputError(f"uncertainty.{name}", "not a design value of the study; known: "
                              + ", ".join(dict.fromkeys([*design, *nominal]))
                              + ", " + ", ".join(MODEL_PREFIX + k for k in MATERIAL_FACTORS))
+        elif name not in design and nominal.get(name) == 0.0:  # e.g. no external pressure
+            raise InputError(f"uncertainty.{name}", "the model's value is 0: a factor on it "
+                             "scatters nothing; give it a value ([fixed]) or leave it out")
         inputs.append(entry.uncertain(name))
     unc = Uncertainty(tuple(inputs), robust.statistic, robust.order, robust.samples,
                       robust.optimize, robust.initial_samples, robust.iterations)

@@ -26,4 +26,5 @@ def simulate(configuration: Configuration) -> SimulatedHistories:
         temperature=(np.asarray(response.mean_temperature)
                      / configuration.flow.stagnation_temperature),
         layer_temperature=extremes["layer_temperature"],   # the temperature and data checks
-        max_stress_ratio=extremes["max_stress_ratio"])     # the stress check
+        max_stress_ratio=extremes["max_stress_ratio"],     # the stress check
+        stress_at_ratio=extremes["stress_at_ratio"])

@@ -31,7 +31,8 @@ def thick_only(configuration):
     return SimulatedHistories(
         deflection=np.asarray(r.center_deflection) / configuration.panel.thickness,
         temperature=np.asarray(r.mean_temperature) / configuration.flow.stagnation_temperature,
-        layer_temperature=ext["layer_temperature"], max_stress_ratio=ext["max_stress_ratio"])
+        layer_temperature=ext["layer_temperature"], max_stress_ratio=ext["max_stress_ratio"],
+        stress_at_ratio=ext["stress_at_ratio"])
 
 def histories_only(configuration):
     r = simulate_configuration(configuration)
@@ -160,3 +161,34 @@ def test_an_edited_simulator_file_is_another_campaign(tmp_path: Path):
     (tmp_path / "sims.py").write_text(SIMULATORS + "\n# edited\n")
     changes = changed_keys(before, campaign_identity(study, 0))
     assert [c.split()[0] for c in changes] == ["files.simulator_sha256"]
+
+
+def test_the_stress_check_reads_the_simulators_stress(tmp_path: Path):
+    # a stress check in "constraint" mode: the column is the relative violation of
+    # yield / safety factor at the simulator's point of the largest ratio, ratio x SF - 1
+    # (von Mises 300 MPa at 1.5 x yield), not a silent 0
+    from hypate.scaling.workflow.admissibility import simulated_columns
+
+    study = _study(tmp_path, "thick_only", sections='[admissibility]\nstress = "constraint"\n')
+    problem = ScalingProblem(study.spec)
+    config = problem.model_configuration(np.array([6.0, 3.0e7, 1200.0, 0.005]))
+    n = config.simulation.n_steps + 1
+    hist = SimulatedHistories(np.zeros(n), np.ones(n), layer_temperature=[[300.0, 400.0]],
+                              max_stress_ratio=1.5, stress_at_ratio=3.0e8)
+    G = simulated_columns(problem.admissibility, config.panel,
+                          external_response(hist, config).extremes())
+    assert problem.admissibility.simulated_constraints[-1] == "stress"
+    sf = problem.admissibility.rule("stress").safety_factor
+    assert G[-1] == pytest.approx(1.5 * sf - 1.0, rel=1e-12) and G[-1] > 0.0
+
+
+def test_a_sweep_point_finds_a_relative_simulator_from_anywhere(tmp_path: Path,
+                                                               monkeypatch: pytest.MonkeyPatch):
+    # the sweep's stored study (study_data) keeps the simulator file absolute, so a
+    # sub-study is rebuilt from any working directory (hypate laws, sweeps)
+    from hypate.scaling.workflow.derived import study_at, study_data
+
+    study = load_study(EXAMPLE)
+    monkeypatch.chdir(tmp_path)
+    again = study_at(study_data(study), xi=2.0)
+    assert again.spec.simulator == study.spec.simulator

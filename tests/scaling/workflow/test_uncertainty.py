@@ -60,6 +60,7 @@ def test_shipped_robust_study_keys():
     ('p0 = { normal = 0.4 }', "uncertainty.p0", r"(0, 0.2]"),
     ('p0 = { normal = 0.1, uniform = 0.1 }', "uncertainty.p0", "exactly one"),
     ('L_xx = { normal = 0.1 }', "uncertainty.L_xx", "not a design value"),
+    ('p_ext = { normal = 0.1 }', "uncertainty.p_ext", "scatters nothing"),
     ('"model.poisson" = { normal = 0.1 }', "uncertainty.model.poisson", "unknown material"),
 ])
 def test_bad_uncertainty_entries_name_the_key(tmp_path, entry, field, message):

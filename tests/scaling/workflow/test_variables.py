@@ -56,3 +56,17 @@ def test_the_laws_exponents_are_the_rows():
                                     if v.exponent is not None}
     assert {n for n, k in ANALYTICAL_EXPONENTS.items() if k == -1.0} == {"L", "L_le", "h"}
     assert set(ANALYTICAL_EXPONENTS) == set(VALUES) - {"q_ext"}
+
+
+def test_the_first_bad_value_is_reported_as_before_the_rows():
+    # the parts check their values as they are composed, in the former if-chain's order:
+    # panel (scaled sizes, layer thicknesses, then the rest), flow, temperatures, loads
+    template = _template()
+    for design, field in (({"h": -1.0, "T_rad": -5.0}, "design.h"),
+                          ({"h[0]": -1.0, "emissivity": 2.0}, "design.h[0]"),
+                          ({"p0": 1e5, "p_inf": 1e3, "delta_T": -1.0}, "design.p_inf")):
+        with pytest.raises(InputError) as err:
+            apply_design(template, design)
+        assert err.value.field == field, design
+    # a size given as None is not set (as scaled_panel takes it)
+    assert apply_design(template, {"L": None, "h": None}) == apply_design(template, {})
