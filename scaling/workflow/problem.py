@@ -149,8 +149,7 @@ class ScalingSpec:
     admissibility : Admissibility
         The study's admissibility checks (``[admissibility]``).
     simulator : str or None
-        The user's own simulator (:mod:`hypate.scaling.workflow.external`, by its import
-        name); None: hypate's (:func:`simulate_configuration`).
+        The user's own simulator by name (:mod:`~hypate.scaling.workflow.external`); None: hypate's.
     """
 
     prototype: Configuration
@@ -487,10 +486,8 @@ class ScalingProblem(Problem):
         return config, self.simulate(config, keep_fields=keep_fields)
 
     def simulate(self, config: Configuration, keep_fields: bool = False) -> Response:
-        """One configuration's response from the study's simulator: hypate's
-        (:func:`simulate_configuration`) or the user's (``spec.simulator``,
-        :mod:`hypate.scaling.workflow.external`; every response checked to carry what the
-        admissibility checks that are on need)."""
+        """One configuration's response: hypate's simulator or the user's (``spec.simulator``,
+        :mod:`~hypate.scaling.workflow.external`: checked to feed the checks that are on)."""
         if self.spec.simulator is None:
             return simulate_configuration(config, keep_fields=keep_fields)
         histories = load_simulator(self.spec.simulator)(config)
