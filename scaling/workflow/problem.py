@@ -30,9 +30,9 @@ the free jet's core, test duration against the run time) further cheap inequalit
 evaluation also returns, as its auxiliary outputs (``aux``), what the model went through
 (:meth:`Response.extremes`), from which its admissibility rows are rebuilt.
 
-Size: about 690 lines: :class:`ScalingProblem` is one pymoo problem (the design vector's
+Size: about 700 lines: :class:`ScalingProblem` is one pymoo problem (the design vector's
 mapping, one evaluation, the cheap constraints and the admissibility rows read one spec);
-the objectives, the configuration and its simulation already live in their own modules.
+the objectives, configuration, simulation and user's simulator have their own modules.
 """
 from __future__ import annotations
 

@@ -224,6 +224,7 @@ def scattered_configuration(problem: ScalingProblem, x: np.ndarray | Sequence[fl
     by ``factors``, run on the nominal design's time step (the planned time mapping)."""
     nominal = problem.model_configuration(x)
     design = problem.design(x)
+    template = nominal_values(nominal)  # read back once, not per scattered input
     changed: dict[str, float] = {}
     props: dict[str, float] = {}
     for name, f in zip(names, map(float, factors)):
@@ -232,8 +233,7 @@ def scattered_configuration(problem: ScalingProblem, x: np.ndarray | Sequence[fl
         elif name not in design and (points := schedule_points(name, design)):
             changed.update({p: design[p] * f for p in points})  # the whole schedule
         else:
-            changed[name] = (design[name] if name in design
-                             else nominal_values(nominal)[name]) * f
+            changed[name] = (design[name] if name in design else template[name]) * f
     config = problem.configure({**design, **changed})
     config = config.with_time_step(nominal.simulation.time_step)
     if props:
