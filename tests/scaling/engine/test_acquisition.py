@@ -219,7 +219,7 @@ class _Line:
 def test_registry_builds_every_named_acquisition_from_a_context():
     assert SINGLE_OBJECTIVE_ACQUISITIONS == ("lcb", "ei", "poi")
     assert MULTI_OBJECTIVE_ACQUISITIONS == ("hvlcb", "hvei", "hvpoi", "ws", "cheb", "wm", "mmei",
-                                            "mmlcb")
+                                            "mmlcb", "mmlogei")
     X = np.array([[0.2, 0.5], [0.7, 0.1]])
     for name, cls in ACQUISITIONS.items():
         m = 2 if cls.multi_objective else 1

@@ -160,7 +160,7 @@ def test_success_model_is_calibrated_on_held_out_evaluations() -> None:
 
 
 # -- the design-point (min-max) acquisitions -------------------------------------------------
-@pytest.mark.parametrize("name", ["mmei", "mmlcb"])
+@pytest.mark.parametrize("name", ["mmei", "mmlcb", "mmlogei"])
 @pytest.mark.parametrize("joint", [True, False])
 def test_min_max_acquisitions_and_their_gradients(name: str, joint: bool) -> None:
     """Both on the joint samples of a histories model and on independent normal samples of
@@ -171,7 +171,8 @@ def test_min_max_acquisitions_and_their_gradients(name: str, joint: bool) -> Non
     m = _model()
     model = m if joint else fit_surrogate(m.X, m.composition(_histories(m.X)), BOUNDS, rng=0)
     cls = ACQUISITIONS[name]
-    acq = cls(model, 0.05, rng=0) if name == "mmei" else cls(model, 1.0, rng=0)
+    acq = (cls(model, 0.05, rng=0) if name == "mmei" else cls(model, 1.0, rng=0)
+           if name == "mmlcb" else cls(model, 0.05, 1e-3, rng=0))
     X = np.array([[0.23, 0.81], [0.45, 1.25], [0.7, 1.9]])
     val, grad = acq.value_and_gradient(X)
     for k, x in enumerate(X):
@@ -184,6 +185,40 @@ def test_min_max_acquisitions_and_their_gradients(name: str, joint: bool) -> Non
         Y = (model.sample_with_gradients(X)[0] if joint else None)
         if Y is not None:
             np.testing.assert_allclose(best, 10.0 - Y.max(axis=2).mean(axis=1), rtol=1e-12)
+
+
+def test_min_max_log_ei_is_log_ei_where_it_improves_and_smooth_where_it_does_not() -> None:
+    """mmlogei = log(mean_s softplus_tau(b - c_s)) (c_s = max_j J_j of sample s): its
+    gradient matches finite differences near and far from any improvement; with a bar every
+    sample beats by >> tau it is log(b - E[c]) (the EI's log); with a bar no sample reaches
+    it is log tau + max_s (b - c_s) / tau (finite, where the EI is exactly 0), to 1e-9."""
+    from hypate.scaling.engine.acquisition import MinMaxEI, MinMaxLogEI
+
+    m = _model()
+    X = np.array([[0.23, 0.81], [0.45, 1.25], [0.7, 1.9]])
+    c = m.sample_with_gradients(X)[0].max(axis=2)  # (N, S)
+    tau = 1e-3
+    for b in (0.05, float(c.min()) - 0.01, float(c.max()) + 10.0):
+        acq = MinMaxLogEI(m, b, tau, rng=0)
+        val, grad = acq.value_and_gradient(X)
+        for k, x in enumerate(X):
+            fd, bound = richardson_jacobian(lambda z: acq(z[None]), x, 1e-5)  # noqa: B023
+            assert_matches_richardson(grad[k], fd[0], bound[0], f"mmlogei b={b} at {x}",
+                                      safety=8.0)
+        z = (b - c) / tau
+        with np.errstate(divide="ignore"):
+            direct = np.log(np.mean(tau * np.logaddexp(0.0, z), axis=1))
+        finite = np.isfinite(direct)
+        np.testing.assert_allclose(val[finite], direct[finite], rtol=1e-9)
+    generous = MinMaxLogEI(m, float(c.max()) + 10.0, tau, rng=0)(X)
+    np.testing.assert_allclose(generous, np.log(MinMaxEI(m, float(c.max()) + 10.0, rng=0)(X)),
+                               rtol=1e-9)
+    b = float(c.min()) - 5.0  # no sample improves: the EI is 0 everywhere
+    assert np.all(MinMaxEI(m, b, rng=0)(X) == 0.0)
+    np.testing.assert_allclose(MinMaxLogEI(m, b, tau, rng=0)(X),
+                               np.log(tau) + (b - c).max(axis=1) / tau
+                               + np.log(np.sum(np.exp((c.min(axis=1, keepdims=True) - c) / tau),
+                                               axis=1) / c.shape[1]), rtol=1e-9)
 
 
 # -- the stopping rule -----------------------------------------------------------------------
