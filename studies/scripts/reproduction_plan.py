@@ -20,8 +20,18 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from hypate.scaling.workflow.rundir import SWEEP_CSV
 from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.rundir import SWEEP_CSV
+from hypate.scaling.workflow.whatif import evaluate_whatif
+from hypate.studies.scripts import (
+    ch7_benchmark,
+    ch7_flutter,
+    ch7_table7_3_modes,
+    ch7_time_accuracy,
+    ch8_effects,
+    ch9_table9_3,
+    ch9_tables,
+)
 from hypate.studies.scripts.ch9_runs import (
     EQ_9_2_VARIABLES,
     TUNNELS_9_2_3,
@@ -40,15 +50,6 @@ from hypate.studies.scripts.ch9_runs import (
     runs_root,
     xis_9_1,
     xis_9_2_2,
-)
-from hypate.studies.scripts import (
-    ch7_benchmark,
-    ch7_flutter,
-    ch7_table7_3_modes,
-    ch7_time_accuracy,
-    ch8_effects,
-    ch9_table9_3,
-    ch9_tables,
 )
 from hypate.studies.scripts.comparison import (
     Approx,
@@ -275,6 +276,41 @@ def _sec9_2_2(ctx: Context) -> pd.DataFrame:
     return side_by_side_seeds(rows_by_seed, rtol=ch9_tables.RTOL)
 
 
+#: The two fluid models of the Sec. 9.2.2 xi = 4 study: pt-bl with Eckert heating (the
+#: shipped study) and the CFD ROM of OpenFOAM snapshots (its ``_cfd`` variant, issue 44).
+FLUID_STUDIES_9_2_2 = (("pt-bl + Eckert", "sec9_2_2_xi4"), ("CFD ROM", "sec9_2_2_xi4_cfd"))
+
+
+def _sec9_2_2_fluids(ctx: Context) -> pd.DataFrame:
+    """Table 9.8's xi = 4 design evaluated with both fluid models, side by side (one
+    ``hypate whatif`` each at full resolution; not run with ``--quick``)."""
+    design = ch9_tables.published_design("9.8", "xi4")
+    bound = Bound("<", 10.0, "< 10 % (Sec. 9.2.2, with the dissertation's CFD ROM)")
+    rows: list[tuple] = []
+    J: dict[str, dict[str, float]] = {}
+    for label, name in FLUID_STUDIES_9_2_2:
+        quantity = f"Table 9.8 xi4 design, {label}"
+        if ctx.quick:
+            rows += [(f"{quantity}: {o} (%)",
+                      NotCompared(bound, "not run with --quick (full resolution, minutes)"),
+                      None) for o in ("J_u", "J_T")]
+            continue
+        res = evaluate_whatif(Optimization(name).study(), design)
+        obj = res["objectives"] or {}
+        J[label] = {o: 100.0 * obj[o] for o in ("J_u", "J_T") if obj.get(o) is not None}
+        rows += [(f"{quantity}: {o} (%)", bound, J[label].get(o),
+                  ch9_tables.FINDING_ADMISSIBILITY) for o in ("J_u", "J_T")]
+        rows.append((f"{quantity}: model's peak temperature (K)", None,
+                     ((res.get("responses") or {}).get("model") or {}).get("max_wall_temperature"),
+                     res["status"]))
+    (a, _), (b, _) = FLUID_STUDIES_9_2_2
+    for o in ("J_u", "J_T"):
+        if o in J.get(a, {}) and o in J.get(b, {}):
+            rows.append((f"Table 9.8 xi4 design: {o}, {b} minus {a} (points)", None,
+                         J[b][o] - J[a][o], "the fluid model's share of the error"))
+    return side_by_side_seeds([rows], rtol=ch9_tables.RTOL)
+
+
 def _sec9_2_3(ctx: Context) -> pd.DataFrame:
     """Fig. 9.13 / Tables 9.9-9.10: Case 2 (radiant heater) against Case 1 in WT5-WT7."""
     published = {} if ctx.quick else {
@@ -343,6 +379,8 @@ def plan() -> list[Item]:
              "(Poisson's ratio)", _sec9_1_optimum),
         Item("sec9_2_2", "Ch. 9", "Sec. 9.2.2 / Table 9.8: the ideal tunnel", _sec9_2_2,
              seeded=True, studies=names_9_2_2),
+        Item("sec9_2_2_fluids", "Ch. 9", "Sec. 9.2.2: Table 9.8's xi = 4 design with both "
+             "fluid models (pt-bl + Eckert, CFD ROM)", _sec9_2_2_fluids),
         Item("sec9_2_3", "Ch. 9", "Sec. 9.2.3 / Fig. 9.13: realistic tunnels, Case 2 against "
              "Case 1", _sec9_2_3, seeded=True, studies=names_9_2_3),
         Item("sec9_2_4", "Ch. 9", "Sec. 9.2.4 / Table 9.11: errors over the flight envelope",
