@@ -10,7 +10,9 @@ The documented Python API:
 - :func:`load_study` -- read and validate a study file (TOML) into a :class:`Study`;
 - :func:`run_study` -- run it into a run directory (Bayesian optimization, crash-safe store,
   ``evaluations.csv``, ``design_point.json``, ``report.html``), as ``hypate run`` does;
-- :class:`BayesianOptimizer` -- the engine on any pymoo ``Problem``;
+- :class:`BayesianOptimizer` -- the engine on any pymoo ``Problem``, with its
+  :class:`OptimizerSettings` (the algorithm) and :class:`RunContext` (executor, store,
+  callback, time limit);
 - :func:`minimize` -- the engine on a plain Python function (or a pymoo problem), with
   expensive and cheap constraints and a scipy-style result;
 - :class:`Optimizer` -- the engine driven from outside: ``ask`` for designs, ``tell`` their
@@ -34,6 +36,8 @@ if TYPE_CHECKING:  # what the names are, for type checkers and readers
         CheapConstraint,
         ModelFailure,
         Optimizer,
+        OptimizerSettings,
+        RunContext,
         RunOutcome,
         SimulatedHistories,
         Study,
@@ -42,8 +46,9 @@ if TYPE_CHECKING:  # what the names are, for type checkers and readers
         run_study,
     )
 
-__all__ = ["BayesianOptimizer", "CheapConstraint", "ModelFailure", "Optimizer", "RunOutcome",
-           "SimulatedHistories", "Study", "load_study", "minimize", "run_study"]
+__all__ = ["BayesianOptimizer", "CheapConstraint", "ModelFailure", "Optimizer",
+           "OptimizerSettings", "RunContext", "RunOutcome", "SimulatedHistories", "Study",
+           "load_study", "minimize", "run_study"]
 
 
 def __getattr__(name: str) -> Any:

@@ -20,6 +20,7 @@ from hypate.scaling.engine.functional import (
 from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.problem import CheapConstraint
 from hypate.scaling.engine.result import OptimizationResult
+from hypate.scaling.engine.settings import OptimizerSettings, RunContext
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.report.html import write_report_safely
 from hypate.scaling.workflow.execute import Outcome, execute
@@ -30,8 +31,9 @@ from hypate.scaling.workflow.study import Study, load_study
 from pymoo.core.problem import Problem
 from scipy.optimize import OptimizeResult
 
-__all__ = ["BayesianOptimizer", "CheapConstraint", "ModelFailure", "Optimizer", "RunOutcome",
-           "SimulatedHistories", "Study", "load_study", "minimize", "run_study"]
+__all__ = ["BayesianOptimizer", "CheapConstraint", "ModelFailure", "Optimizer",
+           "OptimizerSettings", "RunContext", "RunOutcome", "SimulatedHistories", "Study",
+           "load_study", "minimize", "run_study"]
 
 
 def run_study(study: Study, out: str | Path | None = None, *,

@@ -38,7 +38,7 @@ from hypate.scaling.engine.functional import Budget, check_bounds, plan_budget
 from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.problem import STATUS_OK
 from hypate.scaling.engine.result import OptimizationResult
-from hypate.scaling.engine.settings import OptimizerSettings
+from hypate.scaling.engine.settings import OptimizerSettings, RunContext
 from hypate.scaling.engine.store import Evaluation, EvaluationStore, evaluations_to_dataframe
 from hypate.solvers.numerics.threads import blas_threads
 from pymoo.core.problem import Problem
@@ -121,7 +121,8 @@ class AskTellOptimizer:
         Their names (default ``f0, ...`` and ``g0, ...``).
     **settings
         Further fields of :class:`~hypate.scaling.engine.settings.OptimizerSettings`
-        (``v``, ``p_feasible``, ``kernel``, ...), except those the loop decides
+        (``v``, ``p_feasible``, ``kernel``, ...) and ``blas_threads`` of
+        :class:`~hypate.scaling.engine.settings.RunContext`, except those the loop decides
         (:data:`OWNED_SETTINGS`).
 
     Raises
@@ -172,6 +173,9 @@ class AskTellOptimizer:
         self.objective_names = self._names("objective_names", objective_names, "f", m)
         self.constraint_names = self._names("constraint_names", constraint_names, "g", k)
         self.problem = _ToldProblem(b, m, k)
+        where = {k: settings.pop(k) for k in list(settings) if k in RunContext.names()}
+        #: The proposals' BLAS threads (the loop's only run context: the caller evaluates).
+        self.context = RunContext(**where)
         self.settings = OptimizerSettings(
             acquisition=plan.acquisition, n_init=plan.n_init, n_iter=plan.n_iter,
             seed=self.seed, cheap_constraints=sorted_.cheap, **settings)
@@ -242,7 +246,7 @@ class AskTellOptimizer:
         t = int(ask["iteration"])
         if t not in self._proposals:
             engine = self._engine(bool(ask["exploit"]), int(ask["size"]))
-            with blas_threads(self.settings.blas_threads):
+            with blas_threads(self.context.blas_threads):
                 self._proposals[t] = engine.propose(self._records[: int(ask["records"])], t)
         return self._proposals[t]
 

@@ -44,7 +44,7 @@ from hypate.scaling.engine.inner import optimize_acquisition
 from hypate.scaling.engine.multifidelity import MultiFidelityKriging, MultiFidelityModel
 from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.problem import project_designs
-from hypate.scaling.engine.settings import OptimizerSettings, SettingError
+from hypate.scaling.engine.settings import OptimizerSettings, RunContext, SettingError
 from hypate.scaling.engine.store import Evaluation
 from hypate.solvers.numerics.random import latin_hypercube
 
@@ -63,15 +63,18 @@ class MultiFidelityOptimizer(BayesianOptimizer):
     settings : OptimizerSettings
         ``n_init``: top-level initial designs; ``batch_size`` proposals per iteration (the
         believer's batch); no polish, no surrogate coordinates.
+    context : RunContext or None
+        As for :class:`~hypate.scaling.engine.optimizer.BayesianOptimizer`.
     costs : sequence of float
         Cost of one simulation of each level (cheapest first; any common unit).
     low_samples : sequence of int
         Extra initial designs of each lower level (``s - 1`` numbers).
     """
 
-    def __init__(self, problem: Any, settings: OptimizerSettings, *, costs: Sequence[float],
+    def __init__(self, problem: Any, settings: OptimizerSettings,
+                 context: RunContext | None = None, *, costs: Sequence[float],
                  low_samples: Sequence[int]) -> None:
-        super().__init__(problem, settings)
+        super().__init__(problem, settings, context)
         self.n_levels = len(costs)
         if self.n_levels < 2:
             raise SettingError("costs", "one positive number per fidelity level (at least 2)",

@@ -33,7 +33,9 @@ With an executor, steps 1 and 2 borrow its workers: the columns' likelihood opti
 and the SLSQP starts are spread over this process and the pool
 (:class:`hypate.scaling.engine.sharing.WorkerMap`), with the serial results bit for bit.
 
-The options are one frozen :class:`hypate.scaling.engine.settings.OptimizerSettings`; the
+The options are two frozen objects: the algorithm's
+:class:`hypate.scaling.engine.settings.OptimizerSettings` and the run's
+:class:`~hypate.scaling.engine.settings.RunContext` (executor, store, callback); the
 acquisition is built by name from :data:`hypate.scaling.engine.acquisition.ACQUISITIONS`;
 evaluations are :class:`hypate.scaling.engine.problem.Outcome` records committed as
 :class:`hypate.scaling.engine.store.Evaluation` rows.
@@ -92,7 +94,7 @@ from hypate.scaling.engine.problem import (
     scipy_constraints,
 )
 from hypate.scaling.engine.result import OptimizationResult
-from hypate.scaling.engine.settings import OptimizerSettings, SettingError
+from hypate.scaling.engine.settings import OptimizerSettings, RunContext, SettingError
 from hypate.scaling.engine.sharing import WorkerMap
 from hypate.scaling.engine.stopping import Stopping, check
 from hypate.scaling.engine.store import (
@@ -123,27 +125,32 @@ class BayesianOptimizer:
         Objectives minimized, constraints ``G <= 0`` (equalities ``H`` become
         ``|H| - eq_tol <= 0``); finite bounds ``xl``, ``xu``.
     settings : OptimizerSettings or None
-        Every option (``None``: the defaults).
+        The algorithm's options (``None``: the defaults).
+    context : RunContext or None
+        Where the evaluations run and go: executor, time limit, store, callback, BLAS
+        threads (``None``: in-process, in memory).
     **overrides
-        Fields of :class:`OptimizerSettings` replacing those of ``settings``
-        (``BayesianOptimizer(problem, n_init=8, seed=3)``).
+        Fields of :class:`OptimizerSettings` or :class:`RunContext` replacing those of
+        ``settings`` / ``context`` (``BayesianOptimizer(problem, n_init=8, store="r.sqlite")``).
 
     Raises
     ------
     SettingError
         A setting outside its range, or one that does not fit the problem.
     TypeError
-        An override that is not a field of :class:`OptimizerSettings`.
+        An override that is a field of neither.
     """
 
     def __init__(self, problem: Any, settings: OptimizerSettings | None = None,
-                 **overrides: Any) -> None:
-        unknown = sorted(set(overrides) - set(OptimizerSettings.names()))
-        if unknown:
+                 context: RunContext | None = None, **overrides: Any) -> None:
+        own, where = set(OptimizerSettings.names()), set(RunContext.names())
+        if unknown := sorted(set(overrides) - own - where):
             raise TypeError(f"unknown optimizer setting(s) {unknown}: the settings are the "
-                            "fields of OptimizerSettings")
-        base = OptimizerSettings() if settings is None else settings
-        self.settings = dataclasses.replace(base, **overrides) if overrides else base
+                            "fields of OptimizerSettings and RunContext")
+        self.settings = dataclasses.replace(settings or OptimizerSettings(),
+                                            **{k: v for k, v in overrides.items() if k in own})
+        self.context = dataclasses.replace(context or RunContext(),
+                                           **{k: v for k, v in overrides.items() if k in where})
         self.problem = problem
         self.n_var = int(problem.n_var)
         self.n_obj = int(problem.n_obj)
@@ -270,8 +277,8 @@ class BayesianOptimizer:
     def worker_map(self) -> WorkerMap | None:
         """The run's executor lent to the proposal's independent pieces (None: in-process,
         ``--workers 1``)."""
-        ex = self.settings.executor
-        return None if ex is None else WorkerMap(ex, blas=self.settings.blas_threads)
+        ex = self.context.executor
+        return None if ex is None else WorkerMap(ex, blas=self.context.blas_threads)
 
     def resolution(self, model: Any) -> Resolution | None:
         """The objective surrogates' metric (:func:`~hypate.scaling.engine.inner.
@@ -565,13 +572,13 @@ class BayesianOptimizer:
             is stored for the unfinished designs, so that a resumed run evaluates exactly
             those and ends with the campaign of an uninterrupted one.
         """
-        timeout = self.settings.timeout
+        timeout = self.context.timeout
         calls = [(self.problem, x, timeout) for x in X]
 
         def failure(message: str, seconds: float) -> Outcome:
             return Outcome.failure(self.n_obj, self.n_constr, "error", message, seconds)
 
-        for k, outcome in run_batch(self.settings.executor, evaluate_design, calls,
+        for k, outcome in run_batch(self.context.executor, evaluate_design, calls,
                                     on_failure=failure):
             self._record(X[k], outcome, iteration, indices[k], store, records)
 
@@ -582,12 +589,12 @@ class BayesianOptimizer:
                                      seed=self.settings.seed)
         store.append(ev)
         records.append(ev)
-        if self.settings.callback is not None:
-            self.settings.callback(ev)
+        if self.context.callback is not None:
+            self.context.callback(ev)
 
     # ------------------------------------------------------------------ run
     def _open_store(self) -> tuple[EvaluationStore, bool]:
-        store = self.settings.store
+        store = self.context.store
         if isinstance(store, EvaluationStore):
             return store, False
         return EvaluationStore(":memory:" if store is None else store), True
@@ -638,7 +645,7 @@ class BayesianOptimizer:
         try:
             return self._run(store)
         finally:
-            if owned and self.settings.store is not None:
+            if owned and self.context.store is not None:
                 store.close()
 
     def _run(self, store: EvaluationStore) -> OptimizationResult:
@@ -653,7 +660,7 @@ class BayesianOptimizer:
         X0 = self.initial_design()
         todo = [i for i in range(len(X0)) if (0, i) not in done]
         todo = todo[: max(0, self._budget_left(records))]
-        if todo and self.settings.executor is not None:
+        if todo and self.context.executor is not None:
             with ThreadPoolExecutor(1) as here:
                 # the inner optimization's start design is built once per process (about
                 # 0.5 s): here, while the workers evaluate the initial design, instead of
@@ -669,7 +676,7 @@ class BayesianOptimizer:
                 break
             t0 = time.perf_counter()
             prior = [r for r in records if r.iteration < t]
-            with blas_threads(self.settings.blas_threads):
+            with blas_threads(self.context.blas_threads):
                 Xb = self.propose(prior, t)
             overhead.append(time.perf_counter() - t0)
             if not len(Xb):  # the stopping rule held (iterations = "auto")

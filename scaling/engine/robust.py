@@ -40,7 +40,7 @@ from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.pareto import non_dominated_mask
 from hypate.scaling.engine.problem import project_designs
 from hypate.scaling.engine.propagation import ROBUST_STATISTICS
-from hypate.scaling.engine.settings import OptimizerSettings, SettingError
+from hypate.scaling.engine.settings import OptimizerSettings, RunContext, SettingError
 from hypate.scaling.engine.store import Evaluation
 from hypate.scaling.engine.surrogate import ProbabilisticConstraint
 from hypate.solvers.numerics.random import latin_hypercube
@@ -164,6 +164,8 @@ class RobustBayesianOptimizer(BayesianOptimizer):
         As for :class:`~hypate.scaling.engine.optimizer.BayesianOptimizer`; the cheap
         constraints act on ``x``; ``coordinates`` (if any) on ``(x, xi)``; one proposal per
         iteration and no polish.
+    context : RunContext or None
+        As for :class:`~hypate.scaling.engine.optimizer.BayesianOptimizer`.
     n_design : int
     samples : ndarray of shape (m, n_inputs)
         The inputs' distribution as equally weighted samples (the statistic's quadrature).
@@ -174,10 +176,11 @@ class RobustBayesianOptimizer(BayesianOptimizer):
         Evaluations of ``(x, xi)`` made before the run (fitted, not stored, not counted).
     """
 
-    def __init__(self, problem: Any, settings: OptimizerSettings, *, n_design: int,
+    def __init__(self, problem: Any, settings: OptimizerSettings,
+                 context: RunContext | None = None, *, n_design: int,
                  samples: np.ndarray, statistic: str, candidates: np.ndarray | None = None,
                  prior: Sequence[Evaluation] = ()) -> None:
-        super().__init__(problem, settings)
+        super().__init__(problem, settings, context)
         n_inputs = self.n_var - int(n_design)
         if not 0 < int(n_design) < self.n_var:
             raise SettingError("n_design", f"between 1 and {self.n_var - 1} (the variables "

@@ -1,7 +1,10 @@
-"""The optimizer's settings: one frozen, validated object (:class:`OptimizerSettings`).
+"""The optimizer's settings, in two frozen, validated objects: the algorithm
+(:class:`OptimizerSettings`: what it proposes, from what) and the run's context
+(:class:`RunContext`: where the evaluations run and go -- executor, time limit, store,
+callback, BLAS threads -- none of which changes a proposal).
 
-Every option of :class:`hypate.scaling.engine.optimizer.BayesianOptimizer` is a field here,
-with its default and its allowed range; a bad value fails at construction with a
+Every option of :class:`hypate.scaling.engine.optimizer.BayesianOptimizer` is a field of one
+of them, with its default and its allowed range; a bad value fails at construction with a
 :class:`SettingError` naming the field and the range. What depends on the problem (the
 acquisition fitting the number of objectives, lengths of ``weights`` and ``ref_point``,
 positive bounds for log coordinates) is checked by the optimizer.
@@ -24,8 +27,8 @@ from hypate.scaling.engine.stopping import StoppingRule
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
 from hypate.solvers.numerics.kriging import KERNELS
 
-__all__ = ["OptimizerSettings", "SettingError", "BATCH_STRATEGIES", "OUTPUT_TRANSFORMS",
-           "SURROGATES"]
+__all__ = ["OptimizerSettings", "RunContext", "SettingError", "BATCH_STRATEGIES",
+           "OUTPUT_TRANSFORMS", "SURROGATES"]
 
 #: Fantasies within a batch: kriging believer or constant liar.
 BATCH_STRATEGIES: tuple[str, ...] = ("believer", "liar")
@@ -102,6 +105,29 @@ def _check_vector(name: str, value: Any, minimum: float) -> tuple[float, ...]:
     return vec
 
 
+def _check_fields(obj: Any) -> Callable[[str, Any], None]:
+    """Check every field of a frozen settings dataclass against the tables above (integers
+    normalized in place); returns the setter of normalized values."""
+    def put(name: str, value: Any) -> None:
+        object.__setattr__(obj, name, value)  # normalized values of a frozen instance
+
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if value is None and f.name in _OPTIONAL:
+            continue
+        if f.name == "v_final" and isinstance(value, str):
+            if value != "auto":
+                raise SettingError(f.name, "a float in [0, inf), 'auto' or None", value)
+            continue
+        if f.name in _INT_MIN:
+            put(f.name, _check_int(f.name, value))
+        elif f.name in _REAL_RANGE:
+            _check_real(f.name, value)
+        elif f.name in _CHOICES and value not in _CHOICES[f.name]:
+            raise SettingError(f.name, f"one of {_CHOICES[f.name]}", value)
+    return put
+
+
 def _check_acquisition(value: Any) -> None:
     if isinstance(value, str):
         if value not in ACQUISITIONS:
@@ -169,15 +195,6 @@ class OptimizerSettings:
         radius around the sample (:func:`hypate.scaling.engine.inner.optimize_acquisition`)
         -- one evaluation that measures whether the objective falls inward, instead of a
         search that refines a bound point forever (Sec. 9.1). ``0`` disables the probe.
-    executor : object or None
-        ``submit(fn, *args)`` -> future with ``.result(timeout)``; ``None`` evaluates
-        in-process.
-    timeout : float > 0 or None
-        Seconds per evaluation, counted from its start in the evaluating process; the
-        evaluation runs in a forked child that is killed at the limit (status
-        ``"timeout"``; :func:`hypate.scaling.engine.problem.evaluate_design`).
-    store : str, Path, EvaluationStore or None
-        SQLite store; an existing one is resumed. ``None``: in memory.
     seed : int >= 0
     max_evaluations : int >= 0 or None
         Stop after this many evaluations in the store (a budget).
@@ -185,13 +202,6 @@ class OptimizerSettings:
         Stop when the best value (one objective) or hypervolume improved by less than this
         (relative) over the last ``convergence_window`` iterations.
     convergence_window : int >= 0
-    callback : callable or None
-        ``callback(evaluation)`` after each committed evaluation; an exception stops the run
-        (the store keeps everything committed).
-    blas_threads : int >= 1 or None
-        BLAS threads during proposals (surrogate matrices are small: threading only costs,
-        and oversubscribes badly when evaluations run on the same cores); ``None`` leaves
-        the setting alone.
     output_transform : {"none", "log"}
         ``"log"``: the surrogates model ``ln F`` (objectives must be positive, e.g. the
         relative errors J of Eq. 6.4) and the acquisition works in that space. An objective
@@ -260,15 +270,10 @@ class OptimizerSettings:
     n_starts: int = 5
     min_distance: float = 1e-5
     resolution: float = 0.05
-    executor: Any = None
-    timeout: float | None = None
-    store: str | Path | EvaluationStore | None = None
     seed: int = 0
     max_evaluations: int | None = None
     convergence_tol: float | None = None
     convergence_window: int = 5
-    callback: Callable[[Evaluation], None] | None = None
-    blas_threads: int | None = 1
     output_transform: Literal["none", "log"] = "none"
     coordinates: LogLinearCoordinates | None = None
     polish: int = 0
@@ -280,23 +285,7 @@ class OptimizerSettings:
     p_exploit: float = 0.95
 
     def __post_init__(self) -> None:
-        def put(name: str, value: Any) -> None:
-            object.__setattr__(self, name, value)  # normalized values of a frozen instance
-
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            if value is None and f.name in _OPTIONAL:
-                continue
-            if f.name == "v_final" and isinstance(value, str):
-                if value != "auto":
-                    raise SettingError(f.name, "a float in [0, inf), 'auto' or None", value)
-                continue
-            if f.name in _INT_MIN:
-                put(f.name, _check_int(f.name, value))
-            elif f.name in _REAL_RANGE:
-                _check_real(f.name, value)
-            elif f.name in _CHOICES and value not in _CHOICES[f.name]:
-                raise SettingError(f.name, f"one of {_CHOICES[f.name]}", value)
+        put = _check_fields(self)
         if self.acquisition is not None:
             _check_acquisition(self.acquisition)
         if self.ref_point is not None:
@@ -308,13 +297,6 @@ class OptimizerSettings:
             raise SettingError("cheap_constraints", "a sequence of CheapConstraint",
                                self.cheap_constraints)
         put("cheap_constraints", cheap)
-        if self.executor is not None and not callable(getattr(self.executor, "submit", None)):
-            raise SettingError("executor", "None or an object with submit(fn, *args)",
-                               self.executor)
-        if self.store is not None and not isinstance(self.store, (str, Path, EvaluationStore)):
-            raise SettingError("store", "a path, an EvaluationStore or None", self.store)
-        if self.callback is not None and not callable(self.callback):
-            raise SettingError("callback", "a callable or None", self.callback)
         if self.coordinates is not None and not isinstance(self.coordinates,
                                                            LogLinearCoordinates):
             raise SettingError("coordinates", "LogLinearCoordinates or None", self.coordinates)
@@ -326,4 +308,56 @@ class OptimizerSettings:
     @classmethod
     def names(cls) -> tuple[str, ...]:
         """The field names (the keyword overrides :class:`BayesianOptimizer` accepts)."""
+        return tuple(f.name for f in dataclasses.fields(cls))
+
+
+@dataclass(frozen=True)
+class RunContext:
+    """Where a run's evaluations run and go; nothing here changes a proposal (a run's
+    designs are the same with any executor, store or callback: tested).
+
+    Parameters
+    ----------
+    executor : object or None
+        ``submit(fn, *args)`` -> future with ``.result(timeout)``; ``None`` evaluates
+        in-process.
+    timeout : float > 0 or None
+        Seconds per evaluation, counted from its start in the evaluating process; the
+        evaluation runs in a forked child that is killed at the limit (status
+        ``"timeout"``; :func:`hypate.scaling.engine.problem.evaluate_design`).
+    store : str, Path, EvaluationStore or None
+        SQLite store; an existing one is resumed. ``None``: in memory.
+    callback : callable or None
+        ``callback(evaluation)`` after each committed evaluation; an exception stops the run
+        (the store keeps everything committed).
+    blas_threads : int >= 1 or None
+        BLAS threads during proposals (surrogate matrices are small: threading only costs,
+        and oversubscribes badly when evaluations run on the same cores); ``None`` leaves
+        the setting alone.
+
+    Raises
+    ------
+    SettingError
+        A ``ValueError`` naming the field and its allowed range.
+    """
+
+    executor: Any = None
+    timeout: float | None = None
+    store: str | Path | EvaluationStore | None = None
+    callback: Callable[[Evaluation], None] | None = None
+    blas_threads: int | None = 1
+
+    def __post_init__(self) -> None:
+        _check_fields(self)
+        if self.executor is not None and not callable(getattr(self.executor, "submit", None)):
+            raise SettingError("executor", "None or an object with submit(fn, *args)",
+                               self.executor)
+        if self.store is not None and not isinstance(self.store, (str, Path, EvaluationStore)):
+            raise SettingError("store", "a path, an EvaluationStore or None", self.store)
+        if self.callback is not None and not callable(self.callback):
+            raise SettingError("callback", "a callable or None", self.callback)
+
+    @classmethod
+    def names(cls) -> tuple[str, ...]:
+        """The field names (keyword overrides :class:`BayesianOptimizer` also accepts)."""
         return tuple(f.name for f in dataclasses.fields(cls))

@@ -27,7 +27,7 @@ from typing import Annotated, Any
 import numpy as np
 from hypate.scaling.engine.fidelity import MultiFidelityOptimizer
 from hypate.scaling.engine.result import OptimizationResult
-from hypate.scaling.engine.settings import OptimizerSettings
+from hypate.scaling.engine.settings import OptimizerSettings, RunContext
 from hypate.scaling.workflow.problem import ScalingProblem, evaluate_rows
 from hypate.solvers.config import InputModel
 from hypate.solvers.settings import DEFAULTS
@@ -187,14 +187,14 @@ def fidelity_problem(study: Any, problem: Any) -> FidelityProblem | None:
                            study.level_names)
 
 
-def fidelity_optimizer(study: Any, problem: FidelityProblem, settings: OptimizerSettings
-                       ) -> MultiFidelityOptimizer:
+def fidelity_optimizer(study: Any, problem: FidelityProblem, settings: OptimizerSettings,
+                       context: RunContext) -> MultiFidelityOptimizer:
     """The multi-fidelity optimizer of a study: the levels' costs from :func:`prior_cost`
     (relative and deterministic; the measured seconds are reported, not used) and each lower
     level's own initial designs (:func:`default_low_samples`)."""
     n_init = study.optimizer.initial_samples
     return MultiFidelityOptimizer(
-        problem, settings, costs=[prior_cost(p.spec) for p in problem.levels],
+        problem, settings, context, costs=[prior_cost(p.spec) for p in problem.levels],
         low_samples=[default_low_samples(f, n_init) for _, _, f in study.lower_levels])
 
 

@@ -221,11 +221,11 @@ def _robust_campaign(study: Study, nominal: RunOutcome, store: EvaluationStore,
     unc, problem = robust_inputs(study), nominal.problem
     joint = JointProblem(problem, unc)
     n_inputs = len(unc.inputs)
-    settings = optimizer_settings(study, problem, executor=executor, store=store,
-                                  seed=run_seed, callback=callback, robust=True,
-                                  coordinates=joint_coordinates(study, problem, n_inputs))
+    settings, context = optimizer_settings(
+        study, problem, executor=executor, store=store, seed=run_seed, callback=callback,
+        robust=True, coordinates=joint_coordinates(study, problem, n_inputs))
     optimizer = RobustBayesianOptimizer(
-        joint, settings, n_design=problem.n_var,
+        joint, settings, context, n_design=problem.n_var,
         samples=collocation_nodes(unc.inputs, QUADRATURE_SAMPLES, run_seed),
         candidates=collocation_nodes(unc.inputs, INPUT_CANDIDATES, run_seed + 1),
         statistic=unc.statistic, prior=_prior(nominal, n_inputs))

@@ -454,11 +454,11 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
             _evaluate_seeds(levels or problem, study, store, seed_list, classical, run_seed,
                             callback)
             write_json(out / CLASSICAL_JSON, classical or {"status": "not available"})
-            settings = optimizer_settings(study, problem, executor=executor, store=store,
-                                          seed=run_seed, callback=callback,
-                                          coordinates=coordinates)
-            optimizer = (BayesianOptimizer(problem, settings) if levels is None
-                         else fidelity_optimizer(study, levels, settings))
+            settings, context = optimizer_settings(study, problem, executor=executor,
+                                                   store=store, seed=run_seed,
+                                                   callback=callback, coordinates=coordinates)
+            optimizer = (BayesianOptimizer(problem, settings, context) if levels is None
+                         else fidelity_optimizer(study, levels, settings, context))
             result = optimizer.run()
             end_session(store, session)
             point = write_outputs(study, problem, result, out,

@@ -20,7 +20,8 @@ def branin(x: np.ndarray) -> float:
 
 
 def test_the_documented_names_are_there() -> None:
-    for name in ("load_study", "run_study", "Study", "BayesianOptimizer", "minimize"):
+    for name in ("load_study", "run_study", "Study", "BayesianOptimizer", "minimize",
+                 "OptimizerSettings", "RunContext"):
         assert name in hypate.__all__ and hasattr(hypate, name)
 
 

@@ -10,7 +10,7 @@ import pytest
 from hypate.scaling.engine.fidelity import MultiFidelityOptimizer
 from hypate.scaling.engine.functional import FunctionProblem
 from hypate.scaling.engine.multifidelity import MultiFidelityKriging, MultiFidelityModel
-from hypate.scaling.engine.settings import OptimizerSettings, SettingError
+from hypate.scaling.engine.settings import OptimizerSettings, RunContext, SettingError
 from hypate.scaling.engine.store import EvaluationStore
 
 F_MIN, X_MIN = -6.020740055766075, 0.7572487694238677  # the high-fidelity minimum
@@ -32,9 +32,10 @@ def two_level(z: np.ndarray) -> float:
 def _optimizer(seed: int, n_iter: int = 10, store=None, batch: int = 1
                ) -> MultiFidelityOptimizer:
     settings = OptimizerSettings(acquisition="lcb", n_init=3, n_iter=n_iter, seed=seed,
-                                 store=store, batch_size=batch)
+                                 batch_size=batch)
     return MultiFidelityOptimizer(FunctionProblem(two_level, [(0.0, 1.0), (0.0, 1.0)]),
-                                  settings, costs=COSTS, low_samples=[6])
+                                  settings, RunContext(store=store), costs=COSTS,
+                                  low_samples=[6])
 
 
 def _cost(X: np.ndarray) -> float:
@@ -132,7 +133,7 @@ def test_workers_store_the_serial_campaign():
                                  ref_point=[20.0, 2.0])
     serial = MultiFidelityOptimizer(problem, settings, costs=COSTS, low_samples=[5]).run()
     with ProcessPoolExecutor(2) as pool:
-        shared = MultiFidelityOptimizer(problem, dataclasses.replace(settings, executor=pool),
+        shared = MultiFidelityOptimizer(problem, settings, RunContext(executor=pool),
                                         costs=COSTS, low_samples=[5]).run()
     assert np.array_equal(serial.X, shared.X) and np.array_equal(serial.F, shared.F)
     assert len(np.unique(serial.X[:, 1])) == 2  # both levels were used
@@ -144,15 +145,15 @@ def test_a_batch_believes_its_members(tmp_path):
     numbers; a promotion or the acquisition's design); a process pool stores the same
     campaign; the top-level minimum is still found."""
     problem = FunctionProblem(two_level, [(0.0, 1.0), (0.0, 1.0)])
-    settings = OptimizerSettings(acquisition="lcb", n_init=3, n_iter=6, seed=0, batch_size=2,
-                                 store=str(tmp_path / "b.sqlite"))
-    result = MultiFidelityOptimizer(problem, settings, costs=COSTS, low_samples=[6]).run()
+    settings = OptimizerSettings(acquisition="lcb", n_init=3, n_iter=6, seed=0, batch_size=2)
+    stored = RunContext(store=str(tmp_path / "b.sqlite"))
+    result = MultiFidelityOptimizer(problem, settings, stored, costs=COSTS,
+                                    low_samples=[6]).run()
     it = result.data["iteration"].to_numpy()
     assert len(it) == 3 * 2 + 6 + 6 * 2
     with EvaluationStore(tmp_path / "b.sqlite") as store:
         records = store.load()
-    serial = MultiFidelityOptimizer(problem, dataclasses.replace(settings, batch_size=1,
-                                                                 store=None),
+    serial = MultiFidelityOptimizer(problem, dataclasses.replace(settings, batch_size=1),
                                     costs=COSTS, low_samples=[6])
     for t in range(1, 7):
         rows = result.X[it == t]
@@ -160,8 +161,7 @@ def test_a_batch_believes_its_members(tmp_path):
         first = serial.propose([r for r in records if r.iteration < t], t)
         assert np.array_equal(first[0], rows[0])
     with ProcessPoolExecutor(2) as pool:
-        shared = MultiFidelityOptimizer(problem, dataclasses.replace(settings, executor=pool,
-                                                                     store=None),
+        shared = MultiFidelityOptimizer(problem, settings, RunContext(executor=pool),
                                         costs=COSTS, low_samples=[6]).run()
     assert np.array_equal(result.X, shared.X) and np.array_equal(result.F, shared.F)
     top = np.rint(result.X[:, 1]) == 1

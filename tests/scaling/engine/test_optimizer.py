@@ -36,7 +36,7 @@ from hypate.scaling.engine.problem import (
     Outcome,
     evaluate_design,
 )
-from hypate.scaling.engine.settings import OptimizerSettings, SettingError
+from hypate.scaling.engine.settings import OptimizerSettings, RunContext, SettingError
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
 from hypate.solvers.numerics.kriging import KrigingRegressor
 from pymoo.core.problem import Problem
@@ -532,12 +532,29 @@ def test_bad_settings_raise():
     ("polish_step", 0.6, "(0, 0.5]"), ("timeout", 0.0, "(0, inf)"), ("g", 0.5, "[1, inf]"),
     ("kernel", "cubic", "one of"), ("acquisition", "hvlcbb", "one of"),
     ("weights", [0.5, -0.5], ">= 0"), ("executor", object(), "submit"),
-    ("v_final", -0.5, "[0, inf)"),
+    ("v_final", -0.5, "[0, inf)"), ("blas_threads", 0, "integer >= 1"),
 ])
 def test_settings_name_the_field_and_its_range(field, value, allowed):
+    cls = RunContext if field in RunContext.names() else OptimizerSettings
     with pytest.raises(SettingError, match=re.escape(allowed)) as err:
-        OptimizerSettings(**{field: value})
+        cls(**{field: value})
     assert err.value.field == field and str(err.value).startswith(field)
+
+
+def test_the_run_context_is_apart_from_the_algorithm(tmp_path):
+    """executor, time limit, store, callback and BLAS threads are the run's context, not
+    the algorithm's settings; keyword overrides reach the one that has the field."""
+    assert not set(RunContext.names()) & set(OptimizerSettings.names())
+    seen = []
+    opt = BayesianOptimizer(Branin(), n_init=4, n_iter=1, seed=1,
+                            store=str(tmp_path / "r.sqlite"), callback=seen.append)
+    assert opt.context.store == str(tmp_path / "r.sqlite") and opt.settings.n_init == 4
+    result = opt.run()
+    assert len(seen) == len(result.X) == 5
+    again = BayesianOptimizer(Branin(), OptimizerSettings(n_init=4, n_iter=1, seed=1)).run()
+    np.testing.assert_array_equal(result.X, again.X)  # the context changes no design
+    with pytest.raises(TypeError, match="RunContext"):
+        BayesianOptimizer(Branin(), workers=2)
 
 
 def test_settings_object_and_keyword_overrides_agree():

@@ -11,7 +11,7 @@ from hypate.scaling.engine.robust import (
     RobustModel,
     reduce_samples,
 )
-from hypate.scaling.engine.settings import OptimizerSettings, SettingError
+from hypate.scaling.engine.settings import OptimizerSettings, RunContext, SettingError
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
 
 SIGMA = 0.1  # the uncertain input: xi ~ N(1, 0.1)
@@ -77,14 +77,14 @@ def test_reductions_are_the_sample_statistics():
 
 def _robust(n_init=8, n_iter=22, seed=0, store=None, statistic="mean"):
     problem = FunctionProblem(f, [(0.0, 1.0), XI.support()])
-    return RobustBayesianOptimizer(problem, _settings(n_init, n_iter, seed, store),
+    return RobustBayesianOptimizer(problem, _settings(n_init, n_iter, seed),
+                                   RunContext(store=store),
                                    n_design=1, samples=_samples(32), statistic=statistic,
                                    candidates=_samples(128, seed=1))
 
 
-def _settings(n_init, n_iter, seed, store):
-    return OptimizerSettings(acquisition="lcb", n_init=n_init, n_iter=n_iter, seed=seed,
-                             store=store)
+def _settings(n_init, n_iter, seed):
+    return OptimizerSettings(acquisition="lcb", n_init=n_init, n_iter=n_iter, seed=seed)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -126,11 +126,11 @@ def test_resumed_robust_run_replays_the_stored_pairs(tmp_path):
 def test_robust_settings_are_checked():
     problem = FunctionProblem(f, [(0.0, 1.0), XI.support()])
     with pytest.raises(SettingError, match="n_design"):
-        RobustBayesianOptimizer(problem, _settings(4, 1, 0, None), n_design=2,
+        RobustBayesianOptimizer(problem, _settings(4, 1, 0), n_design=2,
                                 samples=_samples(8), statistic="mean")
     with pytest.raises(SettingError, match="samples"):
-        RobustBayesianOptimizer(problem, _settings(4, 1, 0, None), n_design=1,
+        RobustBayesianOptimizer(problem, _settings(4, 1, 0), n_design=1,
                                 samples=np.array([[0.1], [1.0]]), statistic="mean")
     with pytest.raises(SettingError, match="statistic"):
-        RobustBayesianOptimizer(problem, _settings(4, 1, 0, None), n_design=1,
+        RobustBayesianOptimizer(problem, _settings(4, 1, 0), n_design=1,
                                 samples=_samples(8), statistic="q95")
