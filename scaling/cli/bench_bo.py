@@ -15,6 +15,7 @@ from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.engine.acquisition import (
     MULTI_OBJECTIVE_ACQUISITIONS,
     SINGLE_OBJECTIVE_ACQUISITIONS,
+    default_acquisition,
 )
 from hypate.scaling.engine.benchmarks import (
     BENCHMARKS,
@@ -64,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
     # "wm" needs the metric's exponent g, which the command does not take
     valid = (tuple(a for a in MULTI_OBJECTIVE_ACQUISITIONS if a != "wm")
              if bench.multi_objective else SINGLE_OBJECTIVE_ACQUISITIONS)
-    acq = args.acquisition or valid[0]
+    acq = args.acquisition or default_acquisition(2 if bench.multi_objective else 1)
     if acq not in valid:
         raise InputError("--acquisition", f"for {bench.name} must be one of {'|'.join(valid)}")
     n_eval = n_init + n_iter * args.batch_size

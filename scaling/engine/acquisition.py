@@ -64,6 +64,7 @@ __all__ = [
     "MinMaxLogEI",
     "MinMaxLCB",
     "ACQUISITIONS",
+    "default_acquisition",
     "SINGLE_OBJECTIVE_ACQUISITIONS",
     "MULTI_OBJECTIVE_ACQUISITIONS",
 ]
@@ -663,3 +664,17 @@ SINGLE_OBJECTIVE_ACQUISITIONS: tuple[str, ...] = tuple(
     k for k, c in ACQUISITIONS.items() if not c.multi_objective)
 MULTI_OBJECTIVE_ACQUISITIONS: tuple[str, ...] = tuple(
     k for k, c in ACQUISITIONS.items() if c.multi_objective)
+
+
+def default_acquisition(n_objectives: int, approach: str = "indirect") -> str:
+    """THE default acquisition, wherever none is named (a study, ``BayesianOptimizer``,
+    ``hypate.minimize``, the ask/tell loop, ``hypate bench bo``): expected improvement for
+    one objective; for several, HVLCB (the indirect approach, Sec. 6.3.3) or the Chebyshev
+    LCB (the direct approach, Eq. 6.11 with ``g = inf``)."""
+    if n_objectives < 1:
+        raise ValueError(f"n_objectives must be >= 1; got {n_objectives}")
+    if n_objectives == 1:
+        return "ei"
+    if approach not in ("indirect", "direct"):
+        raise ValueError(f"approach must be 'indirect' or 'direct'; got {approach!r}")
+    return "hvlcb" if approach == "indirect" else "cheb"

@@ -33,6 +33,7 @@ from typing import Any, cast
 
 import numpy as np
 import pandas as pd
+from hypate.scaling.engine.acquisition import default_acquisition
 from hypate.scaling.engine.constraints import sort_constraints
 from hypate.scaling.engine.functional import Budget, check_bounds, plan_budget
 from hypate.scaling.engine.optimizer import BayesianOptimizer
@@ -165,7 +166,7 @@ class AskTellOptimizer:
                                  "n_evaluations")
             settings = {**settings, "v_final": None}
             n0 = 2 * d + 1 if n_init is None else _count("n_init", n_init, 1)
-            plan = Budget(n0, 0, 0, acquisition or ("ei" if m == 1 else "hvlcb"))
+            plan = Budget(n0, 0, 0, acquisition or default_acquisition(m))
         self.budget = plan
         self.n_evaluations = n_evaluations
         self.seed = 0 if seed is None else _count("seed", seed, 0)

@@ -13,6 +13,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from hypate.scaling.engine.acquisition import default_acquisition
 from numpy.typing import ArrayLike
 from pymoo.core.problem import Problem
 
@@ -155,4 +156,4 @@ def plan_budget(d: int, m: int, n_evaluations: int, n_init: int | None = None,
     if n0 < 1 or n_refine < 0 or n_iter < 0:
         raise ValueError(f"n_init + refine: must leave room in n_evaluations = {n_evaluations}; "
                          f"got n_init {n0}, refine {n_refine}")
-    return Budget(n0, n_iter, n_refine, acquisition or ("ei" if m == 1 else "hvlcb"))
+    return Budget(n0, n_iter, n_refine, acquisition or default_acquisition(m))

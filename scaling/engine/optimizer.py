@@ -71,6 +71,7 @@ from hypate.scaling.engine.acquisition import (
     AcquisitionFactory,
     MinMaxEI,
     MinMaxLCB,
+    default_acquisition,
 )
 from hypate.scaling.engine.check import SurrogateCheck, leave_one_out_check
 from hypate.scaling.engine.coordinates import LogLinearCoordinates, WarpedModel
@@ -161,7 +162,7 @@ class BayesianOptimizer:
         self._check_fit(self.settings)
         s = self.settings
         if s.acquisition is None:
-            self.acquisition: str | AcquisitionFactory = "lcb" if self.n_obj == 1 else "hvlcb"
+            self.acquisition: str | AcquisitionFactory = default_acquisition(self.n_obj)
         else:
             self.acquisition = s.acquisition
         self.ref_point = None if s.ref_point is None else np.asarray(s.ref_point, dtype=float)

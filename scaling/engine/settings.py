@@ -146,7 +146,9 @@ class OptimizerSettings:
         A name of :data:`hypate.scaling.engine.acquisition.ACQUISITIONS`: ``"lcb"``,
         ``"ei"``, ``"poi"`` (one objective); ``"hvlcb"``, ``"hvei"``, ``"hvpoi"`` (indirect),
         ``"ws"`` (``g = 1``), ``"cheb"`` (``g = inf``), ``"wm"`` (``g``) (direct); or
-        ``factory(model, context) -> Acquisition``. ``None``: ``"lcb"`` or ``"hvlcb"``.
+        ``factory(model, context) -> Acquisition``. ``None``: THE default rule,
+        :func:`~hypate.scaling.engine.acquisition.default_acquisition` (``"ei"`` for one
+        objective, ``"hvlcb"`` for several).
     n_init : int >= 0
         Initial OLH samples (iteration 0).
     n_iter : int >= 0

@@ -81,6 +81,7 @@ from hypate.scaling.engine.acquisition import (
     ACQUISITIONS,
     MULTI_OBJECTIVE_ACQUISITIONS,
     SINGLE_OBJECTIVE_ACQUISITIONS,
+    default_acquisition,
 )
 from hypate.scaling.engine.stopping import StoppingRule
 from hypate.scaling.workflow import uncertainty as scatter
@@ -486,9 +487,7 @@ class Study:
         opt = self.optimizer
         if opt.acquisition is not None:
             return opt.acquisition
-        if len(self.spec.objectives) == 1:
-            return "lcb"
-        return "hvlcb" if opt.approach == "indirect" else "cheb"
+        return default_acquisition(len(self.spec.objectives), opt.approach)
 
 
 def constant_material(m: mat.Material, T: float) -> mat.Material:

@@ -240,3 +240,36 @@ def test_registry_builds_every_named_acquisition_from_a_context():
     assert ACQUISITIONS["hvlcb"].from_context(_Line(2), ctx0).v == 1.5
     assert ACQUISITIONS["ei"].from_context(_Line(1), ctx0).v == 0.0
     assert isinstance(ChebyshevLCB(_Line(2), [0.5, 0.5]), WeightedSumLCB)
+
+
+def test_one_default_acquisition_rule(tmp_path) -> None:
+    """Wherever no acquisition is named -- the engine, hypate.minimize's budget plan, the
+    ask/tell loop, a study -- the default is default_acquisition's: EI for one objective,
+    HVLCB (indirect) or the Chebyshev LCB (direct) for several."""
+    from conftest import tiny_study_text
+    from hypate.scaling.engine.acquisition import default_acquisition
+    from hypate.scaling.engine.asktell import AskTellOptimizer
+    from hypate.scaling.engine.benchmarks import get_benchmark
+    from hypate.scaling.engine.functional import plan_budget
+    from hypate.scaling.engine.optimizer import BayesianOptimizer
+    from hypate.scaling.workflow.study import load_study
+
+    assert (default_acquisition(1), default_acquisition(2), default_acquisition(3, "direct")) \
+        == ("ei", "hvlcb", "cheb")
+    for bad in ((0,), (2, "sideways")):
+        with pytest.raises(ValueError):
+            default_acquisition(*bad)
+    for m in (1, 2):
+        problem = get_benchmark("branin" if m == 1 else "branincurrin").problem
+        assert BayesianOptimizer(problem).acquisition == default_acquisition(m)
+        assert plan_budget(2, m, 30, None, None, None).acquisition == default_acquisition(m)
+        with AskTellOptimizer([(0.0, 1.0)] * 2, n_objectives=m) as loop:
+            assert loop.budget.acquisition == default_acquisition(m)
+    text = tiny_study_text()
+    assert 'acquisition = "' not in text  # the tiny study names none
+    for approach in ("indirect", "direct"):
+        path = tmp_path / f"{approach}.toml"
+        path.write_text(text.replace("[optimizer]", f'[optimizer]\napproach = "{approach}"'))
+        study = load_study(path)
+        assert study.acquisition == default_acquisition(len(study.spec.objectives), approach)
+
