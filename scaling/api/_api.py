@@ -239,7 +239,8 @@ class Optimizer(AskTellOptimizer):
         Column names of :attr:`evaluations`.
     **settings
         Further engine settings (``v``, ``p_feasible``, ``kernel``, ...; the fields of
-        :class:`hypate.scaling.engine.settings.OptimizerSettings` the loop does not decide).
+        :class:`hypate.scaling.engine.settings.OptimizerSettings` the loop does not decide,
+        and ``blas_threads`` of :class:`~hypate.scaling.engine.settings.RunContext`).
 
     Examples
     --------

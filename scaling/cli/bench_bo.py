@@ -37,7 +37,8 @@ def register_bench(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--init", type=int, default=None, help="initial OLH samples")
     p.add_argument("--iterations", type=int, default=None, help="BO iterations")
     p.add_argument("--acquisition", default=None,
-                   help="hvlcb|hvei|hvpoi|ws|cheb (two objectives) or lcb|ei|poi (one)")
+                   help="hvlcb|hvei|hvpoi|ws|cheb|mmei|mmlcb|mmlogei (two objectives) or "
+                        "lcb|ei|poi (one); default: hvlcb (two), ei (one)")
     p.add_argument("--v-final", default="auto", metavar="V|auto|none",
                    help="exploration weight of the last iteration (auto: the acquisition's "
                    "schedule, HVLCB 1.5 -> 0.5; none: constant v)")

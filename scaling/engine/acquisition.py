@@ -571,7 +571,8 @@ class MinMaxLogEI(MinMaxEI):
     and its maximization returns an arbitrary start; the smoothed value there is about
     ``log tau + max_s (b - c_s) / tau``, so the proposal goes to the design whose most
     optimistic sample is best, with a gradient everywhere. ``tau`` is ``TAU`` of the
-    observed range of the objectives (``context.scale``)."""
+    observed range of the objectives (``context.scale``). Before any admissible design
+    (``b`` infinite) it is ``-E[max_j J_j]``."""
 
     #: ``tau`` as a share of the observed objectives' range.
     TAU: ClassVar[float] = 1e-3
@@ -589,6 +590,9 @@ class MinMaxLogEI(MinMaxEI):
         return cls(model, _best_minmax(context), tau if tau > 0.0 else cls.TAU, rng=context.rng)
 
     def _value(self, c, dc):
+        if not math.isfinite(self.best):
+            # no admissible design yet (MinMaxEI: +inf everywhere): the mean criterion itself
+            return -c.mean(axis=1), -dc.mean(axis=1)
         z = (self.best - c) / self.tau
         soft = np.logaddexp(0.0, z)  # log(1 + e^z) > 0; underflows to 0 for z < -745
         far = z < -30.0  # there log(log(1 + e^z)) = z to 1e-13
@@ -673,8 +677,8 @@ def default_acquisition(n_objectives: int, approach: str = "indirect") -> str:
     LCB (the direct approach, Eq. 6.11 with ``g = inf``)."""
     if n_objectives < 1:
         raise ValueError(f"n_objectives must be >= 1; got {n_objectives}")
-    if n_objectives == 1:
-        return "ei"
     if approach not in ("indirect", "direct"):
         raise ValueError(f"approach must be 'indirect' or 'direct'; got {approach!r}")
+    if n_objectives == 1:
+        return "ei"
     return "hvlcb" if approach == "indirect" else "cheb"

@@ -1,7 +1,8 @@
 """The optimizer's settings, in two frozen, validated objects: the algorithm
 (:class:`OptimizerSettings`: what it proposes, from what) and the run's context
 (:class:`RunContext`: where the evaluations run and go -- executor, time limit, store,
-callback, BLAS threads -- none of which changes a proposal).
+callback, BLAS threads; of these only the time limit can change a result: a design it cuts
+off is stored as failed).
 
 Every option of :class:`hypate.scaling.engine.optimizer.BayesianOptimizer` is a field of one
 of them, with its default and its allowed range; a bad value fails at construction with a
@@ -315,8 +316,9 @@ class OptimizerSettings:
 
 @dataclass(frozen=True)
 class RunContext:
-    """Where a run's evaluations run and go; nothing here changes a proposal (a run's
-    designs are the same with any executor, store or callback: tested).
+    """Where a run's evaluations run and go. A run's designs are the same with any
+    executor, store, callback or BLAS threads (tested); a time limit can change them (a
+    design it cuts off is stored as failed, and the failure is data for the proposals).
 
     Parameters
     ----------

@@ -28,9 +28,11 @@ def optimizer_settings(study: Study, problem: ScalingProblem, *, executor: Any,
     ----------
     study, problem
         The study and its scaling problem (its cheap constraints, its categorical variable).
-    executor, store, seed, callback, coordinates
-        The run's context: where evaluations run, where they are kept, the run's seed, the
-        hook after each stored evaluation, the surrogates' input coordinates.
+    executor, store, callback
+        The run's context: where evaluations run, where they are kept, the hook after each
+        stored evaluation (with ``[optimizer] timeout``: the :class:`RunContext`).
+    seed, coordinates
+        The run's seed and the surrogates' input coordinates (settings of the algorithm).
     robust : bool
         The robust search of ``[robust]`` (:mod:`hypate.scaling.workflow.robust`): its own
         initial sample and iterations, one design per iteration (the robust optimizer

@@ -292,7 +292,7 @@ def _sec9_2_2_fluids(ctx: Context) -> pd.DataFrame:
         quantity = f"Table 9.8 xi4 design, {label}"
         if ctx.quick:
             rows += [(f"{quantity}: {o} (%)",
-                      NotCompared(bound, "not run with --quick (full resolution, minutes)"),
+                      NotCompared(bound, "not run with --quick (full resolution, about a minute)"),
                       None) for o in ("J_u", "J_T")]
             continue
         res = evaluate_whatif(Optimization(name).study(), design)

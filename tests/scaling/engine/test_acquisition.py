@@ -256,7 +256,7 @@ def test_one_default_acquisition_rule(tmp_path) -> None:
 
     assert (default_acquisition(1), default_acquisition(2), default_acquisition(3, "direct")) \
         == ("ei", "hvlcb", "cheb")
-    for bad in ((0,), (2, "sideways")):
+    for bad in ((0,), (2, "sideways"), (1, "sideways")):
         with pytest.raises(ValueError):
             default_acquisition(*bad)
     for m in (1, 2):
@@ -267,9 +267,8 @@ def test_one_default_acquisition_rule(tmp_path) -> None:
             assert loop.budget.acquisition == default_acquisition(m)
     text = tiny_study_text()
     assert 'acquisition = "' not in text  # the tiny study names none
-    for approach in ("indirect", "direct"):
+    for approach, expected in (("indirect", "hvlcb"), ("direct", "cheb")):
         path = tmp_path / f"{approach}.toml"
         path.write_text(text.replace("[optimizer]", f'[optimizer]\napproach = "{approach}"'))
-        study = load_study(path)
-        assert study.acquisition == default_acquisition(len(study.spec.objectives), approach)
+        assert load_study(path).acquisition == expected
 
