@@ -21,7 +21,7 @@ products of one-dimensional Gaussian integrals (for any number of objectives who
 decomposition fits in ``max_cells``; otherwise HVEI falls back to a Monte Carlo estimate
 with fixed base samples, which is smooth in x).
 
-Size: about 665 lines: twelve acquisitions of one pattern (C(mu, sigma) and its two
+Size: about 685 lines: twelve acquisitions of one pattern (C(mu, sigma) and its two
 partials, ``from_context``) beside their registry; split by family if more are added.
 """
 from __future__ import annotations
