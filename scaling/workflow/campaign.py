@@ -28,6 +28,7 @@ from typing import IO, Any, cast
 from hypate.scaling.engine.executors import check_scheduler_address
 from hypate.scaling.engine.store import EvaluationStore, StoreError
 from hypate.scaling.workflow.derived import study_data
+from hypate.scaling.workflow.external import simulator_source
 from hypate.scaling.workflow.integrity import check_run_directory
 from hypate.scaling.workflow.resources import check_resources, local_workers
 from hypate.scaling.workflow.rundir import LOCK_FILE, STORE
@@ -123,9 +124,9 @@ def campaign_identity(study: Study, seed: int) -> dict[str, Any]:
     files: dict[str, Any] = {"case": read_toml(case_path)}
     if aero.startswith(ROM_PREFIX):
         files["rom_sha256"] = _file_sha256(Path(aero[len(ROM_PREFIX):]))
-    simulator = study.spec.simulator  # a user's simulator file decides the results too
-    if simulator is not None and (source := simulator.rpartition(":")[0]).endswith(".py"):
-        files["simulator_sha256"] = _file_sha256(Path(source))
+    simulator = study.spec.simulator  # a user's simulator's code decides the results too
+    if simulator is not None and (source := simulator_source(simulator)) is not None:
+        files["simulator_sha256"] = _file_sha256(source)
     return {"study": data, "files": files, "seed": int(seed), "version": package_version(),
             "simulation": dataclasses.asdict(study.spec.prototype.simulation)}
 

@@ -44,7 +44,7 @@ from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
 __all__ = ["SimulatedHistories", "Simulator", "check_checks", "external_response", "load_simulator",
-           "resolve_simulator"]
+           "resolve_simulator", "simulator_source"]
 
 
 @dataclass(frozen=True)
@@ -183,6 +183,23 @@ def load_simulator(name: str, field: str = "simulation.simulator"
         raise InputError(field, f"{target!r} has no function {attr!r}")
     _LOADED[name] = function
     return function
+
+
+def simulator_source(name: str) -> Path | None:
+    """The file that defines the simulator ``name`` names: its ``file.py``, or the source
+    file of ``package.module`` (found without running it; None when there is none, e.g. a
+    compiled module). Its hash is part of a campaign's identity
+    (:func:`hypate.scaling.workflow.campaign.campaign_identity`): an edited simulator is
+    another campaign. Modules the simulator imports in turn are not followed."""
+    target = name.rpartition(":")[0]
+    if target.endswith(".py"):
+        return Path(target)
+    try:
+        spec = importlib.util.find_spec(target)
+    except (ImportError, ValueError):
+        return None
+    origin = None if spec is None else spec.origin
+    return Path(origin) if origin and origin.endswith(".py") else None
 
 
 def resolve_simulator(name: str, base: Path) -> str:

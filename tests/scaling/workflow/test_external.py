@@ -163,6 +163,30 @@ def test_an_edited_simulator_file_is_another_campaign(tmp_path: Path):
     assert [c.split()[0] for c in changes] == ["files.simulator_sha256"]
 
 
+def test_an_edited_simulator_module_is_another_campaign(tmp_path: Path,
+                                                        monkeypatch: pytest.MonkeyPatch):
+    # a "package.module:function" simulator: its module's source file is hashed the same way
+    from hypate.scaling.workflow.campaign import campaign_identity, changed_keys
+    from hypate.scaling.workflow.external import simulator_source
+
+    package = tmp_path / "lib" / "hypate_test_simpkg"
+    package.mkdir(parents=True)
+    (package / "__init__.py").write_text("")
+    (package / "sims.py").write_text(SIMULATORS)
+    monkeypatch.syspath_prepend(str(tmp_path / "lib"))
+    text = tiny_study_text().replace(
+        'aero = "pt-bl"', 'aero = "pt-bl"\nsimulator = "hypate_test_simpkg.sims:thick_only"')
+    (tmp_path / "study.toml").write_text(text)
+    study = load_study(tmp_path / "study.toml")
+    assert simulator_source(study.spec.simulator) == package / "sims.py"
+    before = campaign_identity(study, 0)
+    assert before["files"]["simulator_sha256"] is not None
+    (package / "sims.py").write_text(SIMULATORS + "\n# edited\n")
+    changes = changed_keys(before, campaign_identity(study, 0))
+    assert [c.split()[0] for c in changes] == ["files.simulator_sha256"]
+    assert simulator_source("math:sqrt") is None  # a compiled module: nothing to hash
+
+
 def test_the_stress_check_reads_the_simulators_stress(tmp_path: Path):
     # a stress check in "constraint" mode: the column is the relative violation of
     # yield / safety factor at the simulator's point of the largest ratio, ratio x SF - 1
