@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     # "wm" needs the metric's exponent g, which the command does not take
     valid = (tuple(a for a in MULTI_OBJECTIVE_ACQUISITIONS if a != "wm")
              if bench.multi_objective else SINGLE_OBJECTIVE_ACQUISITIONS)
-    acq = args.acquisition or default_acquisition(2 if bench.multi_objective else 1)
+    acq = args.acquisition or default_acquisition(bench.problem.n_obj)
     if acq not in valid:
         raise InputError("--acquisition", f"for {bench.name} must be one of {'|'.join(valid)}")
     n_eval = n_init + n_iter * args.batch_size

@@ -1,7 +1,7 @@
 """The BO loop, the multistart inner optimization, constraints, failures, batches,
 executors and resume (scaling/engine/optimizer.py).
 
-Size: about 810 lines, one test file for one module (the tests mirror the tree); the
+Size: about 825 lines, one test file for one module (the tests mirror the tree); the
 executor and fault cases have their own files (test_executors.py, tests/reliability/)."""
 from __future__ import annotations
 
