@@ -9,6 +9,8 @@ as source (nothing is imported) under its installed name (``hypate.*``; the fold
 - ``hypate.scaling.engine`` imports of the project only itself and ``hypate.solvers.numerics``;
 - ``hypate.scaling.workflow`` does not import the report or the CLI, the report does not
   import the CLI, and nothing but the CLI imports it;
+- the workflow's rooms (:data:`WORKFLOW_ROOMS`: vocabulary, campaigns, analyses) import only
+  the rooms before them;
 - no import cycles between modules (``TYPE_CHECKING`` imports included: a cycle that only
   type checking sees is still two modules that know each other);
 - no import inside a function or class except of an optional dependency (dask), and the
@@ -16,7 +18,7 @@ as source (nothing is imported) under its installed name (``hypate.*``; the fold
   PEP 562: ``import hypate`` stays instant, so the ``hypate`` command can answer Ctrl-C while
   it starts) and the console script's of the command line (``--version`` and ``--help``
   answered first);
-- how a study runs is decided by the runner (``hypate.scaling.workflow.execute``) only: the
+- how a study runs is decided by the runner (``hypate.scaling.workflow.campaigns.execute``) only: the
   CLI and the top-level API call it and import none of the ways it chooses between
   (:data:`RUNNERS`);
 - no import by string name (``importlib.import_module``, ``__import__``,
@@ -46,11 +48,13 @@ OPTIONAL = ("dask", "distributed")
 #: answered without it (scaling/cli/commands.py).
 LAZY = {("hypate", "hypate._api"),
         ("hypate.scaling.cli.entry", "hypate.scaling.cli.main")}
-#: The ways a study runs, which only the runner (``hypate.scaling.workflow.execute``) picks:
+#: The ways a study runs, which only the runner (``hypate.scaling.workflow.campaigns.execute``) picks:
 #: (module, function) pairs the CLI and the top-level API may not import.
-RUNNERS = {("hypate.scaling.workflow.run", "run_study"),
-           ("hypate.scaling.workflow.sweep", "run_sweep"),
-           ("hypate.scaling.workflow.robust", "run_robust_study")}
+#: The scaling workflow's rooms in reading order: each imports only the ones before it.
+WORKFLOW_ROOMS = ("vocabulary", "campaigns", "analyses")
+RUNNERS = {("hypate.scaling.workflow.campaigns.run", "run_study"),
+           ("hypate.scaling.workflow.campaigns.sweep", "run_sweep"),
+           ("hypate.scaling.workflow.campaigns.robust", "run_robust_study")}
 
 
 @dataclass(frozen=True)
@@ -113,6 +117,14 @@ def _is_under(name: str, package: str) -> bool:
     return name == package or name.startswith(package + ".")
 
 
+def _workflow_room(name: str) -> str | None:
+    parts = name.split(".")
+    if parts[:3] == ["hypate", "scaling", "workflow"] and len(parts) > 3 \
+            and parts[3] in WORKFLOW_ROOMS:
+        return parts[3]
+    return None
+
+
 def _layer_violation(importer: str, target: str) -> str | None:
     if not _is_under(target, "hypate") or _is_under(importer, target):
         return None
@@ -130,6 +142,9 @@ def _layer_violation(importer: str, target: str) -> str | None:
         return "nothing but the CLI imports the CLI"
     if _is_under(importer, "hypate.scaling.workflow") and _is_under(target, "hypate.scaling.report"):
         return "the workflow does not import the report"
+    rooms = [_workflow_room(m) for m in (importer, target)]
+    if None not in rooms and WORKFLOW_ROOMS.index(rooms[0]) < WORKFLOW_ROOMS.index(rooms[1]):
+        return "a workflow room imports only the rooms before it"
     if target == "hypate" and importer != "hypate":
         return "the top-level API is imported by users, not by the project"
     return None
@@ -179,7 +194,7 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 #: The one module that imports by name: code outside the tree, named by the user (a study's
 #: ``[simulation] simulator = "package.module:function"``).
-USER_CODE = {"hypate.scaling.workflow.external"}
+USER_CODE = {"hypate.scaling.workflow.vocabulary.external"}
 
 
 def check_tree(root: Path) -> list[str]:
@@ -263,12 +278,14 @@ BROKEN = {
                                  "    return importlib.import_module('x')\n"),
     "scaling/engine/optimizer.py": "from hypate.scaling.engine import pareto, store\n",
     "scaling/workflow/__init__.py": "",
-    "scaling/workflow/run.py": "from hypate.scaling.report.html import write_report\n",
+    "scaling/workflow/campaigns/run.py": "from hypate.scaling.report.html import write_report\n",
     "scaling/report/__init__.py": "",
     "scaling/report/html.py": "def write_report():\n    pass\n",
     "scaling/cli/__init__.py": "",
-    "scaling/cli/run.py": "from hypate.scaling.workflow.sweep import run_sweep\n",
-    "scaling/workflow/sweep.py": "def run_sweep():\n    pass\n",
+    "scaling/cli/run.py": "from hypate.scaling.workflow.campaigns.sweep import run_sweep\n",
+    "scaling/workflow/campaigns/sweep.py": "def run_sweep():\n    pass\n",
+    "scaling/workflow/vocabulary/study.py": "from hypate.scaling.workflow.analyses import whatif\n",
+    "scaling/workflow/analyses/whatif.py": "",
 }
 
 
@@ -282,6 +299,7 @@ def test_the_contract_catches_each_kind_of_violation(tmp_path: Path) -> None:
                      "the simulator imports nothing of scaling/",
                      "the engine knows only itself and solvers.numerics",
                      "the workflow does not import the report",
+                     "a workflow room imports only the rooms before it",
                      "private name(s) _front",
                      "inside a function or class",
                      "import by string name",

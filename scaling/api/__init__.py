@@ -19,8 +19,8 @@ The documented Python API:
   results (an external code, an experiment), crash-safe and resumable;
 - :class:`CheapConstraint` -- an analytic constraint with its Jacobian, enforced exactly;
 - :class:`SimulatedHistories`, :class:`ModelFailure` -- what a scaling study's own
-  simulator (``[simulation] simulator``, :mod:`hypate.scaling.workflow.external`) returns,
-  and what it raises on a design it cannot simulate.
+  simulator (``[simulation] simulator``, :mod:`hypate.scaling.workflow.vocabulary.external`)
+  returns, and what it raises on a design it cannot simulate.
 
 The names load on first use (PEP 562 ``__getattr__``): ``import hypate`` itself is instant,
 and the ``hypate`` command can answer a Ctrl-C at once instead of after numpy, scipy, pandas

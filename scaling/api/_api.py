@@ -23,11 +23,11 @@ from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.engine.settings import OptimizerSettings, RunContext
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.report.html import write_report_safely
-from hypate.scaling.workflow.execute import Outcome, execute
-from hypate.scaling.workflow.external import SimulatedHistories
-from hypate.scaling.workflow.objectives import ModelFailure
-from hypate.scaling.workflow.run import RunOutcome
-from hypate.scaling.workflow.study import Study, load_study
+from hypate.scaling.workflow.campaigns.execute import Outcome, execute
+from hypate.scaling.workflow.campaigns.run import RunOutcome
+from hypate.scaling.workflow.vocabulary.external import SimulatedHistories
+from hypate.scaling.workflow.vocabulary.objectives import ModelFailure
+from hypate.scaling.workflow.vocabulary.study import Study, load_study
 from pymoo.core.problem import Problem
 from scipy.optimize import OptimizeResult
 
@@ -40,7 +40,7 @@ def run_study(study: Study, out: str | Path | None = None, *,
               on_written: Callable[[Path], object] | None = write_report_safely,
               **options: Any) -> Outcome | None:
     """Run (or, with ``resume=True``, continue) ``study`` exactly as ``hypate run STUDY
-    --out OUT`` does: the same runner (:func:`hypate.scaling.workflow.execute.execute`)
+    --out OUT`` does: the same runner (:func:`hypate.scaling.workflow.campaigns.execute.execute`)
     decides between a single campaign, a robust one, one per seed and one per ``[sweep]``
     point, and writes the same files (a sweep's ``sweep.json``, a ``seeds=N`` run's
     ``seeds.json``).
@@ -55,7 +55,7 @@ def run_study(study: Study, out: str | Path | None = None, *,
         Called with each finished run directory; default: write its report (``None``
         skips it).
     **options
-        Those of :func:`~hypate.scaling.workflow.execute.execute`: ``resume``,
+        Those of :func:`~hypate.scaling.workflow.campaigns.execute.execute`: ``resume``,
         ``workers``, ``scheduler``, ``seed``, ``seeds`` (a number of seeds), ``seed_runs``,
         ``progress``, ``force``.
 

@@ -20,7 +20,7 @@ from dataclasses import replace
 import numpy as np
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.timing import median_seconds
-from hypate.scaling.workflow.shipped import shipped
+from hypate.scaling.workflow.vocabulary.shipped import shipped
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.config import parse_case, read_toml, settings_from_config
 from hypate.solvers.coupling.model import PanelModel

@@ -1,5 +1,5 @@
 """``hypate bench best STUDY [--seeds N | --runs DIR ...] [--starts K] [--evaluations M]``:
-the best known admissible design of a study (:mod:`hypate.scaling.workflow.best_known`).
+the best known admissible design of a study (:mod:`hypate.scaling.workflow.analyses.best_known`).
 
 Runs the study for ``--seeds`` seeds (or reads finished ``--runs``), then a bounded
 Nelder-Mead on max(J_u, J_T) from each of the ``--starts`` best admissible designs found,
@@ -19,12 +19,12 @@ from typing import Any
 import numpy as np
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.run import resolve_workers
-from hypate.scaling.workflow.best_known import best_known_search, candidate_designs
-from hypate.scaling.workflow.execute import execute
-from hypate.scaling.workflow.run import RunOutcome
-from hypate.scaling.workflow.seeds import seed_directory, seed_list
-from hypate.scaling.workflow.shipped import resolve
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.analyses.best_known import best_known_search, candidate_designs
+from hypate.scaling.workflow.campaigns.execute import execute
+from hypate.scaling.workflow.campaigns.run import RunOutcome
+from hypate.scaling.workflow.campaigns.seeds import seed_directory, seed_list
+from hypate.scaling.workflow.vocabulary.shipped import resolve
+from hypate.scaling.workflow.vocabulary.study import load_study
 from hypate.solvers.errors import InputError
 
 

@@ -13,11 +13,11 @@ from pathlib import Path
 
 from hypate.scaling.cli.arguments import integer_in
 from hypate.scaling.cli.jsonout import dumps
-from hypate.scaling.workflow.shipped import resolve
+from hypate.scaling.workflow.vocabulary.shipped import resolve
 from hypate.solvers.aero.rom.build import build_rom_from_config, check_rom
 from hypate.solvers.aero.rom.config import MAX_SAMPLES, MIN_SAMPLES, load_rom_config
 
-#: The shipped ROM build file, by name (:mod:`hypate.scaling.workflow.shipped`).
+#: The shipped ROM build file, by name (:mod:`hypate.scaling.workflow.vocabulary.shipped`).
 DEFAULT_CONFIG = "rom_2d_panel"
 
 

@@ -14,9 +14,9 @@ run's target and final values count its top-level evaluations only.
 
 Each seed's design point is reported too (issue 41): ``design_points`` (max(J_u, J_T) of each
 seed's design point), ``median_design_point``, ``worst_design_point``; with a record in
-``scaling/data/best_known.toml`` (:mod:`hypate.scaling.workflow.best_known`), ``best_known``
-and each seed's ``gap`` to it (``median_gap``, ``worst_gap``, in the same fractions); and
-the failed evaluations after the initial design, ``failed_after_initial`` (per seed
+``scaling/data/best_known.toml`` (:mod:`hypate.scaling.workflow.analyses.best_known`),
+``best_known`` and each seed's ``gap`` to it (``median_gap``, ``worst_gap``, in the same fractions);
+and the failed evaluations after the initial design, ``failed_after_initial`` (per seed
 ``[failed, evaluated]``) and ``failed_share`` (their sum over seeds, as a fraction).
 
 JSON (public): ``{"study", "target", "seeds", "seconds_to_target": [...],
@@ -42,14 +42,14 @@ import numpy as np
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.run import resolve_workers
 from hypate.scaling.engine.pareto import hypervolume
-from hypate.scaling.workflow.best_known import best_known
-from hypate.scaling.workflow.derived import study_data
-from hypate.scaling.workflow.execute import execute
-from hypate.scaling.workflow.fidelity import is_top
-from hypate.scaling.workflow.run import RunOutcome
-from hypate.scaling.workflow.seeds import seed_directory, seed_list
-from hypate.scaling.workflow.shipped import resolve
-from hypate.scaling.workflow.study import Study, load_study, parse_study
+from hypate.scaling.workflow.analyses.best_known import best_known
+from hypate.scaling.workflow.campaigns.execute import execute
+from hypate.scaling.workflow.campaigns.run import RunOutcome
+from hypate.scaling.workflow.campaigns.seeds import seed_directory, seed_list
+from hypate.scaling.workflow.vocabulary.derived import study_data
+from hypate.scaling.workflow.vocabulary.fidelity import is_top
+from hypate.scaling.workflow.vocabulary.shipped import resolve
+from hypate.scaling.workflow.vocabulary.study import Study, load_study, parse_study
 from hypate.solvers.errors import InputError
 
 #: Hypervolume reference point of the final front (J_u, J_T as fractions).

@@ -6,7 +6,7 @@ import argparse
 from hypate.scaling.cli.arguments import finite, integer_in, positive
 from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
-from hypate.scaling.workflow.shipped import resolve
+from hypate.scaling.workflow.vocabulary.shipped import resolve
 from hypate.solvers.config import load_panel
 from hypate.solvers.coupling.flutter import FlutterAnalysis
 from hypate.solvers.errors import InputError

@@ -10,8 +10,8 @@ import re
 from pathlib import Path
 
 from hypate.scaling.cli.commands import HELP
-from hypate.scaling.workflow.shipped import resolve, shipped
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.vocabulary.shipped import resolve, shipped
+from hypate.scaling.workflow.vocabulary.study import load_study
 from hypate.solvers.config import did_you_mean
 from hypate.solvers.errors import InputError
 from hypate.solvers.numerics.files import write_text

@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from hypate.scaling.workflow.rundir import finite
+from hypate.scaling.workflow.campaigns.rundir import finite
 
 
 def dumps(obj: Any, **kwargs: Any) -> str:

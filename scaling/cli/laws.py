@@ -3,7 +3,7 @@
 Fits the design points of a sweep run (``hypate run`` of a study with ``[sweep] xi``), or
 of several single-study runs of one scaling problem at different scales
 (``hypate laws runs/xi2 runs/xi3 runs/xi4``), as power laws of the geometric scale and compares them
-with the analytical laws (:mod:`hypate.scaling.workflow.laws`, Sec. 6.1.3, Fig. 9.4/9.12);
+with the analytical laws (:mod:`hypate.scaling.workflow.campaigns.laws`, Sec. 6.1.3, Fig. 9.4/9.12);
 ``--predict XI`` gives the design the refined laws predict at a new scale and its similarity table,
 ``--evaluate`` simulates it.
 """
@@ -16,7 +16,7 @@ from pathlib import Path
 from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.report.laws import laws_table
-from hypate.scaling.workflow.laws import (
+from hypate.scaling.workflow.campaigns.laws import (
     laws_json,
     laws_of_run,
     load_runs,

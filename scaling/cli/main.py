@@ -48,7 +48,7 @@ from hypate.scaling.cli.failures import (
     write_failure,
 )
 from hypate.scaling.engine.store import StoreError
-from hypate.scaling.workflow.campaign import package_version
+from hypate.scaling.workflow.campaigns.campaign import package_version
 from hypate.solvers.errors import InputError
 from hypate.solvers.numerics.files import LinkRefused
 

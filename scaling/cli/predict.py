@@ -1,6 +1,6 @@
 """``hypate predict RUN_DIR --measured test.csv [--out DIR] [--json] [--xi X]``: the
 full-scale histories a wind-tunnel test of the run's design point predicts (the command line
-of :mod:`hypate.scaling.workflow.predict`; header contract, mapping and band there)."""
+of :mod:`hypate.scaling.workflow.analyses.predict`; header contract, mapping and band there)."""
 from __future__ import annotations
 
 import argparse
@@ -12,18 +12,18 @@ from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.report.figures import png_bytes, prediction_figure
 from hypate.scaling.report.prediction import prediction_page
-from hypate.scaling.workflow.measured import ACCEPTED, read_measured
-from hypate.scaling.workflow.predict import (
+from hypate.scaling.workflow.analyses.predict import (
     design_point_basis,
     predict,
     sweep_basis,
     write_prediction,
 )
-from hypate.scaling.workflow.rundir import (
+from hypate.scaling.workflow.campaigns.rundir import (
     PREDICTION_DIR,
     PREDICTION_HTML,
     PREDICTION_PNG,
 )
+from hypate.scaling.workflow.vocabulary.measured import ACCEPTED, read_measured
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -6,7 +6,7 @@ import argparse
 from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.report.html import write_report
-from hypate.scaling.workflow.rundir import FIGURES_DIR
+from hypate.scaling.workflow.campaigns.rundir import FIGURES_DIR
 
 
 def register(sub: argparse._SubParsersAction) -> None:

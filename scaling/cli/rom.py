@@ -20,7 +20,7 @@ from hypate.scaling.cli.arguments import integer_in, output_file, positive
 from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.progress import StepProgress
-from hypate.scaling.workflow.shipped import resolve
+from hypate.scaling.workflow.vocabulary.shipped import resolve
 from hypate.solvers.aero.rom.build import build_rom_from_config, check_holdout, check_rom
 from hypate.solvers.aero.rom.config import MAX_SAMPLES, MIN_SAMPLES, load_rom_config
 from hypate.solvers.aero.rom.io import load_rom, save_rom

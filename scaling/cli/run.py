@@ -1,7 +1,7 @@
 """``hypate run [STUDY.toml]``: run a scaling study (the main job).
 
 How a study runs (single, seeds, sweep, robust) is decided by the runner,
-:func:`hypate.scaling.workflow.execute.execute`; this module shows it on the terminal
+:func:`hypate.scaling.workflow.campaigns.execute.execute`; this module shows it on the terminal
 (:class:`Terminal`: the runner's hooks) and turns its end into one line and an exit code.
 Size: about 640 lines, the terminal output of every way a study runs and of every way it
 can stop.
@@ -41,18 +41,18 @@ from hypate.scaling.engine.pareto import hypervolume
 from hypate.scaling.engine.problem import summarize_warnings, tally_warnings
 from hypate.scaling.engine.store import EvaluationStore, StoreError
 from hypate.scaling.report.html import write_report, write_report_safely
-from hypate.scaling.workflow.execute import (
+from hypate.scaling.workflow.campaigns.execute import (
     RunStart,
     SeedsOutcome,
     check_request,
     default_run_dir,
     execute,
 )
-from hypate.scaling.workflow.integrity import missing_outputs
-from hypate.scaling.workflow.resources import local_workers, study_estimate
-from hypate.scaling.workflow.robust import robust_budget
-from hypate.scaling.workflow.run import RunOutcome
-from hypate.scaling.workflow.rundir import (
+from hypate.scaling.workflow.campaigns.integrity import missing_outputs
+from hypate.scaling.workflow.campaigns.resources import local_workers, study_estimate
+from hypate.scaling.workflow.campaigns.robust import robust_budget
+from hypate.scaling.workflow.campaigns.run import RunOutcome
+from hypate.scaling.workflow.campaigns.rundir import (
     DESIGN_POINT_JSON,
     REPORT_HTML,
     SEEDS_CSV,
@@ -61,10 +61,10 @@ from hypate.scaling.workflow.rundir import (
     SWEEP_JSON,
     describe_occurrences,
 )
-from hypate.scaling.workflow.shipped import default_study, resolve
-from hypate.scaling.workflow.study import Study, load_study
-from hypate.scaling.workflow.sweep import SweepOutcome
-from hypate.scaling.workflow.verdict import prototype_note
+from hypate.scaling.workflow.campaigns.sweep import SweepOutcome
+from hypate.scaling.workflow.campaigns.verdict import prototype_note
+from hypate.scaling.workflow.vocabulary.shipped import default_study, resolve
+from hypate.scaling.workflow.vocabulary.study import Study, load_study
 from hypate.solvers.errors import InputError
 from tqdm import tqdm
 
@@ -144,7 +144,7 @@ class Progress:
     bar in a terminal, a line every :data:`LOG_EVERY` seconds (and at the end) otherwise,
     nothing when quiet.
 
-    Called as the ``progress`` callback of :func:`hypate.scaling.workflow.run.run_study`:
+    Called as the ``progress`` callback of :func:`hypate.scaling.workflow.campaigns.run.run_study`:
     ``progress(done, budget, evaluation)`` with the evaluation just stored (or None).
 
     Parameters
@@ -466,7 +466,7 @@ def run(args: argparse.Namespace) -> int:
 
 class Terminal:
     """What ``hypate run`` shows of a run: the hooks of
-    :func:`~hypate.scaling.workflow.execute.execute` (a progress bar per campaign, the
+    :func:`~hypate.scaling.workflow.campaigns.execute.execute` (a progress bar per campaign, the
     scatter's step lines, each campaign's summary) and the exit code they imply."""
 
     def __init__(self, args: argparse.Namespace, study: Study, kind: str, say,

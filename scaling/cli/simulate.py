@@ -7,7 +7,7 @@ import sys
 from hypate.scaling.cli.arguments import output_directory
 from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
-from hypate.scaling.workflow.shipped import resolve
+from hypate.scaling.workflow.vocabulary.shipped import resolve
 from hypate.solvers.config import load_case
 from hypate.solvers.coupling.run import simulate
 from hypate.solvers.errors import InputError

@@ -19,7 +19,7 @@ import warnings
 
 from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
-from hypate.scaling.workflow.shipped import resolve
+from hypate.scaling.workflow.vocabulary.shipped import resolve
 from hypate.solvers.config import load_panel
 from hypate.solvers.errors import InputError
 from hypate.solvers.structure.modal import buckling_delta_T, modes

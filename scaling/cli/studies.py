@@ -6,10 +6,10 @@ import argparse
 
 from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
-from hypate.scaling.workflow.derived import sweep_points
-from hypate.scaling.workflow.robust import robust_budget
-from hypate.scaling.workflow.shipped import shipped
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.campaigns.robust import robust_budget
+from hypate.scaling.workflow.vocabulary.derived import sweep_points
+from hypate.scaling.workflow.vocabulary.shipped import shipped
+from hypate.scaling.workflow.vocabulary.study import load_study
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -27,7 +27,7 @@ import warnings
 
 from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
-from hypate.scaling.workflow.shipped import resolve
+from hypate.scaling.workflow.vocabulary.shipped import resolve
 from hypate.solvers.config import load_panel
 from hypate.solvers.errors import InputError
 from hypate.solvers.thermal.loads import uniform_loads

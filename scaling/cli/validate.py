@@ -9,8 +9,8 @@ from typing import Any
 
 from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
-from hypate.scaling.workflow.shipped import resolve
-from hypate.scaling.workflow.study import parse_study
+from hypate.scaling.workflow.vocabulary.shipped import resolve
+from hypate.scaling.workflow.vocabulary.study import parse_study
 from hypate.solvers.aero.factory import check_fluid_model
 from hypate.solvers.aero.rom.build import geometry_from_config, snapshots_path
 from hypate.solvers.aero.rom.config import parse_rom_config

@@ -1,5 +1,5 @@
 """``hypate whatif STUDY --set NAME=VALUE ...``: the command line of
-:mod:`hypate.scaling.workflow.whatif` (rules and output fields documented there)."""
+:mod:`hypate.scaling.workflow.analyses.whatif` (rules and output fields documented there)."""
 from __future__ import annotations
 
 import argparse
@@ -14,17 +14,17 @@ from hypate.scaling.cli.commands import HELP
 from hypate.scaling.cli.jsonout import dumps
 from hypate.scaling.cli.progress import StepProgress
 from hypate.scaling.report.figures import plot_sweep
-from hypate.scaling.workflow.shipped import resolve
-from hypate.scaling.workflow.study import load_study
-from hypate.scaling.workflow.variables import CATEGORICAL, variable_unit
-from hypate.scaling.workflow.verdict import admissibility_lines, prototype_note
-from hypate.scaling.workflow.whatif import (
+from hypate.scaling.workflow.analyses.whatif import (
     MISMATCH,
     evaluate_whatif,
     load_base,
     scatter_whatif,
     sweep_whatif,
 )
+from hypate.scaling.workflow.campaigns.verdict import admissibility_lines, prototype_note
+from hypate.scaling.workflow.vocabulary.shipped import resolve
+from hypate.scaling.workflow.vocabulary.study import load_study
+from hypate.scaling.workflow.vocabulary.variables import CATEGORICAL, variable_unit
 from hypate.solvers.errors import InputError
 
 

@@ -189,7 +189,7 @@ class Outcome:
 
     def __getitem__(self, key: str) -> Any:
         """Transitional read access by the former dict keys (``outcome["F"]``): the seed
-        loop of ``scaling/workflow/run.py`` still reads them. Remove once it reads
+        loop of ``scaling/workflow/campaigns/run.py`` still reads them. Remove once it reads
         attributes."""
         if key not in _OUTCOME_KEYS:
             raise KeyError(key)

@@ -37,8 +37,8 @@ import numpy as np  # noqa: E402
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask  # noqa: E402
 from hypate.scaling.report.numbers import format_percent, percent  # noqa: E402
 from hypate.scaling.report.rundata import RunData  # noqa: E402
-from hypate.scaling.workflow.predict import Prediction  # noqa: E402
-from hypate.scaling.workflow.variables import schedule_point, variable_unit  # noqa: E402
+from hypate.scaling.workflow.analyses.predict import Prediction  # noqa: E402
+from hypate.scaling.workflow.vocabulary.variables import schedule_point, variable_unit  # noqa: E402
 from hypate.solvers.coupling.response import Response  # noqa: E402
 from hypate.solvers.numerics.files import atomic_file, write_bytes  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402

@@ -1,5 +1,5 @@
 """What each similarity parameter means: symbol, formula and equation number from
-:data:`hypate.scaling.workflow.similarity.PARAMETERS`, plus one sentence of physics.
+:data:`hypate.scaling.workflow.vocabulary.similarity.PARAMETERS`, plus one sentence of physics.
 
 The sentences live here, with the report that prints them, rather than in the workflow's
 parameter table: they are prose for the reader of a report, not part of the computation.
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from hypate.scaling.workflow.similarity import PARAMETERS
+from hypate.scaling.workflow.vocabulary.similarity import PARAMETERS
 
 __all__ = ["MEANINGS", "glossary_rows"]
 

@@ -1,8 +1,8 @@
 """Self-contained HTML report of a scaling run (what a test engineer mails around).
 
 :func:`write_report` reads a run directory written by ``hypate run``
-(:mod:`hypate.scaling.workflow.run`) -- also an *interrupted* one, where only ``evaluations.sqlite``
-(and perhaps ``prototype.npz`` / ``classical.json``) exist -- and writes
+(:mod:`hypate.scaling.workflow.campaigns.run`) -- also an *interrupted* one, where only
+``evaluations.sqlite`` (and perhaps ``prototype.npz`` / ``classical.json``) exist -- and writes
 
 * ``figures/*.png`` -- the figures of :mod:`.figures`;
 * ``report.html`` -- ONE page with every image embedded as a base64 ``data:`` URI, inline
@@ -55,8 +55,8 @@ from pathlib import Path
 from hypate.scaling.report.figures import close_figures
 from hypate.scaling.report.rundata import RunData, load_run
 from hypate.scaling.report.sections import BUILTIN_SECTIONS, Section
-from hypate.scaling.workflow.integrity import check_run_directory
-from hypate.scaling.workflow.rundir import REPORT_HTML as REPORT_NAME
+from hypate.scaling.workflow.campaigns.integrity import check_run_directory
+from hypate.scaling.workflow.campaigns.rundir import REPORT_HTML as REPORT_NAME
 from hypate.solvers.errors import InputError
 from hypate.solvers.numerics.files import write_text
 

@@ -2,7 +2,7 @@
 exponent table of ``hypate laws`` and the report, the figure of each variable against the
 geometric scale ``xi`` with its fitted and analytical laws, and the report's "Scaling
 laws" section of a sweep directory. The laws themselves are fitted in
-:mod:`hypate.scaling.workflow.laws`.
+:mod:`hypate.scaling.workflow.campaigns.laws`.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from pathlib import Path
 import matplotlib
 import matplotlib.pyplot as plt
 import numpy as np
-from hypate.scaling.workflow.laws import ScalingLaw, laws_of_run, load_sweep
+from hypate.scaling.workflow.campaigns.laws import ScalingLaw, laws_of_run, load_sweep
 from hypate.solvers.errors import InputError
 
 

@@ -1,6 +1,6 @@
 """The report's view of a categorical model material (``[variables] material = [...]``):
 the design table's row and how close each material came (``design_point.json``'s
-``material`` block, :func:`hypate.scaling.workflow.outputs.best_by_material`)."""
+``material`` block, :func:`hypate.scaling.workflow.campaigns.outputs.best_by_material`)."""
 from __future__ import annotations
 
 import html

@@ -14,7 +14,7 @@ from hypate.scaling.report.figures import embed_png
 from hypate.scaling.report.html import PAGE_CSS
 from hypate.scaling.report.numbers import format_number, format_percent
 from hypate.scaling.report.sections import html_table
-from hypate.scaling.workflow.predict import COVERAGE, Prediction
+from hypate.scaling.workflow.analyses.predict import COVERAGE, Prediction
 
 __all__ = ["prediction_page"]
 

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 from hypate.scaling.report.blocks import Raw, Section, dl, fmt, html_table, pct
 from hypate.scaling.report.rundata import RunData
-from hypate.scaling.workflow.rundir import (
+from hypate.scaling.workflow.campaigns.rundir import (
     describe_occurrences,
 )
 

@@ -1,7 +1,7 @@
 """The run data of the report: :class:`RunData` and :func:`load_run`.
 
 :func:`load_run` reads a run directory written by ``hypate run``
-(:mod:`hypate.scaling.workflow.run`) -- also an *interrupted* one, where only
+(:mod:`hypate.scaling.workflow.campaigns.run`) -- also an *interrupted* one, where only
 ``evaluations.sqlite`` (and perhaps ``prototype.npz`` / ``classical.json``) exist -- finds
 its study file, names the store's columns and, when ``design_point.json`` is missing,
 rebuilds the design point from the evaluations (Sec. 9.2.3 criterion). Nothing here draws
@@ -20,10 +20,8 @@ import pandas as pd
 from hypate.scaling.engine.design_point import DESIGN_POINT_RULES, design_point_index
 from hypate.scaling.engine.problem import tally_warnings
 from hypate.scaling.engine.store import EvaluationStore, StoreTampered, warnings_from_text
-from hypate.scaling.workflow.campaign import ENVIRONMENTS
-from hypate.scaling.workflow.fidelity import FIDELITY, FIDELITY_NAME
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.rundir import (
+from hypate.scaling.workflow.campaigns.campaign import ENVIRONMENTS
+from hypate.scaling.workflow.campaigns.rundir import (
     CLASSICAL_JSON,
     DESIGN_POINT_JSON,
     DESIGN_POINT_NPZ,
@@ -34,9 +32,11 @@ from hypate.scaling.workflow.rundir import (
     PROTOTYPE_WARNINGS,
     STORE,
 )
-from hypate.scaling.workflow.seeds import load_seeds
-from hypate.scaling.workflow.shipped import shipped
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.campaigns.seeds import load_seeds
+from hypate.scaling.workflow.vocabulary.fidelity import FIDELITY, FIDELITY_NAME
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.vocabulary.shipped import shipped
+from hypate.scaling.workflow.vocabulary.study import load_study
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 from hypate.solvers.numerics.files import ensure_directory
@@ -85,12 +85,12 @@ class RunData:
         older than it).
     seeds : dict or None
         For one seed of a ``hypate run --seeds N`` run: the parent's ``seeds.json``
-        (:func:`hypate.scaling.workflow.seeds.load_seeds`, with ``"this"``).
+        (:func:`hypate.scaling.workflow.campaigns.seeds.load_seeds`, with ``"this"``).
     seed : int or None
         The optimizer seed the run used (the store's; ``--seed`` may override the study's).
     environments : list of dict
         The numerical environments the run ran in
-        (:func:`hypate.scaling.workflow.campaign.runtime_environment`).
+        (:func:`hypate.scaling.workflow.campaigns.campaign.runtime_environment`).
     """
 
     directory: Path
@@ -255,9 +255,10 @@ def load_run(run_dir: str | Path, study_path: str | Path | None = None,
     study_path : path, optional
         The study file. Without it the study is looked up in ``design_point.json``
         (``study_path``), the store's metadata, ``run_dir/study.toml`` and finally the
-        shipped study of that name (:mod:`hypate.scaling.workflow.shipped`) (used only when its
-        variable and objective counts match the store). When none is found the report shows what the
-        store/CSV holds (variables ``x0..``, objectives ``f0..`` unless the CSV names them).
+        shipped study of that name (:mod:`hypate.scaling.workflow.vocabulary.shipped`) (used only
+        when its variable and objective counts match the store). When none is found the report shows
+        what the store/CSV holds (variables ``x0..``, objectives ``f0..`` unless the CSV names
+        them).
     simulate : bool
         For an interrupted run with a known study: simulate the rebuilt design point to
         plot its response (one model simulation). Off by default.

@@ -59,13 +59,13 @@ from hypate.scaling.report.run_sections import (
     warnings_section,
 )
 from hypate.scaling.report.rundata import RunData
-from hypate.scaling.workflow.laws import (
+from hypate.scaling.workflow.campaigns.laws import (
     SWEEP_JSON,
     laws_of_run,
     load_sweep,
     materials_by_scale,
 )
-from hypate.scaling.workflow.rundir import (
+from hypate.scaling.workflow.campaigns.rundir import (
     PREDICTION_DIR,
     PREDICTION_HTML,
     PREDICTION_JSON,

@@ -1,5 +1,5 @@
 """A scaling study's own simulator (README, "Your own simulator"; the protocol of
-``hypate.scaling.workflow.external``).
+``hypate.scaling.workflow.vocabulary.external``).
 
 ``simulate(configuration)`` receives one test article -- the prototype in flight or a model
 design in the tunnel -- and returns the nondimensional histories J compares. Here hypate's
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 from hypate import ModelFailure, SimulatedHistories
-from hypate.scaling.workflow.configuration import Configuration, simulate_configuration
+from hypate.scaling.workflow.vocabulary.configuration import Configuration, simulate_configuration
 
 
 def simulate(configuration: Configuration) -> SimulatedHistories:

@@ -1,5 +1,5 @@
 """Calibrate the memory and time estimate of one simulation
-(:mod:`hypate.scaling.workflow.resources`) against measured simulations.
+(:mod:`hypate.scaling.workflow.campaigns.resources`) against measured simulations.
 
 Each point simulates the quick-start study's prototype (the Sec. 9.2 sandwich: 5 thermal
 levels) or its model (one Ti 6242 layer: ``sublayers + 1`` levels) at a mesh and a number of
@@ -7,7 +7,7 @@ steps, alone in a fresh process: the memory is the rise of the peak resident set
 (``VmHWM`` after resetting it through ``/proc/self/clear_refs``, Linux) over the resident
 set just before the simulation, the time its wall time. The coefficients are the
 non-negative least-squares fit of the features of
-:class:`~hypate.scaling.workflow.resources.SimulationSize` (memory: relative errors, so
+:class:`~hypate.scaling.workflow.campaigns.resources.SimulationSize` (memory: relative errors, so
 that small and large meshes weigh alike), printed with each point's error::
 
     python -m hypate.studies.scripts.calibrate_resources [--points quick|full] [--check] [--json]
@@ -26,11 +26,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from hypate.scaling.workflow.derived import study_data
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.resources import SimulationSize, estimate, simulation_size
-from hypate.scaling.workflow.shipped import default_study
-from hypate.scaling.workflow.study import load_study, parse_study
+from hypate.scaling.workflow.vocabulary.derived import study_data
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.campaigns.resources import SimulationSize, estimate, simulation_size
+from hypate.scaling.workflow.vocabulary.shipped import default_study
+from hypate.scaling.workflow.vocabulary.study import load_study, parse_study
 from scipy.optimize import nnls
 
 #: (which, mesh, steps, model sub-layers) of the calibration points.
@@ -105,7 +105,7 @@ def measure(which: str, mesh: int, steps: int, sublayers: int) -> Point:
 
 def fit(points: list[Point]) -> dict[str, float]:
     """Non-negative least-squares coefficients of the estimate (the keys of
-    :data:`~hypate.scaling.workflow.resources.CALIBRATION`); memory in relative error."""
+    :data:`~hypate.scaling.workflow.campaigns.resources.CALIBRATION`); memory in relative error."""
     A = np.array([[*p.size.memory_features(), 1.0] for p in points])
     # columns (thermal LU, shell Cholesky, unknowns, cached mass matrices, 1)
     y = np.array([p.memory for p in points])

@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from hypate.scaling.workflow.shipped import shipped
+from hypate.scaling.workflow.vocabulary.shipped import shipped
 from hypate.solvers.aero.analytic import eckert_heat_flux
 from hypate.solvers.aero.base import Array, SurfacePoints, SurfaceState
 from hypate.solvers.aero.rom.io import load_rom

@@ -19,9 +19,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
-from hypate.scaling.workflow.configuration import Configuration
-from hypate.scaling.workflow.shipped import shipped
-from hypate.scaling.workflow.similarity import analytical_scaling, similarity_parameters
+from hypate.scaling.workflow.vocabulary.configuration import Configuration
+from hypate.scaling.workflow.vocabulary.shipped import shipped
+from hypate.scaling.workflow.vocabulary.similarity import analytical_scaling, similarity_parameters
 from hypate.solvers.config import load_case
 from hypate.solvers.materials import library_material
 from hypate.studies.scripts.comparison import Approx, publish, side_by_side, standard_parser
@@ -64,7 +64,7 @@ class Result:
 
 
 def sec9_1_configurations():
-    """(prototype, model template) :class:`hypate.scaling.workflow.similarity.Configuration` of Sec. 9.1."""
+    """(prototype, model template) :class:`hypate.scaling.workflow.vocabulary.similarity.Configuration` of Sec. 9.1."""
 
     case = load_case(shipped("case")["sec9_1_prototype"])
     proto = Configuration(case.panel, case.flow, delta_T=1.0, time=1e-3)

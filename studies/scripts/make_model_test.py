@@ -41,13 +41,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from hypate.scaling.engine.store import EvaluationStore
-from hypate.scaling.workflow.campaign import campaign_identity, package_version
-from hypate.scaling.workflow.derived import study_data
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.run import run_study
-from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON, DESIGN_POINT_NPZ, STORE
-from hypate.scaling.workflow.shipped import resolve
-from hypate.scaling.workflow.study import Study, load_study, parse_study
+from hypate.scaling.workflow.campaigns.campaign import campaign_identity, package_version
+from hypate.scaling.workflow.vocabulary.derived import study_data
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.campaigns.run import run_study
+from hypate.scaling.workflow.campaigns.rundir import DESIGN_POINT_JSON, DESIGN_POINT_NPZ, STORE
+from hypate.scaling.workflow.vocabulary.shipped import resolve
+from hypate.scaling.workflow.vocabulary.study import Study, load_study, parse_study
 from hypate.solvers.coupling.response import Response
 from hypate.studies.scripts.ch9_runs import COARSE_9_2
 

@@ -24,11 +24,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
-from hypate.scaling.workflow.derived import study_data
-from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON, STORE
-from hypate.scaling.workflow.run import run_study
-from hypate.scaling.workflow.shipped import shipped
-from hypate.scaling.workflow.study import Study, load_study, parse_study
+from hypate.scaling.workflow.vocabulary.derived import study_data
+from hypate.scaling.workflow.campaigns.rundir import DESIGN_POINT_JSON, STORE
+from hypate.scaling.workflow.campaigns.run import run_study
+from hypate.scaling.workflow.vocabulary.shipped import shipped
+from hypate.scaling.workflow.vocabulary.study import Study, load_study, parse_study
 
 #: The material study and the fixed-material problem it is compared with.
 MATERIAL_STUDY, FIXED_STUDY = "sec9_2_2_xi4_material", "sec9_2_2_xi4"

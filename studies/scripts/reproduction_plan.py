@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.rundir import SWEEP_CSV
-from hypate.scaling.workflow.whatif import evaluate_whatif
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.campaigns.rundir import SWEEP_CSV
+from hypate.scaling.workflow.analyses.whatif import evaluate_whatif
 from hypate.studies.scripts import (
     ch7_benchmark,
     ch7_flutter,

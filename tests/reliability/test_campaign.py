@@ -22,7 +22,7 @@ from conftest import (
 )
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.store import EvaluationStore
-from hypate.scaling.workflow.campaign import changed_keys, run_lock
+from hypate.scaling.workflow.campaigns.campaign import changed_keys, run_lock
 
 #: 7 + 12 evaluations of about 0.15 s: long enough to be killed several times.
 STUDY = tiny_study_text(name="campaign", mesh=2, steps=4, initial=6, iterations=12, seed=5)
@@ -215,7 +215,7 @@ def test_a_second_process_on_a_run_directory_exits_2_naming_the_holder(
     out = tmp_path / "held"
     holder = subprocess.Popen([sys.executable, "-c", (
         "import sys, time; from pathlib import Path; "
-        "from hypate.scaling.workflow.campaign import run_lock\n"
+        "from hypate.scaling.workflow.campaigns.campaign import run_lock\n"
         f"with run_lock(Path({str(out)!r})):\n"
         "    print('locked', flush=True); time.sleep(60)")], stdout=subprocess.PIPE, text=True)
     try:

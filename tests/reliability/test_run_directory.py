@@ -27,7 +27,7 @@ import pytest
 from conftest import PREDICTION_RUN, foreground_sigint, kill_after, tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.store import EvaluationStore
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.vocabulary.study import load_study
 from hypate.solvers.coupling.response import Response
 
 #: 3 initial + 1 iteration + the classical seed: 5 evaluations of 20 steps.

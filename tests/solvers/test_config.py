@@ -147,7 +147,7 @@ def test_missing_file(capsys: pytest.CaptureFixture, tmp_path: Path) -> None:
 
 def _schemas() -> list[type]:
     """Every pydantic model of the input-file schemas (case, study, ROM build)."""
-    from hypate.scaling.workflow import study
+    from hypate.scaling.workflow.vocabulary import study
     from hypate.solvers import config
     from hypate.solvers.aero.rom import config as rom_config
     from pydantic import BaseModel
@@ -200,7 +200,7 @@ def test_a_case_and_a_study_share_one_simulation_schema():
     # issue 42: the keys both files offer are declared once (SimulationKeys): same defaults
     # (SimulationSettings'), same limits, the same refusal; a case file takes a study's
     # initial_deflection, a study the case files' mesh limit
-    from hypate.scaling.workflow.study import SimulationSection
+    from hypate.scaling.workflow.vocabulary.study import SimulationSection
     from hypate.solvers.config import MAX_MESH, SimulationConfig, SimulationKeys
     from hypate.solvers.settings import DEFAULTS
     from pydantic import ValidationError

@@ -13,8 +13,8 @@ import inspect
 
 import numpy as np
 import pytest
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.study import SimulationSection, load_study
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.vocabulary.study import SimulationSection, load_study
 from hypate.solvers.config import SimulationConfig, parse_case, settings_from_config
 from hypate.solvers.coupling.lc import run_lc
 from hypate.solvers.errors import InputError

@@ -19,9 +19,9 @@ import numpy as np
 import pandas as pd
 import pytest
 from conftest import REPO
-from hypate.scaling.workflow.laws import laws_of_run, load_runs
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.campaigns.laws import laws_of_run, load_runs
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.vocabulary.study import load_study
 from hypate.studies.scripts.ch9_runs import (
     Optimization,
     best_minmax,

@@ -217,7 +217,7 @@ def test_check_of_the_shipped_sec9_2_cfd_rom(capsys: pytest.CaptureFixture) -> N
 
 
 def test_shipped_sec9_2_cfd_build_file_is_an_euler_strip_of_the_prototype() -> None:
-    from hypate.scaling.workflow.shipped import shipped
+    from hypate.scaling.workflow.vocabulary.shipped import shipped
     from hypate.solvers.aero.rom.config import load_rom_config
     from hypate.solvers.aero.rom.io import load_rom
     from hypate.solvers.config import load_case

@@ -14,7 +14,7 @@ from conftest import tiny_study_text
 from hypate.scaling.cli.commands import quick_answer, top_level_parser
 from hypate.scaling.cli.main import build_parser, main
 from hypate.scaling.cli.run import Progress
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.vocabulary.study import load_study
 
 
 def _json(capsys: pytest.CaptureFixture) -> object:
@@ -171,8 +171,8 @@ def test_workers_beyond_the_cores_are_capped_with_one_line(capsys: pytest.Captur
                                                            monkeypatch: pytest.MonkeyPatch
                                                            ) -> None:
     from hypate.scaling.cli import run as run_cli
-    from hypate.scaling.workflow.shipped import default_study
-    from hypate.scaling.workflow.study import load_study
+    from hypate.scaling.workflow.vocabulary.shipped import default_study
+    from hypate.scaling.workflow.vocabulary.study import load_study
 
     study = load_study(default_study())
     monkeypatch.setattr(run_cli, "usable_cores", lambda: 2)

@@ -14,7 +14,7 @@ from conftest import tiny_study_text
 from hypate.scaling.cli.run import Progress, warning_summary
 from hypate.scaling.engine.problem import parse_warning, tally_warnings
 from hypate.scaling.engine.store import warnings_from_text
-from hypate.scaling.workflow.rundir import describe_occurrences
+from hypate.scaling.workflow.campaigns.rundir import describe_occurrences
 
 #: The columns of evaluations.csv after the design variables and objectives.
 TAIL = ["status", "message", "warnings", "seconds", "seed", "max_wall_temperature",

@@ -11,7 +11,7 @@ from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.cli.run import resolve_workers
 from hypate.scaling.engine.executors import auto_workers, usable_cores
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.vocabulary.study import load_study
 from hypate.solvers.errors import InputError
 
 

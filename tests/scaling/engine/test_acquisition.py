@@ -252,7 +252,7 @@ def test_one_default_acquisition_rule(tmp_path) -> None:
     from hypate.scaling.engine.benchmarks import get_benchmark
     from hypate.scaling.engine.functional import plan_budget
     from hypate.scaling.engine.optimizer import BayesianOptimizer
-    from hypate.scaling.workflow.study import load_study
+    from hypate.scaling.workflow.vocabulary.study import load_study
 
     assert (default_acquisition(1), default_acquisition(2), default_acquisition(3, "direct")) \
         == ("ei", "hvlcb", "cheb")

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from hypate.scaling.report.glossary import MEANINGS, glossary_rows
-from hypate.scaling.workflow.similarity import PARAMETERS
+from hypate.scaling.workflow.vocabulary.similarity import PARAMETERS
 
 
 def test_every_parameter_has_a_meaning() -> None:

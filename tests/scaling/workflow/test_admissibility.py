@@ -1,5 +1,5 @@
 """Admissibility of scaled models: material limits, what a model goes through, the checks
-and their switching (scaling.workflow.admissibility, .verdict; issue 40)."""
+and their switching (scaling.workflow.vocabulary.admissibility, .verdict; issue 40)."""
 from __future__ import annotations
 
 import dataclasses
@@ -8,16 +8,16 @@ import math
 
 import numpy as np
 import pytest
-from hypate.scaling.workflow.admissibility import (
+from hypate.scaling.workflow.vocabulary.admissibility import (
     AdmissibilitySection,
     admissible,
     violation,
 )
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.study import load_study, parse_study
-from hypate.scaling.workflow.tunnels import tunnel
-from hypate.scaling.workflow.verdict import verdict_fields
-from hypate.scaling.workflow.whatif import evaluate_whatif
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.vocabulary.study import load_study, parse_study
+from hypate.scaling.workflow.vocabulary.tunnels import tunnel
+from hypate.scaling.workflow.campaigns.verdict import verdict_fields
+from hypate.scaling.workflow.analyses.whatif import evaluate_whatif
 from hypate.solvers.config import read_toml
 from hypate.solvers.errors import InputError
 from hypate.solvers.materials import OutsideDataError, library_material

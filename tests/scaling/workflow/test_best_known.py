@@ -6,7 +6,7 @@ import json
 
 import pytest
 from hypate.scaling.cli.main import main
-from hypate.scaling.workflow.best_known import best_known
+from hypate.scaling.workflow.analyses.best_known import best_known
 
 
 @pytest.mark.parametrize("study", ["quickstart", "sec9_2_2_xi4"])

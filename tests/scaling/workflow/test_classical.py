@@ -7,14 +7,14 @@ import math
 import numpy as np
 import pytest
 from conftest import REPO
-from hypate.scaling.workflow.classical import classical_scaling, design_vector
-from hypate.scaling.workflow.configuration import (
+from hypate.scaling.workflow.vocabulary.classical import classical_scaling, design_vector
+from hypate.scaling.workflow.vocabulary.configuration import (
     Configuration,
     apply_design,
     scaled_panel,
 )
-from hypate.scaling.workflow.similarity import analytical_scaling, similarity_parameters
-from hypate.scaling.workflow.tunnels import bound_set, tunnel
+from hypate.scaling.workflow.vocabulary.similarity import analytical_scaling, similarity_parameters
+from hypate.scaling.workflow.vocabulary.tunnels import bound_set, tunnel
 from hypate.solvers.config import load_case
 from hypate.solvers.errors import InputError
 from hypate.solvers.materials import library_material
@@ -160,7 +160,7 @@ def test_bad_inputs(sec9_1, kwargs, field):
 def test_similarity_exponents_and_basis(sec9_1):
     # Eq. 9.1a as monomials of (h, p_inf, Delta T): h/L ~ h, lambda_F ~ p_inf h^-3 (D ~ h^3),
     # Delta T N_Tx L^2 / D_xx ~ Delta T h^-2 (N_Tx ~ h): exact to the central differences.
-    from hypate.scaling.workflow.classical import similarity_basis, similarity_exponents
+    from hypate.scaling.workflow.vocabulary.classical import similarity_basis, similarity_exponents
 
     _, model = sec9_1
     design = {"h": 1e-3, "p_inf": 5e3, "delta_T": 2.0}

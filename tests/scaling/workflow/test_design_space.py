@@ -1,4 +1,4 @@
-"""The ``[variables]`` table (scaling/workflow/design_space.py): a time-scheduled radiant
+"""The ``[variables]`` table (scaling/workflow/vocabulary/design_space.py): a time-scheduled radiant
 heater ``T_rad = { schedule = n, range = [lo, hi], shape = ... }`` -- key validation, the
 control-point variables, the constant heater reproduced by a flat schedule, the
 increasing shape's cheap constraints, what-ifs, seeds, laws and the similarity table."""
@@ -14,17 +14,17 @@ import pandas as pd
 import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
-from hypate.scaling.workflow.configuration import apply_design
-from hypate.scaling.workflow.laws import DesignPoint, fit_laws
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.run import run_study, seeds_from_runs
-from hypate.scaling.workflow.similarity import (
+from hypate.scaling.workflow.vocabulary.configuration import apply_design
+from hypate.scaling.workflow.campaigns.laws import DesignPoint, fit_laws
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.campaigns.run import run_study, seeds_from_runs
+from hypate.scaling.workflow.vocabulary.similarity import (
     reference_quantities,
     similarity_parameters,
 )
-from hypate.scaling.workflow.study import load_study, parse_study
-from hypate.scaling.workflow.uncertainty import scattered_configuration
-from hypate.scaling.workflow.whatif import evaluate_whatif
+from hypate.scaling.workflow.vocabulary.study import load_study, parse_study
+from hypate.scaling.workflow.vocabulary.uncertainty import scattered_configuration
+from hypate.scaling.workflow.analyses.whatif import evaluate_whatif
 from hypate.solvers.errors import InputError
 from hypate.solvers.materials import STEFAN_BOLTZMANN
 

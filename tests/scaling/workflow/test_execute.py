@@ -9,11 +9,11 @@ import hypate
 import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
-from hypate.scaling.workflow.execute import RUN_KINDS, SeedsOutcome, check_request, run_kind
-from hypate.scaling.workflow.rundir import EVALUATIONS_CSV, SWEEP_JSON
-from hypate.scaling.workflow.seeds import SEEDS_JSON
-from hypate.scaling.workflow.study import load_study
-from hypate.scaling.workflow.sweep import SweepOutcome
+from hypate.scaling.workflow.campaigns.execute import RUN_KINDS, SeedsOutcome, check_request, run_kind
+from hypate.scaling.workflow.campaigns.rundir import EVALUATIONS_CSV, SWEEP_JSON
+from hypate.scaling.workflow.campaigns.seeds import SEEDS_JSON
+from hypate.scaling.workflow.vocabulary.study import load_study
+from hypate.scaling.workflow.campaigns.sweep import SweepOutcome
 from hypate.solvers.errors import InputError
 
 SWEEP = tiny_study_text(name="tiny_sweep", xi=2.0, tail="""

@@ -1,4 +1,4 @@
-"""A scaling study on the user's own simulator (scaling.workflow.external, issue 42)."""
+"""A scaling study on the user's own simulator (scaling.workflow.vocabulary.external, issue 42)."""
 from __future__ import annotations
 
 import dataclasses
@@ -8,10 +8,10 @@ import numpy as np
 import pandas as pd
 import pytest
 from conftest import REPO, tiny_study_text
-from hypate.scaling.workflow.external import SimulatedHistories, external_response
-from hypate.scaling.workflow.objectives import ModelFailure
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.study import load_study, parse_study
+from hypate.scaling.workflow.vocabulary.external import SimulatedHistories, external_response
+from hypate.scaling.workflow.vocabulary.objectives import ModelFailure
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.vocabulary.study import load_study, parse_study
 from hypate.solvers.errors import InputError
 
 EXAMPLE = REPO / "studies" / "examples" / "own_simulator.toml"
@@ -21,7 +21,7 @@ EXAMPLE = REPO / "studies" / "examples" / "own_simulator.toml"
 SIMULATORS = '''
 import numpy as np
 from hypate import ModelFailure, SimulatedHistories
-from hypate.scaling.workflow.configuration import simulate_configuration
+from hypate.scaling.workflow.vocabulary.configuration import simulate_configuration
 
 def thick_only(configuration):
     if configuration.panel.thickness < 0.003:
@@ -154,7 +154,7 @@ def test_the_readme_shows_the_example_as_it_is():
 def test_an_edited_simulator_file_is_another_campaign(tmp_path: Path):
     # the simulator's code decides the results: a resume after editing it is refused,
     # naming the file's hash, like an edited case file or ROM archive
-    from hypate.scaling.workflow.campaign import campaign_identity, changed_keys
+    from hypate.scaling.workflow.campaigns.campaign import campaign_identity, changed_keys
 
     study = _study(tmp_path, "thick_only")
     before = campaign_identity(study, 0)
@@ -166,8 +166,8 @@ def test_an_edited_simulator_file_is_another_campaign(tmp_path: Path):
 def test_an_edited_simulator_module_is_another_campaign(tmp_path: Path,
                                                         monkeypatch: pytest.MonkeyPatch):
     # a "package.module:function" simulator: its module's source file is hashed the same way
-    from hypate.scaling.workflow.campaign import campaign_identity, changed_keys
-    from hypate.scaling.workflow.external import simulator_source
+    from hypate.scaling.workflow.campaigns.campaign import campaign_identity, changed_keys
+    from hypate.scaling.workflow.vocabulary.external import simulator_source
 
     package = tmp_path / "lib" / "hypate_test_simpkg"
     package.mkdir(parents=True)
@@ -191,7 +191,7 @@ def test_the_stress_check_reads_the_simulators_stress(tmp_path: Path):
     # a stress check in "constraint" mode: the column is the relative violation of
     # yield / safety factor at the simulator's point of the largest ratio, ratio x SF - 1
     # (von Mises 300 MPa at 1.5 x yield), not a silent 0
-    from hypate.scaling.workflow.admissibility import simulated_columns
+    from hypate.scaling.workflow.vocabulary.admissibility import simulated_columns
 
     study = _study(tmp_path, "thick_only", sections='[admissibility]\nstress = "constraint"\n')
     problem = ScalingProblem(study.spec)
@@ -210,7 +210,7 @@ def test_a_sweep_point_finds_a_relative_simulator_from_anywhere(tmp_path: Path,
                                                                monkeypatch: pytest.MonkeyPatch):
     # the sweep's stored study (study_data) keeps the simulator file absolute, so a
     # sub-study is rebuilt from any working directory (hypate laws, sweeps)
-    from hypate.scaling.workflow.derived import study_at, study_data
+    from hypate.scaling.workflow.vocabulary.derived import study_at, study_data
 
     study = load_study(EXAMPLE)
     monkeypatch.chdir(tmp_path)

@@ -12,8 +12,8 @@ import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.report.rundata import load_run
-from hypate.scaling.workflow.fidelity import level_data
-from hypate.scaling.workflow.study import parse_study
+from hypate.scaling.workflow.vocabulary.fidelity import level_data
+from hypate.scaling.workflow.vocabulary.study import parse_study
 from hypate.solvers.errors import InputError
 
 LEVELS = """

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import REPO
-from hypate.scaling.workflow.derived import study_at, study_data
-from hypate.scaling.workflow.laws import (
+from hypate.scaling.workflow.vocabulary.derived import study_at, study_data
+from hypate.scaling.workflow.campaigns.laws import (
     DesignPoint,
     SweepRun,
     analytical_laws,
@@ -18,8 +18,8 @@ from hypate.scaling.workflow.laws import (
     laws_json,
     predict,
 )
-from hypate.scaling.workflow.similarity import analytical_scaling
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.vocabulary.similarity import analytical_scaling
+from hypate.scaling.workflow.vocabulary.study import load_study
 
 SIMILARITY_91 = ("h/L", "lambda_F", "DeltaT_NTx_L2/Dxx")
 
@@ -162,8 +162,8 @@ def _sec91_sweep(name: str, tmp_path: Path):
     """A finished ``studies/<name>.toml`` sweep (reused from ``$HYPATE_RUNS/<name>``)."""
     import os
 
-    from hypate.scaling.workflow.laws import load_sweep
-    from hypate.scaling.workflow.sweep import run_sweep
+    from hypate.scaling.workflow.campaigns.laws import load_sweep
+    from hypate.scaling.workflow.campaigns.sweep import run_sweep
 
     given = os.environ.get("HYPATE_RUNS")
     out = Path(given) / name if given else tmp_path / "run"
@@ -174,7 +174,7 @@ def _sec91_sweep(name: str, tmp_path: Path):
 
 def _check_sec91_laws(run, coefficient_tol: dict[str, float]) -> None:
     """Issue 10's Sec. 9.1 acceptance with the given coefficient tolerances."""
-    from hypate.scaling.workflow.laws import laws_of_run
+    from hypate.scaling.workflow.campaigns.laws import laws_of_run
 
     laws = {law.variable: law for law in laws_of_run(run)}
     for name, k in (("h", -1.0), ("p_inf", 0.0), ("delta_T", 0.0)):
@@ -217,8 +217,8 @@ def test_sec91_equal_poisson_ratio_sweep_recovers_eq_9_2(tmp_path: Path) -> None
 @pytest.mark.slow
 def test_sec922_sweep_h_follows_the_analytical_line_and_l_le_departs(tmp_path: Path) -> None:
     from hypate.scaling.report.laws import laws_section
-    from hypate.scaling.workflow.laws import laws_of_run, load_sweep
-    from hypate.scaling.workflow.sweep import run_sweep
+    from hypate.scaling.workflow.campaigns.laws import laws_of_run, load_sweep
+    from hypate.scaling.workflow.campaigns.sweep import run_sweep
 
     study = load_study(_sweep_study(tmp_path, "sec9_2_2_xi2.toml", "[2, 3, 4, 5]"))
     run_sweep(study, tmp_path / "run")

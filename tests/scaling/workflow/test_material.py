@@ -14,16 +14,16 @@ import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.mixed import MixedCoordinates
-from hypate.scaling.workflow.laws import (
+from hypate.scaling.workflow.campaigns.laws import (
     DesignPoint,
     fit_laws,
     materials_by_scale,
     predicted_design,
 )
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.run import surrogate_coordinates
-from hypate.scaling.workflow.study import parse_study
-from hypate.scaling.workflow.whatif import evaluate_whatif
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.campaigns.run import surrogate_coordinates
+from hypate.scaling.workflow.vocabulary.study import parse_study
+from hypate.scaling.workflow.analyses.whatif import evaluate_whatif
 from hypate.solvers.errors import InputError
 
 MATERIALS = '["ti6242", "inconel718", "al7075"]'

@@ -1,4 +1,4 @@
-"""Full-scale prediction from a measured model test (scaling/workflow/predict.py).
+"""Full-scale prediction from a measured model test (scaling/workflow/analyses/predict.py).
 
 Oracles: (a) closed forms -- the model's own simulated response, fed back without noise,
 lands on the prototype's step grid (t_p / dt_p = k), in the prototype's units through the
@@ -21,18 +21,18 @@ import pytest
 from conftest import REPO, tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.store import EvaluationStore
-from hypate.scaling.workflow.integrity import record_outputs
-from hypate.scaling.workflow.laws import load_sweep
-from hypate.scaling.workflow.measured import read_measured
-from hypate.scaling.workflow.objectives import relative_rms
-from hypate.scaling.workflow.predict import (
+from hypate.scaling.workflow.campaigns.integrity import record_outputs
+from hypate.scaling.workflow.campaigns.laws import load_sweep
+from hypate.scaling.workflow.vocabulary.measured import read_measured
+from hypate.scaling.workflow.vocabulary.objectives import relative_rms
+from hypate.scaling.workflow.analyses.predict import (
     COVERAGE,
     design_point_basis,
     predict,
     scatter_sigma,
     sweep_basis,
 )
-from hypate.scaling.workflow.problem import ScalingProblem
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 from hypate.studies.scripts.make_model_test import Config, add_noise, rms

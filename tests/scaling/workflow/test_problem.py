@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from conftest import REPO, assert_matches_richardson, richardson_jacobian
 from hypate.scaling.engine.problem import evaluate_design
-from hypate.scaling.workflow.configuration import with_material
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.similarity import analytical_scaling
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.vocabulary.configuration import with_material
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.vocabulary.similarity import analytical_scaling
+from hypate.scaling.workflow.vocabulary.study import load_study
 from hypate.solvers.materials import library_material
 
 
@@ -120,7 +120,7 @@ def test_fields_projection_resolves_the_thickness() -> None:
     # the groups are the Eq. (3.17b) fields: a response compared with itself is exact
     proto = fields.prototype_response
     assert fields.spec.projection == "fields" and len(proto.u) == len(proto.times)
-    from hypate.scaling.workflow.objectives import response_errors
+    from hypate.scaling.workflow.vocabulary.objectives import response_errors
     assert response_errors(proto, proto, "fields")["J_u"] == 0.0
 
 
@@ -161,7 +161,7 @@ def test_equal_materials_are_exactly_similar_at_any_scale(xi: float) -> None:
     # Scales whose panel size is not a binary fraction of the prototype's: J_u was 1.2 %
     # at xi = 3 and 6 (1e-10 at 2, 4, 5) while fluid points on element edges could fall
     # into the upstream element (the point location of hypate.solvers.coupling.transfer).
-    from hypate.scaling.workflow.configuration import scaled_panel
+    from hypate.scaling.workflow.vocabulary.configuration import scaled_panel
 
     spec = load_study(REPO / "studies" / "optimization" / "sec9_1_xi2.toml").spec  # 8 x 8 meshes
     proto = spec.prototype
@@ -219,8 +219,8 @@ def test_analytic_checks_differentiate_inside_the_box_on_its_upper_bound() -> No
     # core it must fit, follows L). On the upper bound of L and of the emissivity (1: a
     # design past it does not exist) the finite difference steps back inside the box and
     # matches a second-order one-sided difference taken inside it.
-    from hypate.scaling.workflow.problem import AnalyticCheck
-    from hypate.scaling.workflow.study import load_study
+    from hypate.scaling.workflow.vocabulary.problem import AnalyticCheck
+    from hypate.scaling.workflow.vocabulary.study import load_study
 
     study = load_study("sec9_2_3_case2_wt5")
     pb = ScalingProblem(study.spec)

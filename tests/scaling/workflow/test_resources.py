@@ -1,4 +1,4 @@
-"""scaling/workflow/resources.py: the sizes the estimate is built on are the simulator's
+"""scaling/workflow/campaigns/resources.py: the sizes the estimate is built on are the simulator's
 own, the estimate grows with them, and a study too large for the memory available is
 refused before anything runs (``--force`` runs it)."""
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 
 import pytest
 from conftest import PROTOTYPE_CASE
-from hypate.scaling.workflow.resources import (
+from hypate.scaling.workflow.campaigns.resources import (
     SimulationSize,
     check_resources,
     estimate,
@@ -16,7 +16,7 @@ from hypate.scaling.workflow.resources import (
     simulation_size,
     study_estimate,
 )
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.vocabulary.study import load_study
 from hypate.solvers.config import load_case
 from hypate.solvers.errors import InputError
 from hypate.solvers.panel import thermal_levels

@@ -1,6 +1,6 @@
 """A robust study (``[uncertainty]`` + ``[robust]``): the nominal campaign, the robust
 search over (design, uncertain inputs), the verified design point beside the nominal
-optimum, the report, and kill -9 / --resume (scaling.workflow.robust)."""
+optimum, the report, and kill -9 / --resume (scaling.workflow.campaigns.robust)."""
 from __future__ import annotations
 
 import json
@@ -14,11 +14,11 @@ import pytest
 from conftest import kill_after, tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.store import EvaluationStore
-from hypate.scaling.workflow.objectives import response_errors
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.robust import INPUT_PREFIX, JointProblem, verified_statistic
-from hypate.scaling.workflow.study import load_study
-from hypate.scaling.workflow.uncertainty import scattered_configuration
+from hypate.scaling.workflow.vocabulary.objectives import response_errors
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.campaigns.robust import INPUT_PREFIX, JointProblem, verified_statistic
+from hypate.scaling.workflow.vocabulary.study import load_study
+from hypate.scaling.workflow.vocabulary.uncertainty import scattered_configuration
 
 ROBUST = """
 [uncertainty]

@@ -15,11 +15,11 @@ from conftest import kill_after, stored_evaluations, tiny_study_text
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.report.rundata import load_run
 from hypate.scaling.report.sections import BUILTIN_SECTIONS
-from hypate.scaling.workflow import campaign
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.run import run_study
-from hypate.scaling.workflow.rundir import PROTOTYPE_WARNINGS
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.campaigns import campaign
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.campaigns.run import run_study
+from hypate.scaling.workflow.campaigns.rundir import PROTOTYPE_WARNINGS
+from hypate.scaling.workflow.vocabulary.study import load_study
 from pymoo.core.problem import Problem
 
 STUDY = tiny_study_text(name="robust", mesh=3, steps=8, time_step=20.0, initial=6,

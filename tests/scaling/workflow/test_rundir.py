@@ -17,8 +17,8 @@ from hypate.scaling.engine.design_point import (
     knee_distances,
     rank_designs,
 )
-from hypate.scaling.workflow.execute import default_run_dir
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.campaigns.execute import default_run_dir
+from hypate.scaling.workflow.vocabulary.study import load_study
 from hypate.solvers.errors import InputError
 
 

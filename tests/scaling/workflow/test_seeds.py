@@ -1,4 +1,4 @@
-"""hypate.scaling.workflow.seeds: one study over several optimizer seeds (--seeds N)."""
+"""hypate.scaling.workflow.campaigns.seeds: one study over several optimizer seeds (--seeds N)."""
 from __future__ import annotations
 
 import json
@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
-from hypate.scaling.workflow.seeds import MAX_SEEDS, seed_list, seed_spread
+from hypate.scaling.workflow.campaigns.seeds import MAX_SEEDS, seed_list, seed_spread
 from hypate.solvers.errors import InputError
 
 

@@ -8,13 +8,13 @@ import math
 import numpy as np
 import pytest
 from conftest import REPO
-from hypate.scaling.workflow.configuration import (
+from hypate.scaling.workflow.vocabulary.configuration import (
     Configuration,
     ReferenceTemperatures,
     apply_design,
     scaled_panel,
 )
-from hypate.scaling.workflow.similarity import (
+from hypate.scaling.workflow.vocabulary.similarity import (
     PARAMETERS,
     analytical_scaling,
     compare,

@@ -9,8 +9,8 @@ import pandas as pd
 import pytest
 from conftest import REPO, tiny_study_text
 from hypate.scaling.cli.main import main
-from hypate.scaling.workflow import optimizer_settings as settings_module
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.campaigns import optimizer_settings as settings_module
+from hypate.scaling.workflow.vocabulary.study import load_study
 
 TINY = tiny_study_text()
 
@@ -100,8 +100,8 @@ def test_run_writes_public_outputs_and_resume_adds_nothing(tmp_path: Path, capsy
 def test_every_evaluated_design_satisfies_the_cheap_equality(tmp_path: Path) -> None:
     # Eq. (9.7) T_w/T_inf equality: the classical seed, the initial sample and every BO
     # proposal satisfy it to 1e-8 (the GP design is projected onto it before evaluation).
-    from hypate.scaling.workflow.problem import ScalingProblem
-    from hypate.scaling.workflow.run import run_study
+    from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+    from hypate.scaling.workflow.campaigns.run import run_study
 
     text = tiny_study_text(name="eq", initial=3, iterations=2,
                            sections='[constraints]\nequality = ["T_inf"]\n')
@@ -180,8 +180,8 @@ def test_a_rom_fluid_model_is_found_beside_the_study_or_shipped(tmp_path: Path,
                                                                  monkeypatch) -> None:
     """``aero = "rom:PATH"``: PATH from the working directory, else beside the study file,
     else the shipped ROM of that file name; the sweep's stored study keeps what was found."""
-    from hypate.scaling.workflow.derived import study_data
-    from hypate.scaling.workflow.shipped import shipped
+    from hypate.scaling.workflow.vocabulary.derived import study_data
+    from hypate.scaling.workflow.vocabulary.shipped import shipped
     from hypate.solvers.aero.factory import ROM_PREFIX
 
     shipped_rom = (REPO / "studies" / "rom" / "rom_sec9_2_cfd.npz").resolve()

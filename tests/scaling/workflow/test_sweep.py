@@ -10,10 +10,10 @@ import pytest
 from conftest import PROTOTYPE_CASE, REPO, tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.store import EvaluationStore
-from hypate.scaling.workflow.derived import study_at, sweep_points
-from hypate.scaling.workflow.rundir import STORE as STORE_NAME
-from hypate.scaling.workflow.study import load_study
-from hypate.scaling.workflow.sweep import run_sweep
+from hypate.scaling.workflow.vocabulary.derived import study_at, sweep_points
+from hypate.scaling.workflow.campaigns.rundir import STORE as STORE_NAME
+from hypate.scaling.workflow.vocabulary.study import load_study
+from hypate.scaling.workflow.campaigns.sweep import run_sweep
 from hypate.solvers.errors import InputError
 
 TINY_SWEEP = tiny_study_text(name="tiny_sweep", xi=2.0, tail="""
@@ -255,8 +255,8 @@ def test_laws_from_several_single_study_runs(tmp_path: Path, capsys) -> None:
     import contextlib
     import io
 
-    from hypate.scaling.workflow.laws import is_pinned, load_runs
-    from hypate.scaling.workflow.run import run_study
+    from hypate.scaling.workflow.campaigns.laws import is_pinned, load_runs
+    from hypate.scaling.workflow.campaigns.run import run_study
 
     dirs = []
     for xi in (2.0, 3.0, 4.0):

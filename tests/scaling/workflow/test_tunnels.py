@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import pytest
-from hypate.scaling.workflow.tunnels import (
+from hypate.scaling.workflow.vocabulary.tunnels import (
     TunnelEnvelope,
     bound_set,
     bound_set_names,
@@ -12,7 +12,7 @@ from hypate.scaling.workflow.tunnels import (
     tunnel,
     tunnel_names,
 )
-from hypate.scaling.workflow.variables import DESIGN_VARIABLES
+from hypate.scaling.workflow.vocabulary.variables import DESIGN_VARIABLES
 from hypate.solvers.errors import InputError
 
 # Table 9.6 as printed (p0 in MPa, T0 in K); the data file stores Pa.

@@ -1,5 +1,5 @@
 """``[uncertainty]`` / ``[robust]`` study keys, the scattered model, and ``hypate whatif
---scatter`` (scaling.workflow.uncertainty)."""
+--scatter`` (scaling.workflow.vocabulary.uncertainty)."""
 from __future__ import annotations
 
 import json
@@ -10,12 +10,12 @@ import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.propagation import collocation_nodes
-from hypate.scaling.workflow.derived import study_data
-from hypate.scaling.workflow.objectives import ModelFailure
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.shipped import shipped
-from hypate.scaling.workflow.study import load_study, parse_study
-from hypate.scaling.workflow.uncertainty import (
+from hypate.scaling.workflow.vocabulary.derived import study_data
+from hypate.scaling.workflow.vocabulary.objectives import ModelFailure
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.vocabulary.shipped import shipped
+from hypate.scaling.workflow.vocabulary.study import load_study, parse_study
+from hypate.scaling.workflow.vocabulary.uncertainty import (
     HistoryChaos,
     monte_carlo_design,
     propagate_design,
@@ -241,9 +241,9 @@ def test_run_propagates_the_scatter_at_the_design_point_once(tmp_path, monkeypat
     # design_point.json gains the design point's `scatter` (the robust block's fields),
     # the report its Robustness section, and the block is kept in the store: writing the
     # outputs again (a resumed run) does not simulate the scatter again.
-    import hypate.scaling.workflow.outputs as run_mod
+    import hypate.scaling.workflow.campaigns.outputs as run_mod
     from hypate.scaling.engine.store import EvaluationStore
-    from hypate.scaling.workflow.rundir import STORE
+    from hypate.scaling.workflow.campaigns.rundir import STORE
 
     path = _tiny(tmp_path, UNCERTAINTY + "[robust]\norder = 1\noptimize = false\n")
     out = tmp_path / "run"

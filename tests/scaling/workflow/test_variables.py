@@ -1,16 +1,16 @@
-"""One home per design variable (issue 42): a row of scaling.workflow.variables says how the
+"""One home per design variable (issue 42): a row of scaling.workflow.vocabulary.variables says how the
 variable is set into a configuration and read back from one, and its scaling law."""
 from __future__ import annotations
 
 import pytest
 from conftest import PROTOTYPE_CASE
-from hypate.scaling.workflow.configuration import (
+from hypate.scaling.workflow.vocabulary.configuration import (
     Configuration,
     apply_design,
     nominal_values,
 )
-from hypate.scaling.workflow.laws import ANALYTICAL_EXPONENTS
-from hypate.scaling.workflow.variables import DESIGN_VARIABLES, OPTIMIZABLE
+from hypate.scaling.workflow.campaigns.laws import ANALYTICAL_EXPONENTS
+from hypate.scaling.workflow.vocabulary.variables import DESIGN_VARIABLES, OPTIMIZABLE
 from hypate.solvers.config import load_case
 from hypate.solvers.errors import InputError
 

@@ -8,8 +8,8 @@ import pandas as pd
 import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
-from hypate.scaling.workflow.study import load_study
-from hypate.scaling.workflow.whatif import evaluate_whatif
+from hypate.scaling.workflow.vocabulary.study import load_study
+from hypate.scaling.workflow.analyses.whatif import evaluate_whatif
 
 TINY = tiny_study_text(sections='\n[constraints]\nequality = ["T_inf"]\n')
 

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypate.scaling.workflow.configuration import simulate_configuration
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.vocabulary.configuration import simulate_configuration
+from hypate.scaling.workflow.vocabulary.study import load_study
 from hypate.solvers.aero.factory import make_fluid_model
 from hypate.solvers.coupling.model import PanelModel
 from hypate.solvers.coupling.response import Response

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypate.scaling.workflow.measured import read_measured
-from hypate.scaling.workflow.predict import design_point_basis, predict
+from hypate.scaling.workflow.vocabulary.measured import read_measured
+from hypate.scaling.workflow.analyses.predict import design_point_basis, predict
 from hypate.studies.scripts.make_model_test import Config, add_noise, rms, run
 
 

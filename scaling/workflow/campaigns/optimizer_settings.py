@@ -11,8 +11,8 @@ from typing import Any
 
 from hypate.scaling.engine.settings import OptimizerSettings, RunContext
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.study import Study
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.vocabulary.study import Study
 
 #: Probability settings passed only when the study sets them (the engine's defaults else).
 PROBABILITIES = ("p_feasible", "p_success", "p_exploit")
@@ -34,7 +34,7 @@ def optimizer_settings(study: Study, problem: ScalingProblem, *, executor: Any,
     seed, coordinates
         The run's seed and the surrogates' input coordinates (settings of the algorithm).
     robust : bool
-        The robust search of ``[robust]`` (:mod:`hypate.scaling.workflow.robust`): its own
+        The robust search of ``[robust]`` (:mod:`hypate.scaling.workflow.campaigns.robust`): its own
         initial sample and iterations, one design per iteration (the robust optimizer
         refuses a batch); the nominal campaign's stopping rule, polish, exploitation and
         probability settings stay the engine's defaults there, as they always have.

@@ -8,8 +8,8 @@ Rules (documented in ``--help`` and the README):
 
 * ``--set NAME=VALUE`` (repeatable) sets a design value in SI units. ``NAME`` is one of the
   study's design variables, one of its ``[fixed]`` values (overridden), or any other design
-  variable of :data:`hypate.scaling.workflow.variables.DESIGN_VARIABLES` (applied as an extra fixed
-  value and flagged). Unknown names exit 2 naming ``--set``.
+  variable of :data:`hypate.scaling.workflow.vocabulary.variables.DESIGN_VARIABLES` (applied as an
+  extra fixed value and flagged). Unknown names exit 2 naming ``--set``.
 * ``--set material=NAME`` picks the model material: one of the study's categorical
   ``[variables] material`` values, or, for a study with a fixed ``[model] material``, any
   library material or ``[materials.NAME]`` of the study (an extra, flagged).
@@ -25,7 +25,7 @@ Rules (documented in ``--help`` and the README):
 
 Printed: J_u, J_T, J_s (relative RMS errors, Eq. 6.4 / 9.8), the admissibility table (what
 the model goes through against its material's limits, its tunnel's test section and run
-time, :mod:`hypate.scaling.workflow.admissibility`) and the prototype's own stress, the
+time, :mod:`hypate.scaling.workflow.vocabulary.admissibility`) and the prototype's own stress, the
 similarity-parameter table
 (prototype / model / relative difference, ``*`` above 10 %), and the constraint activity:
 bounds hit or left, the residuals of the study's cheap equality constraints (Eq. 9.7) and,
@@ -52,14 +52,14 @@ from typing import Any
 
 import numpy as np
 from hypate.scaling.engine.propagation import expansion_terms
-from hypate.scaling.workflow.admissibility import admissible
-from hypate.scaling.workflow.configuration import with_material
-from hypate.scaling.workflow.problem import MATERIAL, ScalingProblem
-from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON
-from hypate.scaling.workflow.study import constant_material
-from hypate.scaling.workflow.uncertainty import propagate_or_failure
-from hypate.scaling.workflow.variables import DESIGN_VARIABLES, HARD_LIMITS
-from hypate.scaling.workflow.verdict import verdict_fields
+from hypate.scaling.workflow.campaigns.rundir import DESIGN_POINT_JSON
+from hypate.scaling.workflow.campaigns.verdict import verdict_fields
+from hypate.scaling.workflow.vocabulary.admissibility import admissible
+from hypate.scaling.workflow.vocabulary.configuration import with_material
+from hypate.scaling.workflow.vocabulary.problem import MATERIAL, ScalingProblem
+from hypate.scaling.workflow.vocabulary.study import constant_material
+from hypate.scaling.workflow.vocabulary.uncertainty import propagate_or_failure
+from hypate.scaling.workflow.vocabulary.variables import DESIGN_VARIABLES, HARD_LIMITS
 from hypate.solvers.config import resolve_material
 from hypate.solvers.errors import InputError
 from hypate.solvers.numerics.files import atomic_file, ensure_directory
@@ -291,7 +291,7 @@ def evaluate_whatif(study: Any, values: Mapping[str, float | str],
         ``equalities`` residuals, ``inequalities``: a monotone schedule's ``name``,
         ``decrease`` (K; ``increase`` for a decreasing one) and ``satisfied``),
         ``model_time_step`` (s), ``seconds``, and the admissibility fields of
-        :func:`~hypate.scaling.workflow.verdict.verdict_fields`: ``admissible``,
+        :func:`~hypate.scaling.workflow.campaigns.verdict.verdict_fields`: ``admissible``,
         ``admissibility`` (rows), ``binding``, ``responses`` (``model``, ``prototype``),
         ``prototype_admissibility``, ``prototype_yields``, ``limits``.
     """
@@ -318,8 +318,9 @@ def scatter_whatif(study: Any, values: Mapping[str, float | str],
     Returns
     -------
     dict
-        The ``robust`` block of :func:`hypate.scaling.workflow.uncertainty.propagate_design`
-        (``statistic``, ``samples``, ``objectives``, ``sobol`` ...) for the design of
+        The ``robust`` block of
+        :func:`hypate.scaling.workflow.vocabulary.uncertainty.propagate_design` (``statistic``,
+        ``samples``, ``objectives``, ``sobol`` ...) for the design of
         :func:`evaluate_whatif` (same ``values`` / ``base`` rules), with ``status`` ``"ok"``,
         or ``"failed: ..."`` when too many scattered models fail; seed: the study's.
     """

@@ -1,7 +1,7 @@
 """A finished campaign's outputs: ``evaluations.csv``, ``pareto.csv``, ``design_point.json``
-and ``design_point.npz`` (the public names of :mod:`hypate.scaling.workflow.run`'s docstring),
-with the design point chosen by the study's rule, its admissibility, its surrogate record and
-the scatter it takes under ``[uncertainty]``.
+and ``design_point.npz`` (the public names of :mod:`hypate.scaling.workflow.campaigns.run`'s
+docstring), with the design point chosen by the study's rule, its admissibility, its surrogate
+record and the scatter it takes under ``[uncertainty]``.
 """
 from __future__ import annotations
 
@@ -16,14 +16,7 @@ from hypate.scaling.engine.design_point import design_point_index
 from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.engine.store import EvaluationStore
-from hypate.scaling.workflow.fidelity import (
-    FIDELITY,
-    FIDELITY_NAME,
-    cost_summary,
-    top_level,
-)
-from hypate.scaling.workflow.problem import MATERIAL, ScalingProblem
-from hypate.scaling.workflow.rundir import (
+from hypate.scaling.workflow.campaigns.rundir import (
     CLASSICAL_JSON,
     DESIGN_POINT_JSON,
     DESIGN_POINT_NPZ,
@@ -35,13 +28,20 @@ from hypate.scaling.workflow.rundir import (
     write_csv,
     write_json,
 )
-from hypate.scaling.workflow.study import Study
-from hypate.scaling.workflow.uncertainty import propagate_or_failure
-from hypate.scaling.workflow.verdict import (
+from hypate.scaling.workflow.campaigns.verdict import (
     choose_admissible_point,
     evaluation_admissibility,
     verdict_fields,
 )
+from hypate.scaling.workflow.vocabulary.fidelity import (
+    FIDELITY,
+    FIDELITY_NAME,
+    cost_summary,
+    top_level,
+)
+from hypate.scaling.workflow.vocabulary.problem import MATERIAL, ScalingProblem
+from hypate.scaling.workflow.vocabulary.study import Study
+from hypate.scaling.workflow.vocabulary.uncertainty import propagate_or_failure
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
@@ -144,7 +144,7 @@ def design_point_scatter(study: Study, problem: ScalingProblem, x: np.ndarray,
                          store: EvaluationStore | None = None,
                          progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
     """The study's ``[uncertainty]`` propagated at the design point
-    (:func:`~hypate.scaling.workflow.uncertainty.propagate_or_failure`; its seed is the
+    (:func:`~hypate.scaling.workflow.vocabulary.uncertainty.propagate_or_failure`; its seed is the
     study file's ``[optimizer] seed``, so ``--seed`` runs of one study see the same scatter
     samples): once per design point, kept in the store's metadata so that a resumed run does
     not simulate it again. Too many failed scattered models give ``{"status": "failed: ..."}``.
@@ -203,7 +203,7 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
     ``optimizer``, the surrogates' leave-one-out prediction of the design point
     (:func:`surrogate_record`); for a study with ``[uncertainty]``, the design point's
     ``scatter`` (:func:`design_point_scatter`). The design point is chosen among the
-    admissible evaluations (:mod:`hypate.scaling.workflow.verdict`)."""
+    admissible evaluations (:mod:`hypate.scaling.workflow.campaigns.verdict`)."""
     full = result
     if study.lower_levels:  # the front and the design point are the top level's
         result, rows = top_level(full, len(study.level_names))

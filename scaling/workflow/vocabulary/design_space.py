@@ -3,7 +3,7 @@
 Each entry is one of
 
 * ``NAME = [lower, upper]`` -- bounds in SI units, inside the variable's hard limits
-  (:data:`hypate.scaling.workflow.variables.HARD_LIMITS`) and the tunnel envelope;
+  (:data:`hypate.scaling.workflow.vocabulary.variables.HARD_LIMITS`) and the tunnel envelope;
 * ``NAME = "tunnel"`` -- the bounds the study's tunnel gives (``M``, ``p0``, ``T0``,
   Table 9.6);
 * ``T_rad = { schedule = n, range = [lo, hi], shape = "free" | "increasing" |
@@ -16,7 +16,7 @@ Each entry is one of
   ``"decreasing"`` ``T_rad[k] >= T_rad[k+1]`` (a front-loaded heater: heat while the
   prototype heats fastest): linear
   inequalities on the design vector, handed to the optimizer as exact cheap constraints
-  (:meth:`hypate.scaling.workflow.problem.ScalingProblem.cheap_constraints`); ``"free"``
+  (:meth:`hypate.scaling.workflow.vocabulary.problem.ScalingProblem.cheap_constraints`); ``"free"``
   (default) leaves the points independent;
 * ``material = ["ti6242", "inconel718", "al7075", "my_alloy"]`` -- the model material as
   a categorical variable (beyond the dissertation, which fixes Ti 6242): 2-8 distinct
@@ -25,7 +25,7 @@ Each entry is one of
   as categorical (:mod:`hypate.scaling.engine.mixed`).
 
 :func:`study_variables` turns the table into the problem's
-:class:`~hypate.scaling.workflow.problem.Variable` tuple; every error is an
+:class:`~hypate.scaling.workflow.vocabulary.problem.Variable` tuple; every error is an
 :class:`~hypate.solvers.errors.InputError` naming ``variables.NAME`` (or its sub-key).
 """
 from __future__ import annotations
@@ -34,9 +34,9 @@ import math
 from collections.abc import Mapping
 from typing import Annotated, Any, Literal
 
-from hypate.scaling.workflow.problem import Variable
-from hypate.scaling.workflow.tunnels import TunnelEnvelope
-from hypate.scaling.workflow.variables import (
+from hypate.scaling.workflow.vocabulary.problem import Variable
+from hypate.scaling.workflow.vocabulary.tunnels import TunnelEnvelope
+from hypate.scaling.workflow.vocabulary.variables import (
     CATEGORICAL,
     HARD_LIMITS,
     SCHEDULABLE,

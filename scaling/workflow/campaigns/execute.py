@@ -23,14 +23,14 @@ from pathlib import Path
 from typing import Any
 
 from hypate.scaling.engine.executors import LOST_AFTER
-from hypate.scaling.workflow.campaign import preflight
-from hypate.scaling.workflow.integrity import missing_outputs
-from hypate.scaling.workflow.robust import run_robust_study
-from hypate.scaling.workflow.run import RunOutcome, run_study
-from hypate.scaling.workflow.rundir import STORE
-from hypate.scaling.workflow.seeds import seed_directory, seed_list, write_seeds_summary
-from hypate.scaling.workflow.study import Study
-from hypate.scaling.workflow.sweep import SweepOutcome, run_sweep
+from hypate.scaling.workflow.campaigns.campaign import preflight
+from hypate.scaling.workflow.campaigns.integrity import missing_outputs
+from hypate.scaling.workflow.campaigns.robust import run_robust_study
+from hypate.scaling.workflow.campaigns.run import RunOutcome, run_study
+from hypate.scaling.workflow.campaigns.rundir import STORE
+from hypate.scaling.workflow.campaigns.seeds import seed_directory, seed_list, write_seeds_summary
+from hypate.scaling.workflow.campaigns.sweep import SweepOutcome, run_sweep
+from hypate.scaling.workflow.vocabulary.study import Study
 from hypate.solvers.errors import InputError
 
 #: The ways a study runs (:func:`run_kind`).
@@ -130,7 +130,7 @@ def execute(study: Study, out: str | Path | None = None, *, resume: bool = False
     out : path, optional
         The run directory; default :func:`default_run_dir` of the study's name.
     resume, workers, scheduler, seed, progress, lost_after, force, on_written, on_warnings
-        As :func:`hypate.scaling.workflow.run.run_study` (``seed``: the first seed of a
+        As :func:`hypate.scaling.workflow.campaigns.run.run_study` (``seed``: the first seed of a
         ``seeds`` run; ``progress`` restarts with each campaign).
     seeds : int, optional
         Runs of seeds ``seed .. seed + seeds - 1`` (the study's seed when ``seed`` is None),

@@ -2,14 +2,14 @@
 unit, meaning, hard limits, whether a study may optimize it (Tables 6.1, 9.2, 9.7), where it
 goes in a configuration and its analytical scaling law.
 
-One row is the variable's one home: :func:`hypate.scaling.workflow.configuration.apply_design`
-sets each row's value into its :attr:`DesignVariable.target` (a loop over rows; the parts a
-target names compose as the configuration module says), :func:`~hypate.scaling.workflow.
-configuration.nominal_values` reads every target back from a configuration (the nominal
-values of a robust study's scatter, the defaults of recycled designs, the prototype's values
-of the laws), and the laws take the row's exponent. A new continuous variable on an existing
-target part is one row here. The study schema, the tunnel bound sets, the what-if, the
-report and the laws read this table and nothing else.
+One row is the variable's one home:
+:func:`hypate.scaling.workflow.vocabulary.configuration.apply_design` sets each row's value into its
+:attr:`DesignVariable.target` (a loop over rows; the parts a target names compose as the
+configuration module says), :func:`~hypate.scaling.workflow. configuration.nominal_values` reads
+every target back from a configuration (the nominal values of a robust study's scatter, the defaults
+of recycled designs, the prototype's values of the laws), and the laws take the row's exponent. A
+new continuous variable on an existing target part is one row here. The study schema, the tunnel
+bound sets, the what-if, the report and the laws read this table and nothing else.
 """
 from __future__ import annotations
 
@@ -48,7 +48,7 @@ class DesignVariable:
         What a value must be: positive and finite, in [0, 1], or any number.
     exponent : float or None
         Analytical exponent k of the scaling law ``value ~ xi^k`` (laws; module table of
-        :mod:`hypate.scaling.workflow.laws`); None: no law.
+        :mod:`hypate.scaling.workflow.campaigns.laws`); None: no law.
     coefficient : {"prototype", "analytical"} or None
         The analytical law's coefficient: the prototype's own value (read from its
         configuration), Eq. 9.2's (computed by the laws), or none.

@@ -37,8 +37,8 @@ import resource
 from dataclasses import dataclass
 from pathlib import Path
 
-from hypate.scaling.workflow.configuration import Configuration
-from hypate.scaling.workflow.study import Study
+from hypate.scaling.workflow.vocabulary.configuration import Configuration
+from hypate.scaling.workflow.vocabulary.study import Study
 from hypate.solvers.errors import InputError
 from hypate.solvers.panel import thermal_levels
 

@@ -12,7 +12,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from hypate.scaling.workflow.variables import (
+from hypate.scaling.workflow.vocabulary.variables import (
     CATEGORICAL,
     DESIGN_VARIABLES,
     LAYER_PATTERN,
@@ -208,7 +208,7 @@ def apply_design(template: Configuration, design: Mapping[str, float]) -> Config
         Model template: material layup, aspect ratio, Mach number, fixed values.
     design : mapping
         ``{name: value}`` with names from
-        :data:`hypate.scaling.workflow.variables.DESIGN_VARIABLES`:
+        :data:`hypate.scaling.workflow.vocabulary.variables.DESIGN_VARIABLES`:
 
         * ``L`` (width follows at the template's aspect ratio), ``width``, ``L_le``,
           ``h`` (layers scaled proportionally; applied before any ``h[k]``), ``h[k]``,
@@ -332,7 +332,7 @@ def _flow(flow: FlowCondition, values: dict[str, tuple[DesignVariable, Any]]
 
 def nominal_values(config: Configuration) -> dict[str, float]:
     """The value of every optimizable design variable ``config`` holds, read back through
-    its row's target (:mod:`hypate.scaling.workflow.variables`): a robust study's nominal
+    its row's target (:mod:`hypate.scaling.workflow.vocabulary.variables`): a robust study's nominal
     values, the defaults of a recycled design, the prototype's values of the laws. A
     quantity the configuration does not have (no heater: ``T_rad``; no ``delta_T``) is left
     out."""

@@ -8,9 +8,9 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from hypate.scaling.workflow.shipped import resolve
-from hypate.scaling.workflow.study import Study, parse_study
-from hypate.scaling.workflow.variables import CATEGORICAL
+from hypate.scaling.workflow.vocabulary.shipped import resolve
+from hypate.scaling.workflow.vocabulary.study import Study, parse_study
+from hypate.scaling.workflow.vocabulary.variables import CATEGORICAL
 
 
 @dataclasses.dataclass(frozen=True)
@@ -42,8 +42,8 @@ def _num(value: float) -> str:
 
 def sweep_points(study: Study) -> list[SweepPoint]:
     """The points of a study's ``[sweep]`` in the order they are run
-    (:meth:`~hypate.scaling.workflow.study.SweepSection.grid`), with their labels. A study
-    without ``[sweep]`` has no points."""
+    (:meth:`~hypate.scaling.workflow.vocabulary.study.SweepSection.grid`), with their labels. A
+    study without ``[sweep]`` has no points."""
     if study.sweep is None:
         return []
     points = []

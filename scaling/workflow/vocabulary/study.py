@@ -11,7 +11,7 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
                    (m, 1976 standard atmosphere) needs ``mach`` or a case Mach number)
     [simulation]   time_step, steps, aero, heating, boundary_layer, initial_deflection,
                    lsa_modes, unstable_steps, rho_bar, mesh, simulator (the user's own:
-                   "package.module:function" or "file.py:function", scaling.workflow.external)
+                   "package.module:function" or "file.py:function", vocabulary.external)
     [model]        material (a library name or a [materials.NAME] of the study), thickness,
                    sublayers, boundary, emissivity, initial_temperature,
                    temperature_independent
@@ -21,13 +21,13 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
     [variables]    NAME = [lower, upper] or "tunnel" (the envelope's bounds), a heater
                    schedule T_rad = { schedule = n, range = [lo, hi], shape = "free" |
                    "increasing" | "decreasing" }, or the model material as a categorical variable
-                   material = ["ti6242", "inconel718", ...] (scaling.workflow.design_space)
+                   material = ["ti6242", "inconel718", ...] (vocabulary.design_space)
     [fixed]        NAME = value (design values that are not optimized)
     [constraints]  equality = ["T_inf"]
     [admissibility]  temperature, data, stress, size, duration, envelope: each "constraint" |
                    "report" | "off" (stress also "auto", its default) or a table
                    { mode, margin, safety_factor (stress), injection_time (duration, s) }
-                   (scaling.workflow.admissibility)
+                   (scaling.workflow.vocabulary.admissibility)
     [optimizer]    approach, acquisition, v, weights, initial_samples, iterations,
                    batch_size, seed, classical_seed, transform ("none" | "log"),
                    coordinates ("design" | "log" | "similarity": the surrogates' inputs;
@@ -54,8 +54,8 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
                                          (default: [optimizer]'s; Table 9.11 uses 0 / 20)
     [[fidelity]]   cheaper levels of the study's own simulation, cheapest first: name, mesh,
                    time_step_factor, initial_samples; the last one only names the study's
-                   own [simulation] (multi-fidelity BO, scaling.workflow.fidelity)
-    [uncertainty], [robust]   scatter of the model and tunnel (scaling.workflow.uncertainty)
+                   own [simulation] (multi-fidelity BO, scaling.workflow.vocabulary.fidelity)
+    [uncertainty], [robust]   scatter of the model and tunnel (vocabulary.uncertainty)
     [laws]         refined scaling laws of a sweep (``hypate laws``, scaling.laws):
                    analytical.NAME = k        analytical exponent override (xi^k)
                    exponent_bounds.NAME = [lo, hi]    constrain the fitted exponent (cvxpy)
@@ -84,30 +84,30 @@ from hypate.scaling.engine.acquisition import (
     default_acquisition,
 )
 from hypate.scaling.engine.stopping import StoppingRule
-from hypate.scaling.workflow import uncertainty as scatter
-from hypate.scaling.workflow.admissibility import AdmissibilitySection
-from hypate.scaling.workflow.configuration import Configuration
-from hypate.scaling.workflow.design_space import (
+from hypate.scaling.workflow.vocabulary import uncertainty as scatter
+from hypate.scaling.workflow.vocabulary.admissibility import AdmissibilitySection
+from hypate.scaling.workflow.vocabulary.configuration import Configuration
+from hypate.scaling.workflow.vocabulary.design_space import (
     VariableEntry,
     study_levels,
     study_variables,
 )
-from hypate.scaling.workflow.external import load_simulator, resolve_simulator
-from hypate.scaling.workflow.fidelity import (
+from hypate.scaling.workflow.vocabulary.external import load_simulator, resolve_simulator
+from hypate.scaling.workflow.vocabulary.fidelity import (
     FidelitySection,
     check_fidelity,
     default_low_samples,
     level_data,
 )
-from hypate.scaling.workflow.problem import (
+from hypate.scaling.workflow.vocabulary.problem import (
     EQUALITY_CONSTRAINTS,
     OBJECTIVES,
     ScalingProblem,
     ScalingSpec,
 )
-from hypate.scaling.workflow.shipped import resolve, resolve_aero
-from hypate.scaling.workflow.tunnels import TunnelEnvelope, resolve_tunnel
-from hypate.scaling.workflow.variables import CATEGORICAL, HARD_LIMITS, OPTIMIZABLE
+from hypate.scaling.workflow.vocabulary.shipped import resolve, resolve_aero
+from hypate.scaling.workflow.vocabulary.tunnels import TunnelEnvelope, resolve_tunnel
+from hypate.scaling.workflow.vocabulary.variables import CATEGORICAL, HARD_LIMITS, OPTIMIZABLE
 from hypate.solvers import materials as mat
 from hypate.solvers.aero.factory import AERO_NAMES, is_aero_name
 from hypate.solvers.config import (
@@ -243,7 +243,7 @@ class SimulationSection(SimulationKeys):
     mesh: Annotated[list[Annotated[int, Field(ge=1, le=MAX_MESH)]],
                     Field(min_length=2, max_length=2)] | None = None
     #: The user's own simulator, ``"package.module:function"`` or ``"file.py:function"``
-    #: (scaling.workflow.external); None: hypate's.
+    #: (scaling.workflow.vocabulary.external); None: hypate's.
     simulator: str | None = None
 
     @model_validator(mode="after")
@@ -414,7 +414,7 @@ class Study:
     raw: StudyFile
     uncertainty: scatter.Uncertainty | None = None  # [uncertainty] / [robust]; None: nominal
     #: The ``[[fidelity]]`` levels below the study's own, cheapest first: (name, spec,
-    #: section); empty for a single-fidelity study (scaling.workflow.fidelity).
+    #: section); empty for a single-fidelity study (scaling.workflow.vocabulary.fidelity).
     lower_levels: tuple[tuple[str, ScalingSpec, FidelitySection], ...] = ()
 
     @property

@@ -3,7 +3,7 @@ point among them, and what the model and the prototype went through.
 
 Every successful evaluation stores what its model went through (its auxiliary outputs,
 ``aux["extremes"]``: :meth:`Response.extremes`); with the analytic checks recomputed from its
-design, that gives its admissibility rows (:mod:`hypate.scaling.workflow.admissibility`).
+design, that gives its admissibility rows (:mod:`hypate.scaling.workflow.vocabulary.admissibility`).
 The design point is chosen by the study's rule among the admissible evaluations; when none
 is admissible, it is the least-violating successful one, and the run says so.
 
@@ -24,13 +24,13 @@ from typing import Any
 import numpy as np
 from hypate.scaling.engine.design_point import design_point_index
 from hypate.scaling.engine.result import OptimizationResult
-from hypate.scaling.workflow.admissibility import (
+from hypate.scaling.workflow.campaigns.rundir import finite
+from hypate.scaling.workflow.vocabulary.admissibility import (
     admissible,
     material_limits,
     violation,
 )
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.rundir import finite
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
 from hypate.solvers.panel import PanelSpec
 
 __all__ = ["admissibility_lines", "binding_limits", "choose_admissible_point",

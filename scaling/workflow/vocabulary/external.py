@@ -3,7 +3,7 @@
 The protocol. A simulator is a callable ``simulator(configuration) -> SimulatedHistories``,
 named in the study as ``"package.module:function"`` (importable) or
 ``"file.py:function"`` (a file next to the study). It is called once on the prototype's
-:class:`~hypate.scaling.workflow.configuration.Configuration` (flight) and once per model
+:class:`~hypate.scaling.workflow.vocabulary.configuration.Configuration` (flight) and once per model
 design (tunnel); each configuration carries everything the similarity parameters see:
 ``panel`` (length, width, layers with their materials and thicknesses, boundary, mesh),
 ``flow`` (Mach number, stagnation pressure and temperature, ...) and ``simulation`` (the
@@ -21,10 +21,10 @@ checks) and ``max_stress_ratio`` with ``stress_at_ratio`` (the largest von Mises
 the yield strength, and the von Mises stress there, Pa; the stress check). A check whose
 input the simulator does not return must be ``"off"`` (every response is checked).
 
-A design the simulator cannot simulate raises :class:`~hypate.scaling.workflow.objectives.
-ModelFailure` (a failed evaluation the engine learns to avoid), or returns fewer time
-levels than asked (an instability at that step, as the built-in simulator reports it);
-any other exception is a bug and stops the run.
+A design the simulator cannot simulate raises
+:class:`~hypate.scaling.workflow.vocabulary.objectives. ModelFailure` (a failed evaluation the
+engine learns to avoid), or returns fewer time levels than asked (an instability at that step, as
+the built-in simulator reports it); any other exception is a bug and stops the run.
 """
 from __future__ import annotations
 
@@ -38,8 +38,8 @@ from pathlib import Path
 from typing import Protocol
 
 import numpy as np
-from hypate.scaling.workflow.configuration import Configuration
-from hypate.scaling.workflow.objectives import ModelFailure
+from hypate.scaling.workflow.vocabulary.configuration import Configuration
+from hypate.scaling.workflow.vocabulary.objectives import ModelFailure
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
@@ -189,7 +189,7 @@ def simulator_source(name: str) -> Path | None:
     """The file that defines the simulator ``name`` names: its ``file.py``, or the source
     file of ``package.module`` (found without running it; None when there is none, e.g. a
     compiled module). Its hash is part of a campaign's identity
-    (:func:`hypate.scaling.workflow.campaign.campaign_identity`): an edited simulator is
+    (:func:`hypate.scaling.workflow.campaigns.campaign.campaign_identity`): an edited simulator is
     another campaign. Modules the simulator imports in turn are not followed."""
     target = name.rpartition(":")[0]
     if target.endswith(".py"):

@@ -1,8 +1,8 @@
 """The scaling problem (Sec. 6.2, 9.1.2.2, 9.2.1): prototype vs wind-tunnel model.
 
 A :class:`ScalingProblem` is a pymoo problem whose design vector sets the model and the
-tunnel (names of :func:`hypate.scaling.workflow.similarity.apply_design`: ``p0``, ``T0``, ``M``,
-``L``, ``L_le``, ``h``, ``emissivity``, ``T_rad``, ``p_ext``, ``p_inf``, ``delta_T``...). One
+tunnel (names of :func:`hypate.scaling.workflow.vocabulary.similarity.apply_design`: ``p0``, ``T0``,
+``M``, ``L``, ``L_le``, ``h``, ``emissivity``, ``T_rad``, ``p_ext``, ``p_inf``, ``delta_T``...). One
 evaluation simulates the model with the compact aerothermoelastic simulator and compares
 its nondimensional response with the prototype's (simulated once and cached) at matched
 nondimensional times: the model's time step follows from the prototype's by the Fourier
@@ -16,14 +16,14 @@ Cheap equality constraints (Eq. 9.7), e.g. ``"T_inf"``: the model's free-stream 
 ratio ``T_w / T_inf`` equals the prototype's, are analytic functions of the design vector
 and are handed to the optimizer as :class:`~scaling.optimizer.CheapConstraint` with exact
 gradients (log space). A heater schedule of shape ``"increasing"`` (``"decreasing"``)
-(:mod:`hypate.scaling.workflow.design_space`) adds the linear inequalities
+(:mod:`hypate.scaling.workflow.vocabulary.design_space`) adds the linear inequalities
 ``T_rad[k] - T_rad[k+1] <= 0`` (``>= 0``) the same way.
 
 A failed model simulation (no equilibrium, instability before the prototype's end, solver
 divergence) raises :class:`ModelFailure`; the optimizer records it as a failed evaluation
 with the reason and steers away from it (never a crash).
 
-Admissibility (:mod:`hypate.scaling.workflow.admissibility`): the simulated checks in
+Admissibility (:mod:`hypate.scaling.workflow.vocabulary.admissibility`): the simulated checks in
 ``"constraint"`` mode (service temperature, property data, stress) are the problem's
 expensive constraint columns ``G <= 0`` (relative violations), the analytic ones (size in
 the free jet's core, test duration against the run time) further cheap inequalities; every
@@ -46,7 +46,7 @@ import numpy as np
 from hypate.scaling.engine.histories import HISTORIES, Composition
 from hypate.scaling.engine.mixed import Categorical
 from hypate.scaling.engine.problem import CheapConstraint
-from hypate.scaling.workflow.admissibility import (
+from hypate.scaling.workflow.vocabulary.admissibility import (
     Admissibility,
     analytic_rows,
     simulated_columns,
@@ -54,29 +54,33 @@ from hypate.scaling.workflow.admissibility import (
     stress_row,
     temperature_rows,
 )
-from hypate.scaling.workflow.configuration import (
+from hypate.scaling.workflow.vocabulary.configuration import (
     Configuration,
     apply_design,
     simulate_configuration,
     with_material,
 )
-from hypate.scaling.workflow.external import check_checks, external_response, load_simulator
-from hypate.scaling.workflow.objectives import (
+from hypate.scaling.workflow.vocabulary.external import (
+    check_checks,
+    external_response,
+    load_simulator,
+)
+from hypate.scaling.workflow.vocabulary.objectives import (
     PROJECTIONS,
     ModelFailure,
     history_vector,
     response_errors,
     response_series,
 )
-from hypate.scaling.workflow.similarity import (
+from hypate.scaling.workflow.vocabulary.similarity import (
     TIME_SCALINGS,
     compare,
     comparison_records,
     reference_quantities,
     time_scale,
 )
-from hypate.scaling.workflow.tunnels import TunnelEnvelope
-from hypate.scaling.workflow.variables import CATEGORICAL, base_name, schedule_point
+from hypate.scaling.workflow.vocabulary.tunnels import TunnelEnvelope
+from hypate.scaling.workflow.vocabulary.variables import CATEGORICAL, base_name, schedule_point
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 from hypate.solvers.materials import Material
@@ -93,7 +97,7 @@ MAX_DEFLECTION = 50.0
 #: Cheap equality constraints available (Eq. 9.7).
 EQUALITY_CONSTRAINTS = ("T_inf",)
 #: The categorical design variable (the one of
-#: :data:`~hypate.scaling.workflow.variables.CATEGORICAL`).
+#: :data:`~hypate.scaling.workflow.vocabulary.variables.CATEGORICAL`).
 (MATERIAL,) = CATEGORICAL
 
 
@@ -128,7 +132,8 @@ class ScalingSpec:
         the geometric scale.
     objectives : tuple of str
     time_scaling : {"fourier", "fourier_thickness", "structural"}
-        :data:`hypate.scaling.workflow.similarity.TIME_SCALINGS`: Eqs. 9.5-9.6, Eq. 6.5 or Eq. 9.3.
+        :data:`hypate.scaling.workflow.vocabulary.similarity.TIME_SCALINGS`: Eqs. 9.5-9.6, Eq. 6.5
+        or Eq. 9.3.
     projection : {"center", "modal", "fields"}
     equalities : tuple of str
         Cheap equality constraints (:data:`EQUALITY_CONSTRAINTS`).
@@ -149,7 +154,8 @@ class ScalingSpec:
     admissibility : Admissibility
         The study's admissibility checks (``[admissibility]``).
     simulator : str or None
-        The user's own simulator by name (:mod:`~hypate.scaling.workflow.external`); None: hypate's.
+        The user's own simulator by name (:mod:`~hypate.scaling.workflow.vocabulary.external`);
+        None: hypate's.
     """
 
     prototype: Configuration
@@ -487,7 +493,8 @@ class ScalingProblem(Problem):
 
     def simulate(self, config: Configuration, keep_fields: bool = False) -> Response:
         """One configuration's response: hypate's simulator or the user's (``spec.simulator``,
-        :mod:`~hypate.scaling.workflow.external`: checked to feed the checks that are on)."""
+        :mod:`~hypate.scaling.workflow.vocabulary.external`: checked to feed the checks that are
+        on)."""
         if self.spec.simulator is None:
             return simulate_configuration(config, keep_fields=keep_fields)
         histories = load_simulator(self.spec.simulator)(config)
@@ -502,8 +509,8 @@ class ScalingProblem(Problem):
     def outputs(self, config: Configuration) -> tuple[dict[str, float], np.ndarray,
                                                         dict[str, Any]]:
         """One model simulation's J (as :meth:`errors`), its expensive constraint columns
-        (:func:`~hypate.scaling.workflow.admissibility.simulated_columns`) and its auxiliary
-        outputs: ``{"extremes": Response.extremes()}``.
+        (:func:`~hypate.scaling.workflow.vocabulary.admissibility.simulated_columns`) and its
+        auxiliary outputs: ``{"extremes": Response.extremes()}``.
 
         Raises
         ------
@@ -572,8 +579,9 @@ class ScalingProblem(Problem):
 
     def admissibility_rows(self, config: Configuration, extremes: Mapping[str, Any] | None
                            ) -> list[dict[str, Any]]:
-        """Every admissibility row of a model (:mod:`~hypate.scaling.workflow.admissibility`;
-        the simulated ones only with the run's ``extremes``), in report order."""
+        """Every admissibility row of a model
+        (:mod:`~hypate.scaling.workflow.vocabulary.admissibility`; the simulated ones only with the
+        run's ``extremes``), in report order."""
         rules, panel = self.admissibility, config.panel
         rows: list[dict[str, Any]] = []
         if extremes is not None:

@@ -19,9 +19,10 @@ User envelopes come from a TOML table with the same keys as the shipped file::
 Every error is an :class:`~solvers.errors.InputError` naming the offending key
 (``tunnel.p0``), e.g. for reversed bounds.
 
-Design-variable names used here and in :func:`hypate.scaling.workflow.similarity.apply_design`:
-``M``, ``p0``, ``T0``, ``p_inf``, ``T_inf``, ``L``, ``width``, ``L_le``, ``h``, ``h[k]``,
-``emissivity``, ``T_rad``, ``p_ext``, ``q_ext``, ``delta_T``, ``time``, ``T_w`` (see
+Design-variable names used here and in
+:func:`hypate.scaling.workflow.vocabulary.similarity.apply_design`: ``M``, ``p0``, ``T0``,
+``p_inf``, ``T_inf``, ``L``, ``width``, ``L_le``, ``h``, ``h[k]``, ``emissivity``, ``T_rad``,
+``p_ext``, ``q_ext``, ``delta_T``, ``time``, ``T_w`` (see
 :data:`DESIGN_VARIABLES`).
 """
 from __future__ import annotations
@@ -35,7 +36,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from hypate.scaling.workflow.variables import DESIGN_VARIABLES
+from hypate.scaling.workflow.vocabulary.variables import DESIGN_VARIABLES
 from hypate.solvers.config import read_toml
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition

@@ -66,7 +66,7 @@ from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
-from hypate.scaling.workflow.configuration import (
+from hypate.scaling.workflow.vocabulary.configuration import (
     Configuration,
     ReferenceTemperatures,
     positive,

@@ -1,8 +1,8 @@
 """Refined scaling laws from a sweep of scaled designs (Sec. 6.1.3, Fig. 9.4, Fig. 9.12).
 
-A sweep study (``[sweep] xi = [...]``, see :mod:`hypate.scaling.workflow.study`) yields one
-optimized design point per geometric scale ``xi = L_p / L_m``. For every continuous design variable
-``d`` the points are fitted by a power law
+A sweep study (``[sweep] xi = [...]``, see :mod:`hypate.scaling.workflow.vocabulary.study`) yields
+one optimized design point per geometric scale ``xi = L_p / L_m``. For every continuous design
+variable ``d`` the points are fitted by a power law
 
 .. math:: d(\\xi) = c\\,\\xi^{k}
 
@@ -38,7 +38,7 @@ values (``h_p``, ``L_p``, ``L_le^p``, M, p0, T0, T_inf, emissivity) and Eq. 9.2b
 
 :func:`predict` turns the laws into the design at a new scale, its similarity table and
 (optionally) its simulated ``J_u``, ``J_T``; the sweep runner seeds a new scale's initial
-sample with the same prediction (:func:`hypate.scaling.workflow.sweep.run_sweep`).
+sample with the same prediction (:func:`hypate.scaling.workflow.campaigns.sweep.run_sweep`).
 
 Their exponent table, the Fig. 9.4/9.12-style figure and the report section are in
 :mod:`hypate.scaling.report.laws`.
@@ -56,24 +56,24 @@ from typing import Any
 import cvxpy as cp
 import numpy as np
 from hypate.scaling.engine.problem import project_cheap
-from hypate.scaling.workflow.configuration import nominal_values
-from hypate.scaling.workflow.derived import study_at, study_data
-from hypate.scaling.workflow.integrity import verify_run
-from hypate.scaling.workflow.objectives import ModelFailure
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.rundir import DESIGN_POINT_JSON, SWEEP_JSON
-from hypate.scaling.workflow.similarity import (
+from hypate.scaling.workflow.campaigns.integrity import verify_run
+from hypate.scaling.workflow.campaigns.rundir import DESIGN_POINT_JSON, SWEEP_JSON
+from hypate.scaling.workflow.vocabulary.configuration import nominal_values
+from hypate.scaling.workflow.vocabulary.derived import study_at, study_data
+from hypate.scaling.workflow.vocabulary.objectives import ModelFailure
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.vocabulary.similarity import (
     analytical_scaling,
     reference_quantities,
     time_scale,
 )
-from hypate.scaling.workflow.study import load_study
-from hypate.scaling.workflow.variables import CATEGORICAL, DESIGN_VARIABLES, base_name
+from hypate.scaling.workflow.vocabulary.study import load_study
+from hypate.scaling.workflow.vocabulary.variables import CATEGORICAL, DESIGN_VARIABLES, base_name
 from hypate.solvers.errors import InputError
 from scipy import stats
 
 #: Analytical exponents of the design variables (table in the module docstring): their
-#: rows' ``exponent`` (scaling.workflow.variables).
+#: rows' ``exponent`` (scaling.workflow.vocabulary.variables).
 ANALYTICAL_EXPONENTS: dict[str, float] = {n: v.exponent for n, v in DESIGN_VARIABLES.items()
                                           if v.exponent is not None}
 #: Analytical exponent of the model time step by time scaling (Eqs. 9.3, 9.5/9.6).

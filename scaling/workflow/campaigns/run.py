@@ -16,11 +16,11 @@ Outputs in the run directory (public names):
 * ``prototype.npz`` / ``design_point.npz`` -- the prototype's and the design point's
   responses (:class:`hypate.solvers.coupling.response.Response`).
 
-A multi-fidelity study (``[[fidelity]]``, :mod:`hypate.scaling.workflow.fidelity`) adds the
-``fidelity`` / ``fidelity_name`` columns; its front and design point are the top level's.
+A multi-fidelity study (``[[fidelity]]``, :mod:`hypate.scaling.workflow.vocabulary.fidelity`) adds
+the ``fidelity`` / ``fidelity_name`` columns; its front and design point are the top level's.
 
 One run's sequence (baseline, seeds, optimizer) reads top to bottom here; the outputs it ends
-with are written by :mod:`hypate.scaling.workflow.outputs`.
+with are written by :mod:`hypate.scaling.workflow.campaigns.outputs`.
 """
 from __future__ import annotations
 
@@ -46,24 +46,11 @@ from hypate.scaling.engine.problem import (
 )
 from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
-from hypate.scaling.workflow.campaign import preflight, record_campaign, run_lock
-from hypate.scaling.workflow.classical import (
-    classical_scaling,
-    design_vector,
-    similarity_basis,
-    similarity_exponents,
-)
-from hypate.scaling.workflow.configuration import Configuration, nominal_values, with_material
-from hypate.scaling.workflow.fidelity import (
-    FidelityProblem,
-    fidelity_optimizer,
-    fidelity_problem,
-)
-from hypate.scaling.workflow.integrity import record_outputs
-from hypate.scaling.workflow.optimizer_settings import optimizer_settings
-from hypate.scaling.workflow.outputs import write_outputs
-from hypate.scaling.workflow.problem import MATERIAL, DesignVector, ScalingProblem
-from hypate.scaling.workflow.rundir import (
+from hypate.scaling.workflow.campaigns.campaign import preflight, record_campaign, run_lock
+from hypate.scaling.workflow.campaigns.integrity import record_outputs
+from hypate.scaling.workflow.campaigns.optimizer_settings import optimizer_settings
+from hypate.scaling.workflow.campaigns.outputs import write_outputs
+from hypate.scaling.workflow.campaigns.rundir import (
     CLASSICAL_JSON,
     EVALUATIONS_CSV,
     PARETO_CSV,
@@ -73,9 +60,30 @@ from hypate.scaling.workflow.rundir import (
     finite_or_none,
     write_json,
 )
-from hypate.scaling.workflow.sessions import begin_session, end_session, sessions_wall_seconds
-from hypate.scaling.workflow.study import Study
-from hypate.scaling.workflow.variables import schedule_point, variable_unit
+from hypate.scaling.workflow.campaigns.sessions import (
+    begin_session,
+    end_session,
+    sessions_wall_seconds,
+)
+from hypate.scaling.workflow.vocabulary.classical import (
+    classical_scaling,
+    design_vector,
+    similarity_basis,
+    similarity_exponents,
+)
+from hypate.scaling.workflow.vocabulary.configuration import (
+    Configuration,
+    nominal_values,
+    with_material,
+)
+from hypate.scaling.workflow.vocabulary.fidelity import (
+    FidelityProblem,
+    fidelity_optimizer,
+    fidelity_problem,
+)
+from hypate.scaling.workflow.vocabulary.problem import MATERIAL, DesignVector, ScalingProblem
+from hypate.scaling.workflow.vocabulary.study import Study
+from hypate.scaling.workflow.vocabulary.variables import schedule_point, variable_unit
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
@@ -137,7 +145,7 @@ def run_table(path: Path, variables: Sequence[str], objectives: Sequence[str]
               ) -> pd.DataFrame:
     """``evaluations.csv`` or ``pareto.csv`` of a run directory as a DataFrame: empty text
     cells (``message``, ``warnings``) as ``""``; ``attrs["units"]`` the unit of each of the
-    ``variables`` (:func:`~hypate.scaling.workflow.variables.variable_unit`) and
+    ``variables`` (:func:`~hypate.scaling.workflow.vocabulary.variables.variable_unit`) and
     ``objectives`` (``"-"``: the similarity errors are nondimensional)."""
     df = pd.read_csv(path)
     for col in TEXT_COLUMNS:
@@ -370,8 +378,8 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
         Run directory (created). Without ``resume`` it must not hold a run already.
     resume : bool
         Continue from ``out/evaluations.sqlite`` (nothing finished is re-evaluated). Only
-        the same campaign resumes (:mod:`hypate.scaling.workflow.campaign`): another study,
-        case file, seed or package version is refused before anything is touched.
+        the same campaign resumes (:mod:`hypate.scaling.workflow.campaigns.campaign`): another
+        study, case file, seed or package version is refused before anything is touched.
     workers : int
         Local process pool size (1 = in-process).
     scheduler : str, optional
@@ -406,7 +414,7 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
         scatter at the design point (:func:`design_point_scatter`).
     force : bool
         Run even when the simulations' estimated memory exceeds what this machine has
-        available (:func:`~hypate.scaling.workflow.resources.check_resources`).
+        available (:func:`~hypate.scaling.workflow.campaigns.resources.check_resources`).
     """
     out = Path(out)
     store_path = out / STORE

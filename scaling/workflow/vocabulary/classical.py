@@ -16,9 +16,9 @@ otherwise it is the best compromise, with the residual mismatch of each paramete
 active bounds reported (the analysis Table 9.8 shows for the refined designs).
 
 The monomial of each parameter is not written by hand: it is the exact local power law of
-:func:`hypate.scaling.workflow.similarity.similarity_parameters` around the current point (exponents
-from central differences in log space, exact for monomials up to round-off). Parameters that are
-not monomials of the chosen variables -- ``Re_0`` through Sutherland's viscosity, anything
+:func:`hypate.scaling.workflow.vocabulary.similarity.similarity_parameters` around the current point
+(exponents from central differences in log space, exact for monomials up to round-off). Parameters
+that are not monomials of the chosen variables -- ``Re_0`` through Sutherland's viscosity, anything
 through temperature-dependent properties or the isentropic relations in M -- are handled by
 sequential geometric programming: re-fit the local monomials at the new point and solve
 again, inside a log-space trust region that shrinks when the true mismatch does not
@@ -35,8 +35,8 @@ from typing import Any, Literal
 import cvxpy as cp
 import numpy as np
 import pandas as pd
-from hypate.scaling.workflow.configuration import Configuration, apply_design
-from hypate.scaling.workflow.similarity import (
+from hypate.scaling.workflow.vocabulary.configuration import Configuration, apply_design
+from hypate.scaling.workflow.vocabulary.similarity import (
     compare,
     comparison_records,
     parameter_names,
@@ -133,7 +133,8 @@ class ClassicalResult:
 
     def similarity_table(self, prototype: Configuration,
                          names: Sequence[str] | None = None) -> pd.DataFrame:
-        """:func:`hypate.scaling.workflow.similarity.compare` of the prototype and this design."""
+        """:func:`hypate.scaling.workflow.vocabulary.similarity.compare` of the prototype and this
+        design."""
         return compare(prototype, self.model, names)
 
     def to_dict(self) -> dict[str, Any]:
@@ -343,13 +344,13 @@ def classical_scaling(prototype: Configuration, model_template: Configuration,
         Full-scale article; its parameters are the targets.
     model_template : Configuration
         Model layup, aspect ratio, Mach number and every value that is not a design
-        variable (see :func:`hypate.scaling.workflow.similarity.apply_design`).
+        variable (see :func:`hypate.scaling.workflow.vocabulary.similarity.apply_design`).
     bounds : mapping
         ``{variable: (lower, upper)}``, positive, SI units; ``lower == upper`` fixes a
-        variable. Names as in :data:`hypate.scaling.workflow.tunnels.DESIGN_VARIABLES`.
+        variable. Names as in :data:`hypate.scaling.workflow.vocabulary.tunnels.DESIGN_VARIABLES`.
     match : sequence of str or mapping
-        Parameters to match (names of :data:`hypate.scaling.workflow.similarity.PARAMETERS`), or
-        ``{name: weight}``.
+        Parameters to match (names of
+        :data:`hypate.scaling.workflow.vocabulary.similarity.PARAMETERS`), or ``{name: weight}``.
     objective : {"product", "max"}
         Minimize ``prod t_i^{w_i}`` (weighted sum of ``|log r_i|``) or ``max t_i``.
     initial : mapping, optional

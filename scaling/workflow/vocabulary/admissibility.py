@@ -53,7 +53,7 @@ from dataclasses import dataclass, replace
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from hypate.scaling.workflow.tunnels import TunnelEnvelope
+from hypate.scaling.workflow.vocabulary.tunnels import TunnelEnvelope
 from hypate.solvers.config import InputModel
 from hypate.solvers.materials import Material
 from hypate.solvers.panel import PanelSpec

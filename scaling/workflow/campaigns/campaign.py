@@ -27,12 +27,12 @@ from typing import IO, Any, cast
 
 from hypate.scaling.engine.executors import check_scheduler_address
 from hypate.scaling.engine.store import EvaluationStore, StoreError
-from hypate.scaling.workflow.derived import study_data
-from hypate.scaling.workflow.external import simulator_source
-from hypate.scaling.workflow.integrity import check_run_directory
-from hypate.scaling.workflow.resources import check_resources, local_workers
-from hypate.scaling.workflow.rundir import LOCK_FILE, STORE
-from hypate.scaling.workflow.study import MAX_SEED, Study
+from hypate.scaling.workflow.campaigns.integrity import check_run_directory
+from hypate.scaling.workflow.campaigns.resources import check_resources, local_workers
+from hypate.scaling.workflow.campaigns.rundir import LOCK_FILE, STORE
+from hypate.scaling.workflow.vocabulary.derived import study_data
+from hypate.scaling.workflow.vocabulary.external import simulator_source
+from hypate.scaling.workflow.vocabulary.study import MAX_SEED, Study
 from hypate.solvers.aero.factory import ROM_PREFIX, check_fluid_model
 from hypate.solvers.config import read_toml
 from hypate.solvers.errors import InputError

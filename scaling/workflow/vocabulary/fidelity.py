@@ -28,7 +28,7 @@ import numpy as np
 from hypate.scaling.engine.fidelity import MultiFidelityOptimizer
 from hypate.scaling.engine.result import OptimizationResult
 from hypate.scaling.engine.settings import OptimizerSettings, RunContext
-from hypate.scaling.workflow.problem import ScalingProblem, evaluate_rows
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem, evaluate_rows
 from hypate.solvers.config import InputModel
 from hypate.solvers.settings import DEFAULTS
 from pydantic import Field
@@ -151,7 +151,7 @@ class FidelityProblem(Problem):
         # the multi-fidelity search models no expensive constraint (its co-kriging is of the
         # objectives): the admissibility columns are dropped here, every evaluation keeps
         # what its model went through (aux), and the design point is chosen among the
-        # admissible top-level evaluations (scaling.workflow.verdict)
+        # admissible top-level evaluations (scaling.workflow.campaigns.verdict)
         super().__init__(n_var=top.n_var + 1, n_obj=top.n_obj, n_ieq_constr=0,
                          xl=np.r_[np.asarray(top.xl, float), 0.0],
                          xu=np.r_[np.asarray(top.xu, float), float(len(levels) - 1)])

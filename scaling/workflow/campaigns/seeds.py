@@ -16,15 +16,15 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from hypate.scaling.workflow.campaign import MAX_SEED
-from hypate.scaling.workflow.rundir import (
+from hypate.scaling.workflow.campaigns.campaign import MAX_SEED
+from hypate.scaling.workflow.campaigns.rundir import (
     DESIGN_POINT_JSON,
     SEEDS_CSV,
     SEEDS_JSON,
     write_csv,
     write_json,
 )
-from hypate.scaling.workflow.study import Study
+from hypate.scaling.workflow.vocabulary.study import Study
 from hypate.solvers.errors import InputError
 
 __all__ = ["MAX_SEEDS", "SEED_DIR", "seed_directory", "seed_list", "seed_spread",

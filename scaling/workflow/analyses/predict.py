@@ -89,13 +89,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from hypate.scaling.engine.store import EvaluationStore, StoreError
-from hypate.scaling.workflow.integrity import verify_run
-from hypate.scaling.workflow.laws import load_sweep
-from hypate.scaling.workflow.laws import predict as law_design
-from hypate.scaling.workflow.measured import COLUMNS, Measured, column_error
-from hypate.scaling.workflow.objectives import ModelFailure, relative_rms
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.rundir import (
+from hypate.scaling.workflow.campaigns.integrity import verify_run
+from hypate.scaling.workflow.campaigns.laws import load_sweep
+from hypate.scaling.workflow.campaigns.laws import predict as law_design
+from hypate.scaling.workflow.campaigns.rundir import (
     DESIGN_POINT_JSON,
     DESIGN_POINT_NPZ,
     PREDICTION_CSV,
@@ -106,7 +103,10 @@ from hypate.scaling.workflow.rundir import (
     finite,
     json_default,
 )
-from hypate.scaling.workflow.study import load_study
+from hypate.scaling.workflow.vocabulary.measured import COLUMNS, Measured, column_error
+from hypate.scaling.workflow.vocabulary.objectives import ModelFailure, relative_rms
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.vocabulary.study import load_study
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 from hypate.solvers.numerics.files import (
@@ -351,7 +351,7 @@ def sweep_root(run_dir: str | Path) -> Path:
 
 def sweep_basis(run_dir: str | Path, xi: float) -> Basis:
     """The design the refined laws of a sweep give at scale ``xi``, simulated once against
-    the sweep's prototype (Sec. 6.1.3; :func:`hypate.scaling.workflow.laws.predict`).
+    the sweep's prototype (Sec. 6.1.3; :func:`hypate.scaling.workflow.campaigns.laws.predict`).
 
     The design is clipped to the study's bounds at ``xi`` and projected on its cheap
     equalities; its model runs on the time step of the study's time mapping (Eq. 9.6 or

@@ -27,11 +27,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from hypate.scaling.engine.problem import project_cheap
-from hypate.scaling.workflow.admissibility import admissible, violation
-from hypate.scaling.workflow.objectives import ModelFailure
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.rundir import EVALUATIONS_CSV
-from hypate.scaling.workflow.study import Study
+from hypate.scaling.workflow.campaigns.rundir import EVALUATIONS_CSV
+from hypate.scaling.workflow.vocabulary.admissibility import admissible, violation
+from hypate.scaling.workflow.vocabulary.objectives import ModelFailure
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.vocabulary.study import Study
 from hypate.solvers.errors import InputError
 from scipy.optimize import minimize
 

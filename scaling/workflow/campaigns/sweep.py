@@ -18,24 +18,22 @@ from hypate.scaling.engine.design_point import rank_designs
 from hypate.scaling.engine.executors import LOST_AFTER
 from hypate.scaling.engine.problem import project_cheap
 from hypate.scaling.engine.store import EvaluationStore
-from hypate.scaling.workflow.campaign import (
+from hypate.scaling.workflow.campaigns.campaign import (
     check_run_settings,
     refuse_changes,
     sweep_changes,
     sweep_identity,
 )
-from hypate.scaling.workflow.derived import study_at, sweep_points
-from hypate.scaling.workflow.laws import (
+from hypate.scaling.workflow.campaigns.laws import (
     ANALYTICAL_EXPONENTS,
     analytical_laws,
     fit_laws,
     point_from_record,
     predicted_design,
 )
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.resources import check_resources, local_workers
-from hypate.scaling.workflow.run import run_study
-from hypate.scaling.workflow.rundir import (
+from hypate.scaling.workflow.campaigns.resources import check_resources, local_workers
+from hypate.scaling.workflow.campaigns.run import run_study
+from hypate.scaling.workflow.campaigns.rundir import (
     DESIGN_POINT_JSON,
     STORE,
     SWEEP_CSV,
@@ -43,7 +41,9 @@ from hypate.scaling.workflow.rundir import (
     write_csv,
     write_json,
 )
-from hypate.scaling.workflow.study import Study
+from hypate.scaling.workflow.vocabulary.derived import study_at, sweep_points
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.vocabulary.study import Study
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
@@ -84,10 +84,11 @@ def sweep_seeds(study: Study, sub: Study, problem: ScalingProblem, index: int,
       new problem as part of its initial sample. When the scale changes they are first
       moved along the scaling laws, ``d * (xi_new / xi_old)**k``, with the refined
       exponent ``k`` where two or more scales are finished and the analytical one
-      otherwise (:mod:`hypate.scaling.workflow.laws`), so that e.g. the thickness keeps ``h/L``.
+      otherwise (:mod:`hypate.scaling.workflow.campaigns.laws`), so that e.g. the thickness keeps
+      ``h/L``.
     * **Prediction**: for a scale not solved yet, with ``sweep.predict`` and two or more
       finished scales, the refined laws' prediction
-      (:func:`hypate.scaling.workflow.laws.predicted_design`) comes first.
+      (:func:`hypate.scaling.workflow.campaigns.laws.predicted_design`) comes first.
 
     Every seed is clipped to the new bounds and projected onto the cheap equalities
     (Eq. 9.7). The result depends only on finished points, so a resumed sweep recomputes
@@ -177,9 +178,9 @@ def run_sweep(study: Study, out: str | Path, *, resume: bool = False, workers: i
     """Run (or resume) a sweep study: one optimization per sweep point (``on_written`` as in
     :func:`run_study`, called for each point and again for all once the sweep is done).
 
-    Each point (:func:`hypate.scaling.workflow.derived.sweep_points`) runs :func:`run_study` into
-    ``out/<label>`` (its own store), sequentially, with the executor of ``workers`` /
-    ``scheduler`` inside each point; seeds from its finished neighbours
+    Each point (:func:`hypate.scaling.workflow.vocabulary.derived.sweep_points`) runs
+    :func:`run_study` into ``out/<label>`` (its own store), sequentially, with the executor of
+    ``workers`` / ``scheduler`` inside each point; seeds from its finished neighbours
     (:func:`sweep_seeds`). After every point ``out/sweep.json`` and ``out/sweep.csv`` are
     rewritten. With ``resume``, finished points (``design_point.json`` written) are
     skipped, an interrupted one continues from its store and the rest run normally.

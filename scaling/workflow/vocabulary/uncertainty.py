@@ -19,7 +19,7 @@ Public keys::
 Every entry is a factor on a nominal value (:mod:`hypate.scaling.engine.propagation`): a
 design value of the study (a variable or a ``[fixed]`` value), a model/tunnel value the
 template sets (read back through its design-variable row,
-:func:`~hypate.scaling.workflow.configuration.nominal_values`), or a material property of
+:func:`~hypate.scaling.workflow.vocabulary.configuration.nominal_values`), or a material property of
 every model layer (:data:`MATERIAL_FACTORS`). ``T_rad`` of a study with a heater schedule
 is one factor on every control point ``T_rad[k]`` (a heater bank's calibration scatters the
 whole programme); a categorical ``material`` has no scatter (its properties do: ``model.NAME``).
@@ -55,10 +55,14 @@ from hypate.scaling.engine.propagation import (
     robust_value,
     summary,
 )
-from hypate.scaling.workflow.configuration import Configuration, nominal_values
-from hypate.scaling.workflow.objectives import ModelFailure, relative_rms, response_series
-from hypate.scaling.workflow.problem import ScalingProblem
-from hypate.scaling.workflow.variables import CATEGORICAL, schedule_point
+from hypate.scaling.workflow.vocabulary.configuration import Configuration, nominal_values
+from hypate.scaling.workflow.vocabulary.objectives import (
+    ModelFailure,
+    relative_rms,
+    response_series,
+)
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.vocabulary.variables import CATEGORICAL, schedule_point
 from hypate.solvers import materials as mat
 from hypate.solvers.config import InputModel
 from hypate.solvers.errors import InputError
@@ -126,7 +130,7 @@ class RobustSection(InputModel):
     statistic: Literal["mean", "mean+2std", "q90"] = "q90"
     order: Annotated[int, Field(ge=1, le=4)] = 2
     samples: Annotated[int, Field(ge=2, le=4096)] | None = None
-    # robust optimization (scaling.workflow.robust); a study without [robust] is nominal
+    # robust optimization (scaling.workflow.campaigns.robust); a study without [robust] is nominal
     optimize: bool = True
     initial_samples: Annotated[int, Field(ge=0, le=1000)] = 10
     iterations: Annotated[int, Field(ge=0, le=10000)] | None = None

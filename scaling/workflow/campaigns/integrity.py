@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from hypate.scaling.engine.store import EvaluationStore, StoreError, StoreTampered
-from hypate.scaling.workflow.rundir import (
+from hypate.scaling.workflow.campaigns.rundir import (
     CLASSICAL_JSON,
     DESIGN_POINT_JSON,
     DESIGN_POINT_NPZ,

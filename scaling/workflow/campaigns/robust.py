@@ -16,7 +16,7 @@ A robust run directory ``OUT`` holds two campaigns:
 
 The robust design point is the design, among those simulated, whose surrogate robust
 statistics are best by the study's design-point rule; it is then verified by propagation
-on the simulator (:func:`~hypate.scaling.workflow.uncertainty.propagate_design`, the
+on the simulator (:func:`~hypate.scaling.workflow.vocabulary.uncertainty.propagate_design`, the
 ``robust`` block of ``design_point.json``), and the nominal optimum's propagation is
 reported beside it (``nominal``).
 """
@@ -38,19 +38,17 @@ from hypate.scaling.engine.pareto import non_dominated_mask
 from hypate.scaling.engine.propagation import collocation_nodes
 from hypate.scaling.engine.robust import RobustBayesianOptimizer
 from hypate.scaling.engine.store import Evaluation, EvaluationStore
-from hypate.scaling.workflow.campaign import preflight, record_campaign, run_lock
-from hypate.scaling.workflow.integrity import record_outputs
-from hypate.scaling.workflow.objectives import response_errors
-from hypate.scaling.workflow.optimizer_settings import optimizer_settings
-from hypate.scaling.workflow.outputs import (
+from hypate.scaling.workflow.campaigns.campaign import preflight, record_campaign, run_lock
+from hypate.scaling.workflow.campaigns.integrity import record_outputs
+from hypate.scaling.workflow.campaigns.optimizer_settings import optimizer_settings
+from hypate.scaling.workflow.campaigns.outputs import (
     design_fields,
     design_point_scatter,
     point_header,
     save_design_response,
 )
-from hypate.scaling.workflow.problem import ScalingProblem, evaluate_rows
-from hypate.scaling.workflow.run import RunOutcome, run_study, surrogate_coordinates
-from hypate.scaling.workflow.rundir import (
+from hypate.scaling.workflow.campaigns.run import RunOutcome, run_study, surrogate_coordinates
+from hypate.scaling.workflow.campaigns.rundir import (
     DESIGN_POINT_JSON,
     EVALUATIONS_CSV,
     ID_COLUMN,
@@ -62,8 +60,10 @@ from hypate.scaling.workflow.rundir import (
     write_csv,
     write_json,
 )
-from hypate.scaling.workflow.study import Study
-from hypate.scaling.workflow.uncertainty import Uncertainty, scattered_configuration
+from hypate.scaling.workflow.vocabulary.objectives import response_errors
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem, evaluate_rows
+from hypate.scaling.workflow.vocabulary.study import Study
+from hypate.scaling.workflow.vocabulary.uncertainty import Uncertainty, scattered_configuration
 from hypate.solvers.errors import InputError
 from pymoo.core.problem import Problem
 
@@ -80,8 +80,8 @@ INPUT_PREFIX = "input."
 class JointProblem(Problem):
     """A study's design variables followed by its uncertain inputs (factors, bounded by the
     range of their samples): one evaluation simulates the scattered model
-    (:func:`~hypate.scaling.workflow.uncertainty.scattered_configuration`) and compares it
-    with the prototype."""
+    (:func:`~hypate.scaling.workflow.vocabulary.uncertainty.scattered_configuration`) and compares
+    it with the prototype."""
 
     def __init__(self, problem: ScalingProblem, unc: Uncertainty) -> None:
         self.scaling = problem
@@ -159,7 +159,7 @@ def run_robust_study(study: Study, out: str | Path, *, resume: bool = False, wor
 
     ``progress(done, budget, evaluation)`` counts both campaigns' evaluations;
     ``on_scatter(which, done, total)`` the propagations (``which``: "nominal" or
-    "robust"). Other parameters as :func:`~hypate.scaling.workflow.run.run_study`.
+    "robust"). Other parameters as :func:`~hypate.scaling.workflow.campaigns.run.run_study`.
     """
     out = Path(out)
     unc = robust_inputs(study)
