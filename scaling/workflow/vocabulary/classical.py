@@ -344,10 +344,10 @@ def classical_scaling(prototype: Configuration, model_template: Configuration,
         Full-scale article; its parameters are the targets.
     model_template : Configuration
         Model layup, aspect ratio, Mach number and every value that is not a design
-        variable (see :func:`hypate.scaling.workflow.vocabulary.similarity.apply_design`).
+        variable (see :func:`hypate.scaling.workflow.vocabulary.configuration.apply_design`).
     bounds : mapping
         ``{variable: (lower, upper)}``, positive, SI units; ``lower == upper`` fixes a
-        variable. Names as in :data:`hypate.scaling.workflow.vocabulary.tunnels.DESIGN_VARIABLES`.
+        variable. Names as in :data:`hypate.scaling.workflow.vocabulary.variables.DESIGN_VARIABLES`.
     match : sequence of str or mapping
         Parameters to match (names of
         :data:`hypate.scaling.workflow.vocabulary.similarity.PARAMETERS`), or ``{name: weight}``.

@@ -22,7 +22,7 @@ the yield strength, and the von Mises stress there, Pa; the stress check). A che
 input the simulator does not return must be ``"off"`` (every response is checked).
 
 A design the simulator cannot simulate raises
-:class:`~hypate.scaling.workflow.vocabulary.objectives. ModelFailure` (a failed evaluation the
+:class:`~hypate.scaling.workflow.vocabulary.objectives.ModelFailure` (a failed evaluation the
 engine learns to avoid), or returns fewer time levels than asked (an instability at that step, as
 the built-in simulator reports it); any other exception is a bug and stops the run.
 """

@@ -1,14 +1,14 @@
 """The scaling problem (Sec. 6.2, 9.1.2.2, 9.2.1): prototype vs wind-tunnel model.
 
 A :class:`ScalingProblem` is a pymoo problem whose design vector sets the model and the
-tunnel (names of :func:`hypate.scaling.workflow.vocabulary.similarity.apply_design`: ``p0``, ``T0``,
-``M``, ``L``, ``L_le``, ``h``, ``emissivity``, ``T_rad``, ``p_ext``, ``p_inf``, ``delta_T``...). One
-evaluation simulates the model with the compact aerothermoelastic simulator and compares
-its nondimensional response with the prototype's (simulated once and cached) at matched
-nondimensional times: the model's time step follows from the prototype's by the Fourier
-number (Eqs. 9.5-9.6 with the length scale, or Eq. 6.5 with the thickness; quasi-steady
-problems) or by the structural time (Eq. 9.3, transient aeroelastic problems), and both
-runs take the same number of steps.
+tunnel (names of :func:`hypate.scaling.workflow.vocabulary.configuration.apply_design`:
+``p0``, ``T0``, ``M``, ``L``, ``L_le``, ``h``, ``emissivity``, ``T_rad``, ``p_ext``,
+``p_inf``, ``delta_T``...). One evaluation simulates the model with the compact
+aerothermoelastic simulator and compares its nondimensional response with the prototype's
+(simulated once and cached) at matched nondimensional times: the model's time step follows
+from the prototype's by the Fourier number (Eqs. 9.5-9.6 with the length scale, or Eq. 6.5
+with the thickness; quasi-steady problems) or by the structural time (Eq. 9.3, transient
+aeroelastic problems), and both runs take the same number of steps.
 
 The objectives J_u, J_T, J_s and the histories they compare are :mod:`.objectives`.
 

@@ -20,7 +20,7 @@ Every error is an :class:`~solvers.errors.InputError` naming the offending key
 (``tunnel.p0``), e.g. for reversed bounds.
 
 Design-variable names used here and in
-:func:`hypate.scaling.workflow.vocabulary.similarity.apply_design`: ``M``, ``p0``, ``T0``,
+:func:`hypate.scaling.workflow.vocabulary.configuration.apply_design`: ``M``, ``p0``, ``T0``,
 ``p_inf``, ``T_inf``, ``L``, ``width``, ``L_le``, ``h``, ``h[k]``, ``emissivity``, ``T_rad``,
 ``p_ext``, ``q_ext``, ``delta_T``, ``time``, ``T_w`` (see
 :data:`DESIGN_VARIABLES`).

@@ -3,11 +3,12 @@ unit, meaning, hard limits, whether a study may optimize it (Tables 6.1, 9.2, 9.
 goes in a configuration and its analytical scaling law.
 
 One row is the variable's one home:
-:func:`hypate.scaling.workflow.vocabulary.configuration.apply_design` sets each row's value into its
-:attr:`DesignVariable.target` (a loop over rows; the parts a target names compose as the
-configuration module says), :func:`~hypate.scaling.workflow. configuration.nominal_values` reads
-every target back from a configuration (the nominal values of a robust study's scatter, the defaults
-of recycled designs, the prototype's values of the laws), and the laws take the row's exponent. A
+:func:`hypate.scaling.workflow.vocabulary.configuration.apply_design` sets each row's value
+into its :attr:`DesignVariable.target` (a loop over rows; the parts a target names compose as
+the configuration module says),
+:func:`~hypate.scaling.workflow.vocabulary.configuration.nominal_values` reads every target
+back from a configuration (the nominal values of a robust study's scatter, the defaults of
+recycled designs, the prototype's values of the laws), and the laws take the row's exponent. A
 new continuous variable on an existing target part is one row here. The study schema, the tunnel
 bound sets, the what-if, the report and the laws read this table and nothing else.
 """

@@ -1,5 +1,6 @@
 """Admissibility of scaled models: material limits, what a model goes through, the checks
-and their switching (scaling.workflow.vocabulary.admissibility, .verdict; issue 40)."""
+and their switching (scaling.workflow.vocabulary.admissibility,
+campaigns.verdict; issue 40)."""
 from __future__ import annotations
 
 import dataclasses
