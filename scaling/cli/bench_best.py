@@ -56,9 +56,9 @@ def run(args: argparse.Namespace) -> int:
     if args.runs is None and not 1 <= args.seeds <= 100:
         raise InputError("--seeds", f"must be in [1, 100]; got {args.seeds}")
     study = load_study(resolve(args.study, "study"))
-    if study.spec.materials or study.lower_levels or study.sweep is not None:
+    if study.spec.choices or study.lower_levels or study.sweep is not None:
         raise InputError("study", "the local search runs over continuous variables of one "
-                         "single-fidelity study: no categorical material, [[fidelity]] or "
+                         "single-fidelity study: no categorical variable, [[fidelity]] or "
                          "[sweep]")
     out = Path(args.out)
     runs = [Path(r) for r in args.runs] if args.runs else []

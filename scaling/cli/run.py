@@ -65,6 +65,7 @@ from hypate.scaling.workflow.campaigns.sweep import SweepOutcome
 from hypate.scaling.workflow.campaigns.verdict import prototype_note
 from hypate.scaling.workflow.vocabulary.shipped import default_study, resolve
 from hypate.scaling.workflow.vocabulary.study import Study, load_study
+from hypate.scaling.workflow.vocabulary.variables import CATEGORICAL
 from hypate.solvers.errors import InputError
 from tqdm import tqdm
 
@@ -327,9 +328,9 @@ def _print_summary(summary: dict[str, Any], before: int) -> None:
     if point.get("design"):
         objs = ", ".join(f"{k} = {v:.4g}" for k, v in point["objectives"].items())
         print(f"design point: {objs}")
-        material = (point.get("material") or {}).get("name")
-        for name, value in point["design"].items():
-            shown = material if name == "material" and material else f"{value:.6g}"
+        for name, value in point["design"].items():  # a categorical value by its name
+            shown = (point[name]["name"] if name in CATEGORICAL and name in point
+                     else f"{value:.6g}")
             print(f"  {name:>10s} = {shown}")
         if point["active_constraints"]:
             print(f"  active: {', '.join(point['active_constraints'])}")

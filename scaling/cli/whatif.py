@@ -124,12 +124,11 @@ def _print_result(res: dict[str, Any]) -> None:
     print(f"what-if {res['study']}: one model design (no optimization)")
     print(f"  {'variable':<10s} {'value':>12s} {'unit':<4s}  source")
     for name, value in res["design"].items():
-        shown = res["material"] if name == "material" else f"{value:.6g}"
+        shown = res[name] if name in CATEGORICAL and name in res else f"{value:.6g}"
         print(f"  {name:<10s} {shown:>12s} {variable_unit(name):<4s}  "
               f"{res['sources'].get(name, '')}")
-    if "material" in res and "material" not in res["design"]:
-        print(f"  {'material':<10s} {res['material']:>12s} {'-':<4s}  "
-              f"{res['sources'].get('material', '')}")
+    for name in [n for n in CATEGORICAL if n in res and n not in res["design"]]:
+        print(f"  {name:<10s} {res[name]:>12s} {'-':<4s}  {res['sources'].get(name, '')}")
     obj = res["objectives"]
     if res["status"] == "ok":
         print(f"J_u = {_pct(obj['J_u'])}   J_T = {_pct(obj['J_T'])}   J_s = {_pct(obj['J_s'])}")

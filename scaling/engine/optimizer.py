@@ -189,7 +189,7 @@ class BayesianOptimizer:
             if vec is not None and len(vec) != self.n_obj:
                 raise SettingError(name, f"{self.n_obj} numbers (one per objective)", vec)
         cat = s.categorical
-        n_cont = self.n_var if cat is None else self.n_var - 1
+        n_cont = self.n_var if cat is None else self.n_var - len(cat.indices)
         if cat is not None:
             if (bad := cat.problem_mismatch(self.bounds)) is not None:
                 raise SettingError("categorical", *bad)
@@ -199,7 +199,8 @@ class BayesianOptimizer:
             if s.coordinates.matrix.shape != (n_cont, n_cont):
                 raise SettingError("coordinates", f"a {n_cont} x {n_cont} matrix (the "
                                    "continuous variables)", s.coordinates.matrix.shape)
-            cont = self.bounds if cat is None else np.delete(self.bounds, cat.index, axis=0)
+            cont = (self.bounds if cat is None
+                    else np.delete(self.bounds, list(cat.indices), axis=0))
             if not np.all(cont > 0.0):
                 raise ValueError("log-linear coordinates need positive bounds xl, xu")
 
@@ -221,9 +222,8 @@ class BayesianOptimizer:
         """The iteration-0 OLH design (projected onto the cheap constraints)."""
         X = latin_hypercube(self.settings.n_init, self.bounds, self._rng(0))
         cat = self.settings.categorical
-        if cat is not None and len(X):  # the LHS column's strata become balanced levels
-            X[:, cat.index] = cat.stratified(X[:, cat.index] / (cat.levels - 1)
-                                             * (1.0 - 1e-12))
+        if cat is not None and len(X):  # the LHS columns' strata become balanced levels
+            X = cat.stratified(X)
         if self.settings.cheap_constraints and len(X):
             lo, span = self.bounds[:, 0], self.bounds[:, 1] - self.bounds[:, 0]
             cons = scipy_constraints(self.settings.cheap_constraints, lo, span)

@@ -242,11 +242,11 @@ class OptimizerSettings:
         problem whose ``composition()`` says how; a problem without one keeps
         ``"objectives"``.
     categorical : Categorical or None
-        One categorical design variable (its level number ``0 .. k-1`` in the design
-        vector, bounds ``[0, k - 1]``; :mod:`hypate.scaling.engine.mixed`): the surrogates
-        see its one-hot indicators, the initial design stratifies it, every proposal
-        enumerates its levels. ``coordinates`` then describe the ``d - 1`` continuous
-        variables; no polish.
+        The categorical design variables (each one's level number ``0 .. k-1`` in the
+        design vector, bounds ``[0, k - 1]``; :mod:`hypate.scaling.engine.mixed`): the
+        surrogates see their one-hot indicators, the initial design stratifies them, every
+        proposal enumerates their combinations. ``coordinates`` then describe the
+        ``d - n_cat`` continuous variables; no polish.
 
     Raises
     ------

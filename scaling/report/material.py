@@ -1,6 +1,7 @@
-"""The report's view of a categorical model material (``[variables] material = [...]``):
-the design table's row and how close each material came (``design_point.json``'s
-``material`` block, :func:`hypate.scaling.workflow.campaigns.outputs.best_by_material`)."""
+"""The report's view of the categorical design variables (``[variables] material = [...]``,
+``boundary = [...]``): the design table's row of each and how close each value came
+(``design_point.json``'s block of the variable's name,
+:func:`hypate.scaling.workflow.campaigns.outputs.best_by_level`)."""
 from __future__ import annotations
 
 import html
@@ -8,24 +9,30 @@ from typing import Any
 
 from hypate.scaling.report.numbers import format_percent
 
-__all__ = ["material_row", "materials_note"]
+__all__ = ["choice_row", "choices_note"]
 
 
-def material_row(point: dict[str, Any], classical: dict[str, Any] | None) -> tuple[Any, ...]:
-    """The design table's row of a categorical material: its name, the listed values in
-    the bounds' cells, the classical baseline's material."""
-    chosen = point.get("material") or {}
+def choice_row(point: dict[str, Any], name: str, classical: dict[str, Any] | None
+               ) -> tuple[Any, ...]:
+    """The design table's row of categorical ``name``: the chosen value's name, the listed
+    values in the bounds' cells, the classical baseline's value."""
+    chosen = point.get(name) or {}
     levels = chosen.get("levels") or []
-    return ("material", "-", str(chosen.get("name", "-")),
+    return (name, "-", str(chosen.get("name", "-")),
             "one of: " + ", ".join(map(str, levels)), "", "",
-            str((classical or {}).get("material", "-")))
+            str((classical or {}).get(name, "-")))
 
 
-def materials_note(point: dict[str, Any]) -> str:
-    """A sentence with each material's best max(J) and its evaluation ("" without a
-    categorical material)."""
-    best = (point.get("material") or {}).get("best") or {}
-    parts = [f"{html.escape(name)} {format_percent(max(b['objectives'].values()))} "
-             f"(evaluation {b['evaluation']})" if b
-             else f"{html.escape(name)}: no successful evaluation" for name, b in best.items()]
-    return f"<p>Best max(J) per material: {'; '.join(parts)}.</p>" if parts else ""
+def choices_note(point: dict[str, Any], names: list[str]) -> str:
+    """A sentence per categorical variable of ``names`` with each value's best max(J) and
+    its evaluation ("" without one)."""
+    out = ""
+    for name in names:
+        best = (point.get(name) or {}).get("best") or {}
+        parts = [f"{html.escape(value)} {format_percent(max(b['objectives'].values()))} "
+                 f"(evaluation {b['evaluation']})" if b
+                 else f"{html.escape(value)}: no successful evaluation"
+                 for value, b in best.items()]
+        if parts:
+            out += f"<p>Best max(J) per {html.escape(name)}: {'; '.join(parts)}.</p>"
+    return out

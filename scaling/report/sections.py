@@ -49,7 +49,7 @@ from hypate.scaling.report.figures import (
 )
 from hypate.scaling.report.glossary import glossary_rows
 from hypate.scaling.report.laws import laws_figure, laws_table
-from hypate.scaling.report.material import material_row, materials_note
+from hypate.scaling.report.material import choice_row, choices_note
 from hypate.scaling.report.numbers import (
     format_difference,
 )
@@ -70,6 +70,7 @@ from hypate.scaling.workflow.campaigns.rundir import (
     PREDICTION_HTML,
     PREDICTION_JSON,
 )
+from hypate.scaling.workflow.vocabulary.variables import CATEGORICAL
 
 __all__ = ["BUILTIN_SECTIONS", "Section", "html_table"]
 
@@ -133,8 +134,8 @@ def _study_section(run: RunData) -> Section:
              ("budget", html.escape(budget))]
     if spec.equalities:
         items.append(("equality constraints", html.escape(", ".join(spec.equalities))))
-    var_rows = [(v.name, "-", "one of: " + ", ".join(spec.material_names), "")
-                if v.name == "material" else (v.name, variable_unit(v.name), v.lower, v.upper)
+    var_rows = [(v.name, "-", "one of: " + ", ".join(spec.level_names(v.name)), "")
+                if v.name in spec.levels else (v.name, variable_unit(v.name), v.lower, v.upper)
                 for v in spec.variables]
     body = dl(items) + "<h3>Design variables</h3>" + html_table(
         ["variable", "unit", "lower bound", "upper bound"], var_rows)
@@ -197,7 +198,7 @@ def _design_section(run: RunData) -> Section:
     for name, value in point["design"].items():
         lo, hi = bounds.get(name, (None, None))
         state = active_vars.get(name, "")
-        rows.append(material_row(point, run.classical) if name == "material" else
+        rows.append(choice_row(point, name, run.classical) if name in CATEGORICAL else
                     (name, variable_unit(name), value, lo, hi, state or "",
                      classical.get(name)))
         classes.append("active" if state else "")
@@ -209,7 +210,7 @@ def _design_section(run: RunData) -> Section:
                 for k, v in objs.items()]
     body = intro + html_table(["variable", "unit", "value", "lower bound", "upper bound",
                                "bound hit", "classical baseline"], rows, classes)
-    body += materials_note(point)
+    body += choices_note(point, [n for n in point["design"] if n in CATEGORICAL])
     body += "<h3>Objectives</h3>" + html_table(
         ["objective", "design point", "surrogate prediction (leave-one-out)",
          "classical baseline"], obj_rows)

@@ -55,11 +55,12 @@ from hypate.scaling.engine.propagation import expansion_terms
 from hypate.scaling.workflow.campaigns.rundir import DESIGN_POINT_JSON
 from hypate.scaling.workflow.campaigns.verdict import verdict_fields
 from hypate.scaling.workflow.vocabulary.admissibility import admissible
-from hypate.scaling.workflow.vocabulary.configuration import with_material
-from hypate.scaling.workflow.vocabulary.problem import MATERIAL, ScalingProblem
+from hypate.scaling.workflow.vocabulary.configuration import with_choice
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
+from hypate.scaling.workflow.vocabulary.spec import MATERIAL
 from hypate.scaling.workflow.vocabulary.study import constant_material
 from hypate.scaling.workflow.vocabulary.uncertainty import propagate_or_failure
-from hypate.scaling.workflow.vocabulary.variables import DESIGN_VARIABLES, HARD_LIMITS
+from hypate.scaling.workflow.vocabulary.variables import CATEGORICAL, DESIGN_VARIABLES, HARD_LIMITS
 from hypate.solvers.config import resolve_material
 from hypate.solvers.errors import InputError
 from hypate.solvers.numerics.files import atomic_file, ensure_directory
@@ -99,16 +100,16 @@ class WhatIf:
 
         self.study = study
         spec, values = study.spec, dict(values)
-        #: ``--set material=NAME``: the model's material (a study value's level, or for a
-        #: fixed-material study the template made of it: an extra)
-        self.material: str | None = None
+        #: ``--set NAME=VALUE`` of a categorical variable, by name: a study value's level,
+        #: or for a study that fixes it the template with the value (an extra)
+        self.chosen: dict[str, str] = {}
         self.extra: list[str] = []
-        if MATERIAL in values:
-            spec, level = self._material(study, values[MATERIAL], option)
+        for name in [n for n in values if n in CATEGORICAL]:
+            spec, level = self._choice(study, spec, name, values[name], option)
             if level is None:
-                del values[MATERIAL]
+                del values[name]
             else:
-                values[MATERIAL] = level
+                values[name] = level
         known = list(spec.names) + [n for n in spec.fixed if n not in spec.names]
         others = [n for n in DESIGN_VARIABLES if n not in known]
         fixed = dict(spec.fixed)
@@ -131,39 +132,43 @@ class WhatIf:
         self.option = option
         self.base = {k: float(v) for k, v in (base or {}).items() if k in spec.names}
 
-    def _material(self, study: Any, value: str | float, option: str
-                  ) -> tuple[Any, float | None]:
-        """(spec, level) of ``--set material=VALUE``: a name (or level number) of the
-        study's categorical material, or any material of the library / the study's
-        ``[materials.NAME]`` for a fixed-material study (its template made of it; level
-        None)."""
-        spec = study.spec
-        if spec.materials:
-            names = spec.material_names
+    def _choice(self, study: Any, spec: Any, name: str, value: str | float, option: str
+                ) -> tuple[Any, float | None]:
+        """(spec, level) of ``--set NAME=VALUE`` of a categorical variable: a name (or level
+        number) of the study's values, or for a study that fixes it any value the row
+        allows (a material: of the library or the study's ``[materials.NAME]``), the
+        template made with it (level None)."""
+        if name in spec.levels:
+            names = spec.level_names(name)
             if isinstance(value, str) and value not in names:
-                raise InputError(option, f"material: {value!r} is not one of the study's "
-                                 f"materials ({', '.join(names)})")
+                raise InputError(option, f"{name}: {value!r} is not one of the study's "
+                                 f"values ({', '.join(names)})")
             level = names.index(value) if isinstance(value, str) else float(value)
             if level not in range(len(names)):
-                raise InputError(option, f"material: a level in [0, {len(names) - 1}] "
+                raise InputError(option, f"{name}: a level in [0, {len(names) - 1}] "
                                  f"({', '.join(names)}); got {value}")
-            self.material = names[int(level)]
+            self.chosen[name] = names[int(level)]
             return spec, float(level)
-        if not isinstance(value, str):
-            raise InputError(option, "material: give a material name, e.g. material=inconel718")
-        raw = study.raw
-        material = resolve_material(value, {}, raw.materials, field=option)
-        if raw.model.temperature_independent:
-            material = constant_material(material, raw.model.initial_temperature)
-        self.material = value
-        self.extra.append(MATERIAL)
-        return dataclasses.replace(spec, model=with_material(spec.model, material)), None
+        allowed = DESIGN_VARIABLES[name].choices
+        if not isinstance(value, str) or (allowed and value not in allowed):
+            raise InputError(option, f"{name}: give one of "
+                             + (", ".join(allowed) if allowed else "the material names, "
+                                "e.g. material=inconel718"))
+        chosen: Any = value
+        if name == MATERIAL:
+            raw = study.raw
+            chosen = resolve_material(value, {}, raw.materials, field=option)
+            if raw.model.temperature_independent:
+                chosen = constant_material(chosen, raw.model.initial_temperature)
+        self.chosen[name] = value
+        self.extra.append(name)
+        return dataclasses.replace(spec, model=with_choice(spec.model, name, chosen)), None
 
     def design_vector(self, overrides: Mapping[str, float] | None = None) -> np.ndarray:
         """Design vector: set values, then ``overrides``, midpoints elsewhere (a
-        categorical material: its first listed value)."""
+        categorical variable: its first listed value)."""
         vals = {**self.base, **self.values, **(overrides or {})}
-        return np.array([float(vals.get(v.name, v.lower if v.name == MATERIAL
+        return np.array([float(vals.get(v.name, v.lower if v.name in self.spec.levels
                                         else 0.5 * (v.lower + v.upper)))
                          for v in self.spec.variables])
 
@@ -174,9 +179,10 @@ class WhatIf:
             out[v.name] = ("sweep" if overrides and v.name in overrides else
                            "set" if v.name in self.values else
                            "design point" if v.name in self.base else
-                           "first listed" if v.name == MATERIAL else "midpoint")
-        if MATERIAL in self.extra:
-            out[MATERIAL] = "extra (set; the study fixes another material)"
+                           "first listed" if v.name in self.spec.levels else "midpoint")
+        for name in self.chosen:
+            if name in self.extra:
+                out[name] = f"extra (set; the study fixes another {name})"
         for name in self.spec.fixed:
             if name not in out:
                 out[name] = ("extra (not a study variable)" if name in self.extra else
@@ -197,7 +203,7 @@ class WhatIf:
         design = self.problem.design(x)
         bounds: list[dict[str, Any]] = []
         limits = {v.name: (v.lower, v.upper, "bounds") for v in self.spec.variables
-                  if v.name != MATERIAL}  # a level, no bound to hit
+                  if v.name not in self.spec.levels}  # a level, no bound to hit
         tunnel = self.study.tunnel
         if tunnel is not None:
             for name, (lo, hi) in tunnel.bounds().items():
@@ -283,8 +289,9 @@ def evaluate_whatif(study: Any, values: Mapping[str, float | str],
     -------
     dict
         ``study``, ``design`` (name -> value, fixed values included), ``sources`` (name ->
-        ``"set"``/``"midpoint"``/``"fixed"``...), ``material`` (its name, when the study
-        chooses it or ``--set material=NAME`` sets it), ``objectives`` (``J_u``, ``J_T``, ``J_s``;
+        ``"set"``/``"midpoint"``/``"fixed"``...), each categorical variable's value by its
+        name (``material``: when the study chooses it or ``--set material=NAME`` sets it),
+        ``objectives`` (``J_u``, ``J_T``, ``J_s``;
         ``None`` when the model failed), ``status`` (``"ok"``/``"failed"``), ``message``,
         ``similarity`` (list of ``{"name", "prototype", "model", "relative_difference"}``),
         ``constraints`` (``bounds`` list, ``active`` names, ``outside`` flags,
@@ -299,9 +306,7 @@ def evaluate_whatif(study: Any, values: Mapping[str, float | str],
     x = w.design_vector()
     w.check(x)
     result = {"study": study.name, "design": w.problem.design(x), "sources": w.sources()}
-    material = w.problem.material_name(x) or w.material
-    if material is not None:
-        result["material"] = material
+    result.update({**w.chosen, **w.problem.choice_names(x)})  # categorical values by name
     result.update(w.evaluate(x))
     result.update(verdict_fields(w.problem, x, result.pop("extremes")))
     result["similarity"] = w.problem.similarity(x)

@@ -39,14 +39,12 @@ from hypate.scaling.workflow.vocabulary.fidelity import (
     cost_summary,
     top_level,
 )
-from hypate.scaling.workflow.vocabulary.problem import MATERIAL, ScalingProblem
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
 from hypate.scaling.workflow.vocabulary.study import Study
 from hypate.scaling.workflow.vocabulary.uncertainty import propagate_or_failure
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
-#: evaluations.csv column naming a categorical material's level (after its number).
-MATERIAL_NAME = "material_name"
 #: Store metadata key of the design point's propagated scatter (:func:`design_point_scatter`).
 SCATTER_META = "design_point_scatter"
 #: evaluations.csv columns read from each evaluation's extremes (K, -, Pa).
@@ -89,11 +87,18 @@ def evaluations_table(study: Study, result: OptimizationResult,
         levels = np.clip(np.rint(df[FIDELITY].to_numpy(float)), 0, len(study.level_names) - 1)
         df.insert(df.columns.get_loc(FIDELITY) + 1, FIDELITY_NAME,
                   [study.level_names[int(k)] for k in levels])
-    if study.spec.materials:  # the level's name next to its number
-        levels = np.clip(np.rint(df[MATERIAL].to_numpy(float)), 0, len(study.spec.materials) - 1)
-        df.insert(df.columns.get_loc(MATERIAL) + 1, MATERIAL_NAME,
-                  [study.spec.material_names[int(k)] for k in levels])
+    for name in study.spec.categorical_names:  # each level's name next to its number
+        values = study.spec.level_names(name)
+        levels = np.clip(np.rint(df[name].to_numpy(float)), 0, len(values) - 1)
+        df.insert(df.columns.get_loc(name) + 1, level_column(name),
+                  [values[int(k)] for k in levels])
     return df
+
+
+def level_column(name: str) -> str:
+    """The evaluations table's column naming categorical ``name``'s value, after its level
+    number (``material_name``)."""
+    return f"{name}_name"
 
 
 def choose_design_point(study: Study, result: OptimizationResult) -> int | None:
@@ -122,13 +127,14 @@ def surrogate_record(optimizer: BayesianOptimizer, result: OptimizationResult, r
             "transform": check.transform, "objectives": per}
 
 
-def best_by_material(study: Study, result: OptimizationResult) -> dict[str, Any]:
-    """design_point.json's ``material.best``: per material of a categorical one, its best
-    feasible evaluation by the design-point rule (``evaluation``, ``objectives``; None
-    when none succeeded), so the report can say how far the other materials stayed."""
-    cat_col = result.X[:, study.spec.material_index]
+def best_by_level(study: Study, result: OptimizationResult, variable: str) -> dict[str, Any]:
+    """design_point.json's ``NAME.best`` of categorical ``variable`` (``material.best``):
+    per value, its best feasible evaluation by the design-point rule (``evaluation``,
+    ``objectives``; None when none succeeded), so the report can say how far the other
+    values stayed."""
+    cat_col = result.X[:, study.spec.names.index(variable)]
     out: dict[str, Any] = {}
-    for level, name in enumerate(study.spec.material_names):
+    for level, name in enumerate(study.spec.level_names(variable)):
         idx = np.flatnonzero(result.feasible & (np.rint(cat_col) == level))
         if idx.size == 0:
             out[name] = None
@@ -170,11 +176,12 @@ def point_header(study: Study) -> dict[str, Any]:
 def design_fields(study: Study, problem: ScalingProblem, x: np.ndarray) -> dict[str, Any]:
     """design_point.json's description of design ``x``: ``design``, ``similarity``,
     ``active_constraints`` (bounds hit, then the equalities) and the variables' ``bounds``;
-    with a categorical material also ``material`` (``name``, ``level``, ``levels``)."""
-    material = problem.material_name(x)
-    named = {} if material is None else {MATERIAL: {
-        "name": material, "level": int(problem.design(x)[MATERIAL]),
-        "levels": list(study.spec.material_names)}}
+    with a categorical variable also one block of its name (``material``: ``name``,
+    ``level``, ``levels``)."""
+    design = problem.design(x)
+    named = {name: {"name": value, "level": int(design[name]),
+                    "levels": list(study.spec.level_names(name))}
+             for name, value in problem.choice_names(x).items()}
     return {"design": problem.design(x), **named, "similarity": problem.similarity(x),
             "active_constraints": problem.active_bounds(x) + [
                 f"{name} (equality)" for name in study.spec.equalities],
@@ -236,8 +243,8 @@ def write_outputs(study: Study, problem: ScalingProblem, result: OptimizationRes
         if optimizer is not None and not study.lower_levels and int(result.ok.sum()) >= 3:
             point["surrogate"] = surrogate_record(optimizer, result, row,
                                                   study.spec.objectives)
-        if study.spec.materials:
-            point[MATERIAL]["best"] = best_by_material(study, result)
+        for name in study.spec.categorical_names:
+            point[name]["best"] = best_by_level(study, result, name)
         if study.uncertainty is not None:
             point["scatter"] = design_point_scatter(study, problem, x, store, on_scatter)
         resp, saved = save_design_response(problem, x, out)

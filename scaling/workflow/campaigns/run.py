@@ -74,14 +74,14 @@ from hypate.scaling.workflow.vocabulary.classical import (
 from hypate.scaling.workflow.vocabulary.configuration import (
     Configuration,
     nominal_values,
-    with_material,
+    with_choice,
 )
 from hypate.scaling.workflow.vocabulary.fidelity import (
     FidelityProblem,
     fidelity_optimizer,
     fidelity_problem,
 )
-from hypate.scaling.workflow.vocabulary.problem import MATERIAL, DesignVector, ScalingProblem
+from hypate.scaling.workflow.vocabulary.problem import DesignVector, ScalingProblem
 from hypate.scaling.workflow.vocabulary.study import Study
 from hypate.scaling.workflow.vocabulary.variables import schedule_point, variable_unit
 from hypate.solvers.coupling.response import Response
@@ -179,25 +179,31 @@ def classical_design(study: Study, template: Configuration, names: Sequence[str]
 def classical_baseline(study: Study, problem: ScalingProblem) -> dict[str, Any] | None:
     """The left prong: best classical (GP) design within the study's bounds.
 
-    With a categorical material, one classical design per material (the matched
-    parameters hold material constants): ``by_material`` maps each name to its record
-    (``x`` the full design vector, ``design`` with the level), and the top level is the
-    first material's until the seeds' objectives pick the best (:func:`_evaluate_seeds`).
+    With categorical variables, one classical design per combination of their values (the
+    matched parameters hold material constants): ``by_material`` maps each combination's
+    names (the material's name; several joined by ", ") to its record (``x`` the full
+    design vector, ``design`` with the levels, each variable's value name under its own
+    name), and the top level is the first combination's until the seeds' objectives pick
+    the best (:func:`_evaluate_seeds`).
     """
     spec = study.spec
     box = np.c_[problem.xl, problem.xu]
     cat = problem.categorical
     if cat is None:
         return classical_design(study, spec.model, spec.names, box)
-    names = [n for n in spec.names if n != MATERIAL]
+    names = [n for n in spec.names if n not in spec.levels]
     by_material: dict[str, dict[str, Any]] = {}
-    for level, (name, material) in enumerate(spec.materials):
-        rec = classical_design(study, with_material(spec.model, material), names,
-                               np.delete(box, cat.index, axis=0))
+    for level in range(cat.count):
+        template, picked = spec.model, {}
+        for name, k in zip(spec.categorical_names, cat.levels_of(level)):
+            value_name, value = spec.levels[name][int(k)]
+            template, picked[name] = with_choice(template, name, value), value_name
+        rec = classical_design(study, template, names,
+                               np.delete(box, list(cat.indices), axis=0))
         if rec.get("x") is not None:
             rec["x"] = cat.insert(rec["x"], level)[0].tolist()
-            rec["design"][MATERIAL] = float(level)
-        by_material[name] = {**rec, "material": name}
+            rec["design"].update(zip(spec.categorical_names, map(float, cat.levels_of(level))))
+        by_material[", ".join(picked.values())] = {**rec, **picked}
     return {**next(iter(by_material.values())), "by_material": by_material}
 
 
@@ -209,14 +215,14 @@ def surrogate_coordinates(study: Study, problem: ScalingProblem
     exponents at the centre of the log box), completed by their null space, so that the
     valleys ``Pi_i = Pi_i^p`` of the objective are aligned with the kriging axes.
 
-    A categorical material is left out: these are the coordinates of the continuous
-    variables (the engine's one-hot coordinates add the material, engine.mixed).
+    Categorical variables are left out: these are the coordinates of the continuous
+    variables (the engine's one-hot coordinates add the levels, engine.mixed).
     """
     kind = study.optimizer.coordinates
     if kind == "design":
         return None
     spec = study.spec
-    keep = [i for i, n in enumerate(spec.names) if n != MATERIAL]
+    keep = [i for i, n in enumerate(spec.names) if n not in spec.levels]
     names = [spec.names[i] for i in keep]
     lo, hi = np.asarray(problem.xl, float)[keep], np.asarray(problem.xu, float)[keep]
     if not np.all(lo > 0.0):

@@ -31,6 +31,7 @@ from hypate.scaling.workflow.campaigns.laws import (
     point_from_record,
     predicted_design,
 )
+from hypate.scaling.workflow.campaigns.outputs import level_column
 from hypate.scaling.workflow.campaigns.resources import check_resources, local_workers
 from hypate.scaling.workflow.campaigns.run import run_study
 from hypate.scaling.workflow.campaigns.rundir import (
@@ -44,6 +45,7 @@ from hypate.scaling.workflow.campaigns.rundir import (
 from hypate.scaling.workflow.vocabulary.derived import study_at, sweep_points
 from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
 from hypate.scaling.workflow.vocabulary.study import Study
+from hypate.scaling.workflow.vocabulary.variables import CATEGORICAL
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
 
@@ -141,8 +143,9 @@ def _point_record(point: Any, sub: Study, directory: Path, status: str,
                    active_constraints=design_point.get("active_constraints", []),
                    model_time_step=design_point.get("model_time_step"),
                    evaluations=(design_point.get("statistics") or {}).get("evaluations"))
-        if design_point.get("material"):  # a categorical material: the laws report it
-            rec["material"] = design_point["material"]
+        for name in CATEGORICAL:  # a categorical value: the laws report it (material)
+            if design_point.get(name):
+                rec[name] = design_point[name]
         if not design_point.get("design"):
             rec["status"] = "failed"
     return rec
@@ -160,8 +163,9 @@ def write_sweep_summary(study: Study, out: Path, records: Sequence[dict[str, Any
     for r in records:
         row = {k: r.get(k) for k in ("label", "xi", "mach", "altitude", "status")}
         row.update(r.get("design") or {})
-        if r.get("material"):
-            row["material_name"] = r["material"]["name"]
+        for name in CATEGORICAL:
+            if r.get(name):
+                row[level_column(name)] = r[name]["name"]
         row.update(r.get("objectives") or {})
         row["evaluations"] = r.get("evaluations")
         row["active_constraints"] = ";".join(r.get("active_constraints") or [])

@@ -192,6 +192,23 @@ def with_material(config: Configuration, material: Material) -> Configuration:
     return dataclasses.replace(config, panel=dataclasses.replace(panel, layers=layers))
 
 
+def with_choice(config: Configuration, name: str, value: Any) -> Configuration:
+    """``config`` with categorical variable ``name`` set to its chosen ``value`` (a study's
+    level, as the study resolved it) at its row's target: a panel's ``material`` is every
+    layer's (:func:`with_material`), any other target field takes the value as it is and
+    is checked where its part is built (e.g. ``PanelSpec.boundary``)."""
+    var = DESIGN_VARIABLES[name]
+    if var.kind != "categorical":
+        raise InputError(f"design.{name}", "is not a categorical variable")
+    part, target = var.target
+    if (part, target) == ("panel", "material"):
+        return with_material(config, value)
+    if part == "configuration":
+        return dataclasses.replace(config, **{target: value})
+    return dataclasses.replace(config, **{
+        part: dataclasses.replace(getattr(config, part), **{target: value})})
+
+
 def positive(name: str, value: float, unit: str) -> float:
     value = float(value)
     if not (math.isfinite(value) and value > 0.0):
@@ -331,14 +348,14 @@ def _flow(flow: FlowCondition, values: dict[str, tuple[DesignVariable, Any]]
 
 
 def nominal_values(config: Configuration) -> dict[str, float]:
-    """The value of every optimizable design variable ``config`` holds, read back through
-    its row's target (:mod:`hypate.scaling.workflow.vocabulary.variables`): a robust study's nominal
-    values, the defaults of a recycled design, the prototype's values of the laws. A
-    quantity the configuration does not have (no heater: ``T_rad``; no ``delta_T``) is left
-    out."""
+    """The value of every optimizable continuous design variable ``config`` holds, read back
+    through its row's target (:mod:`hypate.scaling.workflow.vocabulary.variables`): a robust
+    study's nominal values, the defaults of a recycled design, the prototype's values of the
+    laws. A quantity the configuration does not have (no heater: ``T_rad``; no ``delta_T``)
+    is left out."""
     out: dict[str, float] = {}
     for name, var in DESIGN_VARIABLES.items():
-        if not (var.optimizable and var.target):
+        if not (var.optimizable and var.target) or var.kind == "categorical":
             continue
         part, f = var.target[0], var.target[1]
         holder = config if part == "configuration" else getattr(config, part)

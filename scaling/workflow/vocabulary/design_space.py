@@ -25,7 +25,7 @@ Each entry is one of
   as categorical (:mod:`hypate.scaling.engine.mixed`).
 
 :func:`study_variables` turns the table into the problem's
-:class:`~hypate.scaling.workflow.vocabulary.problem.Variable` tuple; every error is an
+:class:`~hypate.scaling.workflow.vocabulary.spec.Variable` tuple; every error is an
 :class:`~hypate.solvers.errors.InputError` naming ``variables.NAME`` (or its sub-key).
 """
 from __future__ import annotations
@@ -34,10 +34,11 @@ import math
 from collections.abc import Mapping
 from typing import Annotated, Any, Literal
 
-from hypate.scaling.workflow.vocabulary.problem import Variable
+from hypate.scaling.workflow.vocabulary.spec import Variable
 from hypate.scaling.workflow.vocabulary.tunnels import TunnelEnvelope
 from hypate.scaling.workflow.vocabulary.variables import (
     CATEGORICAL,
+    DESIGN_VARIABLES,
     HARD_LIMITS,
     SCHEDULABLE,
     SCHEDULE_POINTS,
@@ -101,13 +102,14 @@ def schedule_entry(name: str, value: Mapping[str, Any]) -> ScheduleEntry:
 
 def categorical_levels(name: str, value: Any) -> tuple[str, ...]:
     """The values of a categorical entry ``NAME = ["a", "b", ...]``, checked (2-8 distinct
-    non-empty names; whether each names a material is the study's check).
+    non-empty names, each one of the row's ``choices``; whether each names a material is
+    the study's check).
 
     Raises
     ------
     InputError
         ``variables.NAME``: ``name`` is not categorical, or the list is not 2-8 distinct
-        names.
+        names its row allows.
     """
     field = f"variables.{name}"
     if name not in CATEGORICAL:
@@ -120,6 +122,9 @@ def categorical_levels(name: str, value: Any) -> tuple[str, ...]:
         raise InputError(field, f"needs {lo} to {hi} names; got {len(value)}")
     if len(set(value)) != len(value):
         raise InputError(field, "a name is listed twice")
+    allowed = DESIGN_VARIABLES[name].choices
+    if allowed and (bad := [v for v in value if v not in allowed]):
+        raise InputError(field, f"{bad[0]!r} is not one of {', '.join(allowed)}")
     return tuple(value)
 
 

@@ -30,16 +30,15 @@ the free jet's core, test duration against the run time) further cheap inequalit
 evaluation also returns, as its auxiliary outputs (``aux``), what the model went through
 (:meth:`Response.extremes`), from which its admissibility rows are rebuilt.
 
-Size: about 700 lines: :class:`ScalingProblem` is one pymoo problem (the design vector's
-mapping, one evaluation, the cheap constraints and the admissibility rows read one spec);
-the objectives, configuration, simulation and user's simulator have their own modules.
+What defines a problem (:class:`~hypate.scaling.workflow.vocabulary.spec.ScalingSpec`) is
+:mod:`.spec`; the objectives, configuration, simulation and user's simulator have their own
+modules.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -58,7 +57,7 @@ from hypate.scaling.workflow.vocabulary.configuration import (
     Configuration,
     apply_design,
     simulate_configuration,
-    with_material,
+    with_choice,
 )
 from hypate.scaling.workflow.vocabulary.external import (
     check_checks,
@@ -66,190 +65,27 @@ from hypate.scaling.workflow.vocabulary.external import (
     load_simulator,
 )
 from hypate.scaling.workflow.vocabulary.objectives import (
-    PROJECTIONS,
     ModelFailure,
     history_vector,
     response_errors,
     response_series,
 )
 from hypate.scaling.workflow.vocabulary.similarity import (
-    TIME_SCALINGS,
     compare,
     comparison_records,
     reference_quantities,
     time_scale,
 )
-from hypate.scaling.workflow.vocabulary.tunnels import TunnelEnvelope
-from hypate.scaling.workflow.vocabulary.variables import CATEGORICAL, base_name, schedule_point
+from hypate.scaling.workflow.vocabulary.spec import MATERIAL, ScalingSpec
 from hypate.solvers.coupling.response import Response
 from hypate.solvers.errors import InputError
-from hypate.solvers.materials import Material
-from hypate.solvers.settings import SimulationSettings
 from pymoo.core.problem import Problem
 
 #: A design vector: the values of the problem's variables in order.
 DesignVector = Sequence[float] | np.ndarray
-#: Objective names.
-OBJECTIVES = ("J_u", "J_T", "J_s")
 #: Largest |deflection| / thickness of a meaningful response: beyond it the von Karman
 #: (moderate rotation) shell model no longer holds and the run counts as diverged.
 MAX_DEFLECTION = 50.0
-#: Cheap equality constraints available (Eq. 9.7).
-EQUALITY_CONSTRAINTS = ("T_inf",)
-#: The categorical design variable (the one of
-#: :data:`~hypate.scaling.workflow.vocabulary.variables.CATEGORICAL`).
-(MATERIAL,) = CATEGORICAL
-
-
-@dataclass(frozen=True)
-class Variable:
-    """A continuous design variable with its bounds (SI units)."""
-
-    name: str
-    lower: float
-    upper: float
-
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.lower) and math.isfinite(self.upper)
-                and self.lower < self.upper):
-            raise InputError(f"variables.{self.name}", f"bounds must be finite with lower < "
-                             f"upper; got [{self.lower:g}, {self.upper:g}]")
-
-
-@dataclass(frozen=True)
-class ScalingSpec:
-    """Everything that defines one scaling problem.
-
-    Attributes
-    ----------
-    prototype : Configuration
-        Full-scale panel in flight (``delta_T`` for a uniformly heated panel).
-    model : Configuration
-        Model template in the tunnel (material, layup, mesh, Mach, fixed values).
-    variables : tuple of Variable
-    fixed : dict
-        Design values applied to every model (names of ``apply_design``), e.g. ``L`` from
-        the geometric scale.
-    objectives : tuple of str
-    time_scaling : {"fourier", "fourier_thickness", "structural"}
-        :data:`hypate.scaling.workflow.vocabulary.similarity.TIME_SCALINGS`: Eqs. 9.5-9.6, Eq. 6.5
-        or Eq. 9.3.
-    projection : {"center", "modal", "fields"}
-    equalities : tuple of str
-        Cheap equality constraints (:data:`EQUALITY_CONSTRAINTS`).
-    xi : float
-        Geometric scale L_p / L_m (for reports and laws).
-    increasing : tuple of str
-        Scheduled variables (``"T_rad"``) whose control points ``NAME[k]`` may not
-        decrease with k (``shape = "increasing"``): cheap linear inequalities.
-    decreasing : tuple of str
-        Likewise, control points that may not increase with k (``shape = "decreasing"``).
-    materials : tuple of (str, Material)
-        The levels of a categorical ``material`` variable, by name: level ``k`` of the
-        design vector makes every model layer of ``materials[k][1]`` (empty: the
-        template's material, no such variable).
-    tunnel : TunnelEnvelope or None
-        The tunnel the model is tested in (its test section and run time bound the size
-        and duration checks).
-    admissibility : Admissibility
-        The study's admissibility checks (``[admissibility]``).
-    simulator : str or None
-        The user's own simulator by name (:mod:`~hypate.scaling.workflow.vocabulary.external`);
-        None: hypate's.
-    """
-
-    prototype: Configuration
-    model: Configuration
-    variables: tuple[Variable, ...]
-    fixed: dict[str, float] = field(default_factory=dict)
-    objectives: tuple[str, ...] = ("J_u", "J_T")
-    time_scaling: str = "fourier"
-    projection: str = "center"
-    equalities: tuple[str, ...] = ()
-    xi: float = 1.0
-    increasing: tuple[str, ...] = ()
-    decreasing: tuple[str, ...] = ()
-    materials: tuple[tuple[str, Material], ...] = ()
-    tunnel: TunnelEnvelope | None = None
-    admissibility: Admissibility = Admissibility()
-    simulator: str | None = None
-
-    def __post_init__(self) -> None:
-        if not self.variables:
-            raise InputError("variables", "at least one design variable is needed")
-        bad = [o for o in self.objectives if o not in OBJECTIVES]
-        if bad or not self.objectives:
-            raise InputError("study.objectives", f"must be a non-empty subset of "
-                             f"{', '.join(OBJECTIVES)}; got {list(self.objectives)}")
-        if self.time_scaling not in TIME_SCALINGS:
-            raise InputError("study.time_scaling", f"must be one of {', '.join(TIME_SCALINGS)}")
-        if self.projection not in PROJECTIONS:
-            raise InputError("study.projection", f"must be one of {', '.join(PROJECTIONS)}")
-        for eq in self.equalities:
-            if eq not in EQUALITY_CONSTRAINTS:
-                raise InputError("constraints.equality", f"unknown constraint {eq!r}; "
-                                 f"available: {', '.join(EQUALITY_CONSTRAINTS)}")
-        names = [v.name for v in self.variables]
-        if len(set(names)) != len(names):
-            raise InputError("variables", "a design variable is listed twice")
-        both = set(map(base_name, names)) & set(map(base_name, self.fixed))
-        if both:
-            raise InputError(f"fixed.{sorted(both)[0]}", "is also a design variable")
-        levels = [v for v in self.variables if v.name == MATERIAL]
-        if bool(levels) != bool(self.materials) or (
-                levels and (levels[0].lower, levels[0].upper) != (0.0, len(self.materials) - 1)):
-            raise InputError("variables.material", f"a categorical material needs bounds "
-                             f"[0, k - 1] for its {len(self.materials)} materials")
-        for name, sign in self.monotone:
-            if len(self.schedule_indices(name)) < 2:
-                shape = "an increasing" if sign > 0 else "a decreasing"
-                raise InputError(f"variables.{name}", f"{shape} shape needs a schedule of at "
-                                 "least 2 control points")
-
-    @property
-    def monotone(self) -> list[tuple[str, int]]:
-        """The monotone schedules as ``(name, +1 increasing | -1 decreasing)``."""
-        return [(n, 1) for n in self.increasing] + [(n, -1) for n in self.decreasing]
-
-    def schedule_indices(self, name: str) -> list[int]:
-        """Positions of the control points ``NAME[0], NAME[1], ...`` in the design vector,
-        in the order of k (empty when ``name`` is not scheduled)."""
-        found = {p[1]: i for i, v in enumerate(self.variables)
-                 if (p := schedule_point(v.name)) is not None and p[0] == name}
-        return [found[k] for k in sorted(found)]
-
-    @property
-    def material_index(self) -> int | None:
-        """Position of the categorical ``material`` in the design vector (None: fixed)."""
-        return self.names.index(MATERIAL) if self.materials else None
-
-    @property
-    def material_names(self) -> tuple[str, ...]:
-        return tuple(name for name, _ in self.materials)
-
-    @property
-    def simulation(self) -> SimulationSettings:
-        """The prototype's simulation settings (the model template carries the same ones;
-        each model runs them with its own time step)."""
-        return self.prototype.simulation
-
-    @property
-    def kind(self) -> str:
-        """``"quasi_steady"`` (TC + LSA) or ``"aeroelastic"`` (S2): the study kind."""
-        return "quasi_steady" if self.simulation.scheme == "tc" else "aeroelastic"
-
-    def with_steps(self, steps: int) -> ScalingSpec:
-        """The same problem simulated for ``steps`` prototype time steps."""
-        def resized(config: Configuration) -> Configuration:
-            sim = config.simulation
-            return dataclasses.replace(config, simulation=dataclasses.replace(
-                sim, duration=sim.time_step * int(steps)))
-        return dataclasses.replace(self, prototype=resized(self.prototype),
-                                   model=resized(self.model))
-
-    @property
-    def names(self) -> list[str]:
-        return [v.name for v in self.variables]
 
 
 class AnalyticCheck:
@@ -266,7 +102,7 @@ class AnalyticCheck:
     (its reference quantities, the costly part), which depends on few variables (the
     panel's length and material for Eq. 9.6, not the tunnel setting): it is cached by the
     values of the variables it depends on, found once by moving each variable alone
-    between two interior points of the box (a categorical material always counts).
+    between two interior points of the box (a categorical variable always counts).
     """
 
     REL_STEP = 1e-6
@@ -290,7 +126,7 @@ class AnalyticCheck:
             base = p.model_configuration(a).simulation.duration
             found = []
             for i in range(p.n_var):
-                if i == p.spec.material_index:
+                if i in p.spec.categorical_indices:
                     found.append(i)
                     continue
                 moved = a.copy()
@@ -342,7 +178,7 @@ class AnalyticCheck:
         span = np.asarray(p.xu, float) - np.asarray(p.xl, float)
         J = np.zeros((1, p.n_var))
         for i in range(p.n_var):
-            if i == p.spec.material_index:  # a level: no derivative
+            if i in p.spec.categorical_indices:  # a level: no derivative
                 continue
             # forward, or backward on the upper bound: a design past a bound may not exist
             # (an emissivity above 1 is refused)
@@ -406,9 +242,10 @@ class ScalingProblem(Problem):
             self.n_ieq_constr = len([n for n in spec.admissibility.simulated_constraints
                                      if n != "stress"])
         self._ref_p = reference_quantities(spec.prototype)
-        i = spec.material_index
-        #: The categorical material for the optimizer (None: the template's material).
-        self.categorical = None if i is None else Categorical(i, len(spec.materials))
+        cats = spec.categorical_names
+        #: The categorical variables for the optimizer (None: none).
+        self.categorical = None if not cats else Categorical(
+            tuple(spec.categorical_indices), tuple(len(spec.levels[n]) for n in cats))
 
     def _settle(self, rules: Admissibility) -> None:
         """Fix the admissibility rules and the constraint columns they make."""
@@ -447,7 +284,7 @@ class ScalingProblem(Problem):
     # -- model --------------------------------------------------------------------------------
     def design(self, x: DesignVector) -> dict[str, float]:
         """Design dict (variables then fixed values) of a design vector; a categorical
-        material is its level number (:meth:`material_name` names it)."""
+        variable is its level number (:meth:`choice_names` names it)."""
         x = np.asarray(x, dtype=float).reshape(-1)
         if x.size != self.n_var:
             raise InputError("design", f"expected {self.n_var} values, got {x.size}")
@@ -455,23 +292,30 @@ class ScalingProblem(Problem):
             x = self.categorical.snap(x)[0]
         return {**self.spec.fixed, **dict(zip(self.spec.names, map(float, x)))}
 
+    def choice_names(self, x: DesignVector) -> dict[str, str]:
+        """Each categorical variable's value of design ``x`` by its study name."""
+        if self.categorical is None:
+            return {}
+        levels = self.categorical.variable_levels(np.asarray(x, float))[0]
+        return {name: self.spec.levels[name][int(k)][0]
+                for name, k in zip(self.spec.categorical_names, levels)}
+
     def material_name(self, x: DesignVector) -> str | None:
         """The material of design ``x`` by its study name (None: not a design variable)."""
-        if self.categorical is None:
-            return None
-        return self.spec.materials[int(self.categorical.level(np.asarray(x, float))[0])][0]
+        return self.choice_names(x).get(MATERIAL)
 
     def configure(self, design: Mapping[str, float]) -> Configuration:
-        """The model of a design dict (:meth:`design` form): the template made of the
-        design's material level, then :func:`apply_design` with the other values."""
+        """The model of a design dict (:meth:`design` form): the template with each
+        categorical variable's chosen value (:func:`with_choice`: a material level makes
+        the model of it), then :func:`apply_design` with the other values."""
         design = dict(design)
         template = self.spec.model
-        if self.spec.materials:
-            level = round(design.pop(MATERIAL))
-            if not 0 <= level < len(self.spec.materials):
-                raise InputError("design.material", f"level must be in [0, "
-                                 f"{len(self.spec.materials) - 1}]; got {level}")
-            template = with_material(template, self.spec.materials[level][1])
+        for name, levels in self.spec.choices:
+            level = round(design.pop(name))
+            if not 0 <= level < len(levels):
+                raise InputError(f"design.{name}", f"level must be in [0, "
+                                 f"{len(levels) - 1}]; got {level}")
+            template = with_choice(template, name, levels[level][1])
         return apply_design(template, design)
 
     def model_configuration(self, x: DesignVector) -> Configuration:

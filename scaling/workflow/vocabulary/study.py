@@ -99,13 +99,9 @@ from hypate.scaling.workflow.vocabulary.fidelity import (
     default_low_samples,
     level_data,
 )
-from hypate.scaling.workflow.vocabulary.problem import (
-    EQUALITY_CONSTRAINTS,
-    OBJECTIVES,
-    ScalingProblem,
-    ScalingSpec,
-)
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
 from hypate.scaling.workflow.vocabulary.shipped import resolve, resolve_aero
+from hypate.scaling.workflow.vocabulary.spec import EQUALITY_CONSTRAINTS, OBJECTIVES, ScalingSpec
 from hypate.scaling.workflow.vocabulary.tunnels import TunnelEnvelope, resolve_tunnel
 from hypate.scaling.workflow.vocabulary.variables import CATEGORICAL, HARD_LIMITS, OPTIMIZABLE
 from hypate.solvers import materials as mat
@@ -463,8 +459,8 @@ class Study:
                  + (f" in tunnel {self.tunnel.name}" if self.tunnel is not None else ""),
                  f"simulation: {sim.steps} steps of {sim.time_step:g} s, aero {sim.aero}, "
                  f"heating {sim.heating}"]
-        lines += [f"variable {v.name} in {{{', '.join(spec.material_names)}}}"
-                  if v.name == "material" else f"variable {v.name} in [{v.lower:g}, {v.upper:g}]"
+        lines += [f"variable {v.name} in {{{', '.join(spec.level_names(v.name))}}}"
+                  if v.name in spec.levels else f"variable {v.name} in [{v.lower:g}, {v.upper:g}]"
                   for v in spec.variables]
         lines += [f"fixed {k} = {v:g}" for k, v in spec.fixed.items()]
         lines.append("admissibility: " + ", ".join(
@@ -540,6 +536,15 @@ def model_materials(cfg: StudyFile) -> tuple[tuple[str, mat.Material], ...]:
             material = constant_material(material, m.initial_temperature)
         out.append((name, material))
     return tuple(out)
+
+
+def study_choices(cfg: StudyFile, materials: tuple[tuple[str, mat.Material], ...]
+                  ) -> tuple[tuple[str, tuple[tuple[str, Any], ...]], ...]:
+    """The ``ScalingSpec.choices`` of a study: each categorical ``[variables]`` entry's
+    values, the material's resolved (``materials``: :func:`model_materials`), any other's
+    the names themselves (its row's ``choices``, checked by the schema)."""
+    return tuple((name, materials if name == "material" else tuple((n, n) for n in names))
+                 for name, names in study_levels(cfg.variables).items())
 
 
 def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
@@ -643,7 +648,7 @@ def parse_study(data: dict[str, Any], path: str | Path = "<memory>") -> Study:
                        time_scaling=cfg.study.time_scaling, projection=cfg.study.projection,
                        equalities=tuple(cfg.constraints.equality), xi=xi,
                        increasing=increasing, decreasing=decreasing,
-                       materials=materials if "material" in cfg.variables else (),
+                       choices=study_choices(cfg, materials),
                        tunnel=tunnel, admissibility=cfg.admissibility.rules(),
                        simulator=simulator)
     uncertainty = scatter.parse_uncertainty(  # without [robust]: a nominal design
@@ -663,4 +668,4 @@ def load_study(path: str | Path) -> Study:
 
 
 __all__ = ["OBJECTIVES", "Study", "StudyFile", "constant_material", "load_study",
-           "model_materials", "parse_study"]
+           "model_materials", "parse_study", "study_choices"]

@@ -9,8 +9,13 @@ the configuration module says),
 :func:`~hypate.scaling.workflow.vocabulary.configuration.nominal_values` reads every target
 back from a configuration (the nominal values of a robust study's scatter, the defaults of
 recycled designs, the prototype's values of the laws), and the laws take the row's exponent. A
-new continuous variable on an existing target part is one row here. The study schema, the tunnel
-bound sets, the what-if, the report and the laws read this table and nothing else.
+new continuous variable on an existing target part is one row here. A categorical variable
+(``kind = "categorical"``) is a list of named values a study chooses among: its row names the
+values it allows (``choices``; the material's are the study's material library) and the
+configuration field a chosen value is set into
+(:func:`~hypate.scaling.workflow.vocabulary.configuration.with_choice`); a new one on an
+existing field is one row here too. The study schema, the tunnel bound sets, the what-if, the
+report and the laws read this table and nothing else.
 """
 from __future__ import annotations
 
@@ -43,8 +48,9 @@ class DesignVariable:
     target : tuple of str
         Where the value goes in a configuration: a part (``"panel"``, ``"flow"``,
         ``"simulation"``, ``"temperatures"``, ``"configuration"``) and its field(s), e.g.
-        ``("flow", "stagnation_pressure")``; empty for the names set otherwise (``h[k]``,
-        ``T_rad[k]``, the categorical ``material``).
+        ``("flow", "stagnation_pressure")``; a categorical variable's chosen value goes
+        there too (``("panel", "material")``: every layer's material); empty for the names
+        set otherwise (``h[k]``, ``T_rad[k]``).
     check : {"positive", "fraction", "real"}
         What a value must be: positive and finite, in [0, 1], or any number.
     exponent : float or None
@@ -53,6 +59,12 @@ class DesignVariable:
     coefficient : {"prototype", "analytical"} or None
         The analytical law's coefficient: the prototype's own value (read from its
         configuration), Eq. 9.2's (computed by the laws), or none.
+    kind : {"continuous", "categorical"}
+        A number, or one of a study's listed values (``[variables] NAME = ["a", "b"]``; a
+        design vector holds its level ``0 .. k-1``, no scaling law).
+    choices : tuple of str
+        The values a categorical variable allows, each set into the target as it is
+        (empty: the material, whose values are the study's materials by name).
     """
 
     name: str
@@ -64,6 +76,8 @@ class DesignVariable:
     check: str = "positive"
     exponent: float | None = None
     coefficient: str | None = None
+    kind: str = "continuous"
+    choices: tuple[str, ...] = ()
 
 
 DESIGN_VARIABLES: dict[str, DesignVariable] = {v.name: v for v in (
@@ -104,15 +118,22 @@ DESIGN_VARIABLES: dict[str, DesignVariable] = {v.name: v for v in (
     DesignVariable("T_w", "K", "reference wall temperature; T_S = T_T = T_w (Eq. 9.7)",
                    target=("temperatures", "wall", "structural", "thermal")),
     DesignVariable("material", "-", "model material, categorical: a [variables] list of "
-                   "names; a design vector holds its level 0 .. k-1", None, True),
+                   "names; a design vector holds its level 0 .. k-1", None, True,
+                   ("panel", "material"), kind="categorical"),
+    DesignVariable("boundary", "-", "the model's edge support in the tunnel fixture "
+                   "(the Sec. 9.2 prototypes are simply supported, Table 7.2's panel clamped), "
+                   "categorical", None, True, ("panel", "boundary"),
+                   kind="categorical", choices=("simply_supported", "clamped")),
 )}
 
 #: Names a study may optimize, in table order.
 OPTIMIZABLE: tuple[str, ...] = tuple(n for n, v in DESIGN_VARIABLES.items() if v.optimizable)
 #: Categorical variables: a design vector holds the level number ``0 .. k-1`` of one of
 #: the study's listed values (``[variables] material = ["ti6242", "inconel718"]``); the
-#: scaling problem turns it into the model's material, never ``apply_design``.
-CATEGORICAL: tuple[str, ...] = ("material",)
+#: scaling problem sets the chosen value into the model (``with_choice``), never
+#: ``apply_design``.
+CATEGORICAL: tuple[str, ...] = tuple(n for n, v in DESIGN_VARIABLES.items()
+                                     if v.kind == "categorical")
 #: Hard limits by name (the optimizable variables).
 HARD_LIMITS: dict[str, Bounds] = {n: v.limits for n, v in DESIGN_VARIABLES.items()
                                   if v.limits is not None}

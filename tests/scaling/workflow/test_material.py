@@ -14,16 +14,16 @@ import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
 from hypate.scaling.engine.mixed import MixedCoordinates
+from hypate.scaling.workflow.analyses.whatif import evaluate_whatif
 from hypate.scaling.workflow.campaigns.laws import (
     DesignPoint,
     fit_laws,
     materials_by_scale,
     predicted_design,
 )
-from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
 from hypate.scaling.workflow.campaigns.run import surrogate_coordinates
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
 from hypate.scaling.workflow.vocabulary.study import parse_study
-from hypate.scaling.workflow.analyses.whatif import evaluate_whatif
 from hypate.solvers.errors import InputError
 
 MATERIALS = '["ti6242", "inconel718", "al7075"]'
@@ -54,7 +54,7 @@ def test_material_list_is_one_variable_with_a_level_per_name() -> None:
     var = study.spec.variables[-1]
     assert (var.name, var.lower, var.upper) == ("material", 0.0, 2.0)
     assert study.spec.material_names == ("ti6242", "inconel718", "al7075")
-    assert ScalingProblem(study.spec).categorical.levels == 3
+    assert ScalingProblem(study.spec).categorical.count == 3
     assert "variable material in {ti6242, inconel718, al7075}" in study.summary()
 
 
