@@ -22,16 +22,21 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "flutter", help=HELP["flutter"],
         description="Sweep the nondimensional dynamic pressure lambda = gamma p M a^3 / D "
-        "(Eq. 6.2a) with piston theory for the panel uniformly heated to R * T_cr and report "
-        "the flutter onset and the divergence range (LSA, Eqs. 5.33-5.37).")
+        "(Eq. 6.2a) with piston theory or a fluid ROM for the panel uniformly heated to "
+        "R * T_cr and report the flutter onset and the divergence range (LSA, Eqs. "
+        "5.33-5.37).")
     p.add_argument("panel", help="panel TOML file")
-    p.add_argument("--aero", default="pt1", choices=("pt1", "pt"), help="piston theory order")
+    p.add_argument("--aero", default="pt1",
+                   help="pt1 or pt (piston theory order), or rom:PATH (a fluid ROM file, "
+                   "e.g. rom:studies/rom/rom_2d_panel_cfd.npz: its reference free stream at "
+                   "each lambda's pressure)")
     p.add_argument("--delta-T-ratio", type=float, default=0.0, dest="ratio",
                    help="uniform temperature rise as a multiple of T_cr (default 0)")
     p.add_argument("--lambda-max", type=float, default=1000.0, help="end of the sweep")
     p.add_argument("--step", type=float, default=10.0, help="sweep step in lambda")
-    p.add_argument("--mach", type=float, default=10.0,
-                   help="Mach number (enters the aerodynamic damping only)")
+    p.add_argument("--mach", type=float, default=None,
+                   help="Mach number (piston theory: enters the aerodynamic damping only; "
+                   "default 10; a ROM: its reference Mach number)")
     p.add_argument("--time-domain", action="store_true", dest="time_domain",
                    help="also run S2 transients for the LCO amplitude curve and its onset")
     p.add_argument("--lco-points", type=int, default=3,
@@ -50,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
             > MAX_SWEEP_POINTS:
         raise InputError("--step", f"gives more than {MAX_SWEEP_POINTS} sweep points up to "
                          f"--lambda-max {args.lambda_max:g}; use a larger step")
-    if not finite(args.mach, "--mach") > 1.0:
+    if args.mach is not None and not finite(args.mach, "--mach") > 1.0:
         raise InputError("--mach", f"must be > 1; got {args.mach:g}")
     if args.time_domain:  # checked before the sweep, which takes a while
         integer_in(args.lco_points, "--lco-points", 2, MAX_LCO_POINTS)
