@@ -291,9 +291,9 @@ def evaluate_whatif(study: Any, values: Mapping[str, float | str],
         ``study``, ``design`` (name -> value, fixed values included), ``sources`` (name ->
         ``"set"``/``"midpoint"``/``"fixed"``...), each categorical variable's value by its
         name (``material``: when the study chooses it or ``--set material=NAME`` sets it),
-        ``objectives`` (``J_u``, ``J_T``, ``J_s``;
-        ``None`` when the model failed), ``status`` (``"ok"``/``"failed"``), ``message``,
-        ``similarity`` (list of ``{"name", "prototype", "model", "relative_difference"}``),
+        ``objectives`` (``J_u``, ``J_T``, ``J_s``; ``None`` when the model failed),
+        ``status`` (``"ok"``/``"failed"``), ``message``, ``similarity`` (list of
+        ``{"name", "prototype", "model", "relative_difference"}``),
         ``constraints`` (``bounds`` list, ``active`` names, ``outside`` flags,
         ``equalities`` residuals, ``inequalities``: a monotone schedule's ``name``,
         ``decrease`` (K; ``increase`` for a decreasing one) and ``satisfied``),
