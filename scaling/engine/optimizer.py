@@ -40,7 +40,7 @@ run's :class:`~hypate.scaling.engine.settings.RunContext`; acquisitions by name 
 
 The pieces that stand alone have their own modules: inner (the acquisition's SLSQP
 multistart), acquisition, executors, sharing (the workers' hand in a proposal), mixed (the
-per-level proposal of a categorical variable), polish (the final Nelder-Mead search) and
+per-level proposal of a categorical variable), polish (the final local search) and
 check (the leave-one-out check of the final surrogates).
 
 Reproducibility: the random numbers of iteration ``t`` come from
@@ -86,7 +86,7 @@ from hypate.scaling.engine.histories import (
 from hypate.scaling.engine.inner import Resolution, optimize_acquisition, surrogate_metric
 from hypate.scaling.engine.mixed import MixedCoordinates, propose_by_level
 from hypate.scaling.engine.pareto import hypervolume, non_dominated_mask, pareto_front
-from hypate.scaling.engine.polish import polish_best
+from hypate.scaling.engine.polish import polish_best, polish_composition
 from hypate.scaling.engine.problem import (
     Outcome,
     evaluate_design,
@@ -173,6 +173,7 @@ class BayesianOptimizer:
         if s.surrogate == "histories":
             compose = getattr(problem, "composition", None)
             self.composition = compose() if callable(compose) else None
+        self.polish_composition = polish_composition(s, problem, self.composition)
         self.weights = (np.full(self.n_obj, 1.0 / self.n_obj) if s.weights is None
                         else np.asarray(s.weights, dtype=float))
 
@@ -623,7 +624,7 @@ class BayesianOptimizer:
         return old > 0 and (now - old) <= self.settings.convergence_tol * old
 
     def _polish(self, store: EvaluationStore, records: list[Evaluation]) -> None:
-        """Final Nelder-Mead search from the best feasible design (``polish``;
+        """Final local search from the best feasible design (``polish``, ``polish_method``;
         :func:`hypate.scaling.engine.polish.polish_best`), stored as iteration n_iter + 1."""
         t = self.settings.n_iter + 1
 
@@ -632,7 +633,7 @@ class BayesianOptimizer:
             return records[-1]
 
         polish_best(self.settings, self.bounds, records, evaluate,
-                    lambda: self._budget_left(records))
+                    lambda: self._budget_left(records), self.polish_composition)
 
     def run(self) -> OptimizationResult:
         """Run (or resume) the optimization.

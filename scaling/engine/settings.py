@@ -29,7 +29,7 @@ from hypate.scaling.engine.store import Evaluation, EvaluationStore
 from hypate.solvers.numerics.kriging import KERNELS
 
 __all__ = ["OptimizerSettings", "RunContext", "SettingError", "BATCH_STRATEGIES",
-           "OUTPUT_TRANSFORMS", "SURROGATES"]
+           "OUTPUT_TRANSFORMS", "POLISH_METHODS", "SURROGATES"]
 
 #: Fantasies within a batch: kriging believer or constant liar.
 BATCH_STRATEGIES: tuple[str, ...] = ("believer", "liar")
@@ -37,6 +37,8 @@ BATCH_STRATEGIES: tuple[str, ...] = ("believer", "liar")
 OUTPUT_TRANSFORMS: tuple[str, ...] = ("none", "log")
 #: What the surrogates model: the objectives, or the histories they are composed from.
 SURROGATES: tuple[str, ...] = ("objectives", "histories")
+#: The final local searches (:mod:`hypate.scaling.engine.polish`).
+POLISH_METHODS: tuple[str, ...] = ("nelder-mead", "gauss-newton")
 
 #: Integer fields: smallest allowed value (``None`` allowed where the field is optional).
 _INT_MIN = {"n_init": 0, "n_iter": 0, "batch_size": 1, "n_restarts": 0, "n_raw": 1,
@@ -59,7 +61,8 @@ _OPTIONAL = {"acquisition", "v", "v_final", "ref_point", "weights", "executor", 
              "categorical", "stopping"}
 #: Fields of a fixed set of names.
 _CHOICES = {"batch_strategy": BATCH_STRATEGIES, "kernel": KERNELS,
-            "output_transform": OUTPUT_TRANSFORMS, "surrogate": SURROGATES}
+            "output_transform": OUTPUT_TRANSFORMS, "surrogate": SURROGATES,
+            "polish_method": POLISH_METHODS}
 
 
 class SettingError(ValueError):
@@ -222,6 +225,11 @@ class OptimizerSettings:
         than the landscape (Sec. 9.1: ``lambda_F`` must match to ~1 % in a box spanning a
         factor 800); the polish converges on the valley floor. Stored as iteration
         ``n_iter + 1`` and replayed on resume.
+    polish_method : {"nelder-mead", "gauss-newton"}
+        The local search of the polish (:mod:`hypate.scaling.engine.polish`): a simplex
+        search of ``max J``, or trust-region Gauss-Newton steps on the linearized histories
+        the objectives are composed from (a problem with a ``composition()``; the simplex
+        takes over when the trust region has collapsed).
     polish_step : float in (0, 0.5]
         Initial simplex edge, as a fraction of each coordinate's range.
     exploit_last : int >= 0
@@ -280,6 +288,7 @@ class OptimizerSettings:
     output_transform: Literal["none", "log"] = "none"
     coordinates: LogLinearCoordinates | None = None
     polish: int = 0
+    polish_method: Literal["nelder-mead", "gauss-newton"] = "nelder-mead"
     polish_step: float = 0.01
     categorical: Categorical | None = None
     surrogate: Literal["objectives", "histories"] = "objectives"

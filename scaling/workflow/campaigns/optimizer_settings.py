@@ -58,7 +58,8 @@ def optimizer_settings(study: Study, problem: ScalingProblem, *, executor: Any,
             **common), context
     return OptimizerSettings(
         n_init=opt.initial_samples, n_iter=study.iteration_cap, batch_size=opt.batch_size,
-        stopping=study.stopping_rule, polish=opt.polish, categorical=problem.categorical,
+        stopping=study.stopping_rule, polish=opt.polish, polish_method=opt.polish_method,
+        categorical=problem.categorical,
         exploit_last=opt.exploit_last,
         **{k: getattr(opt, k) for k in PROBABILITIES if getattr(opt, k) is not None},
         **common), context

@@ -32,8 +32,9 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
                    batch_size, seed, classical_seed, transform ("none" | "log"),
                    coordinates ("design" | "log" | "similarity": the surrogates' inputs;
                    "similarity" = logs of the matched similarity parameters, completed
-                   by their null space), polish (final Nelder-Mead evaluations of the
-                   design-point score max(J) from the best design; "minmax" only), timeout,
+                   by their null space), polish (final local-search evaluations of the
+                   design-point score max(J) from the best design; "minmax" only),
+                   polish_method ("nelder-mead" | "gauss-newton"), timeout,
                    design_point ("minmax" | "weighted" | "knee": how the design point
                    is chosen, see engine.design_point.design_point_index; default "minmax")
     [sweep]        one optimization per sweep point into sub-directories of one run
@@ -64,7 +65,7 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
 Every error is an :class:`~solvers.errors.InputError` naming its key; nothing runs on a bad
 file.
 
-Size: about 660 lines, a third of them this key reference. The schema sections, their
+Size: about 670 lines, a third of them this key reference. The schema sections, their
 cross-key checks, building the scaling spec and the sweep points share the validated
 ``StudyFile``; the sweep part (``SweepPoint``, ``sweep_points``, ``study_at``) is the piece
 that could move to its own module next.
@@ -293,6 +294,9 @@ class OptimizerSection(InputModel):
     transform: Literal["none", "log"] = "none"
     coordinates: Literal["design", "log", "similarity"] = "design"
     polish: Annotated[int, Field(ge=0, le=10000)] = 0
+    #: The polish's local search (scaling.engine.polish): a simplex on max(J), or
+    #: Gauss-Newton on the histories J is composed from ("histories" projections)
+    polish_method: Literal["nelder-mead", "gauss-newton"] = "nelder-mead"
     timeout: PosFloat | None = None
     #: How the design point is chosen from the feasible evaluations (rundir.DESIGN_POINT_RULES;
     #: "weighted" uses ``weights``).
@@ -386,7 +390,7 @@ class StudyFile(InputModel):
                 raise ValueError(f"robust: a categorical variables.{name} cannot be searched "
                                  "robustly; run one robust study per value")
             if self.optimizer.polish:
-                raise ValueError(f"optimizer.polish: a Nelder-Mead polish cannot step "
+                raise ValueError(f"optimizer.polish: a local polish cannot step "
                                  f"between the values of variables.{name}; set it to 0")
         self.admissibility.rules()  # "auto" only for stress
         opt = self.optimizer

@@ -54,6 +54,8 @@ MALFORMED = [
     ("negative v_final", ("[optimizer]", "[optimizer]\nv_final = -0.5"), "optimizer.v_final"),
     ("polish of a knee", ("[optimizer]", '[optimizer]\npolish = 4\ndesign_point = "knee"'),
      "optimizer.polish"),
+    ("unknown polish method", ("[optimizer]", '[optimizer]\npolish = 4\npolish_method = "bfgs"'),
+     "optimizer.polish_method"),
     ("simulator not found", ('aero = "pt-bl"', 'aero = "pt-bl"\nsimulator = "nosuch.py:f"'),
      "simulation.simulator"),
 ]
