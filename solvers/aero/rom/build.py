@@ -131,7 +131,7 @@ def _openfoam_snapshots(cfg: RomBuildConfig, geometry: RomGeometry, reference: F
                              snapshot_store, executor, None if stage is None else
                              (lambda done, _n: stage(D.shape[0] + done, total)))
     rejected = train.rejections() + held.rejections()
-    X, P, Q = train.arrays()
+    X, P, Q, _ = train.arrays()
     if X.shape[0] < MIN_SAMPLES:
         raise InputError("source", f"only {X.shape[0]} of {D.shape[0]} CFD snapshots "
                          f"converged (at least {MIN_SAMPLES} needed): "
@@ -139,7 +139,7 @@ def _openfoam_snapshots(cfg: RomBuildConfig, geometry: RomGeometry, reference: F
     if rejected:
         warnings.warn(f"{len(rejected)} CFD snapshot(s) rejected and left out: "
                       + "; ".join(rejected[:5]), RuntimeWarning, stacklevel=3)
-    Xh, Ph, Qh = held.arrays()
+    Xh, Ph, Qh, _ = held.arrays()
     return X, P, Q, provenance(train, held), ((Xh, Ph, Qh) if Xh.shape[0] else None)
 
 
