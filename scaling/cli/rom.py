@@ -123,12 +123,16 @@ def run_build(args: argparse.Namespace) -> int:
     summary = {"out": str(out), "kind": rom.kind, "samples": int(rom.pressure_model.D_.shape[0]),
                "pressure_pod_modes": rom.pressure_model.n_modes,
                "heat_flux_pod_modes": rom.heat_model.n_modes}
+    edge = rom.edge_temperature_model
+    if edge is not None:
+        summary["edge_temperature_pod_modes"] = edge.n_modes
     if args.json:
         print(dumps(summary, indent=2))
     else:
         print(f"ROM ({rom.kind}) from {summary['samples']} samples: "
-              f"{summary['pressure_pod_modes']} pressure and {summary['heat_flux_pod_modes']} "
-              f"heat-flux POD modes -> {out}")
+              f"{summary['pressure_pod_modes']} pressure"
+              + (f", {edge.n_modes} edge-temperature" if edge is not None else "")
+              + f" and {summary['heat_flux_pod_modes']} heat-flux POD modes -> {out}")
     return 0
 
 
@@ -143,7 +147,9 @@ def _print_provenance(prov: dict) -> None:
           f"{it.get('median', float('nan')):g} (max {it.get('max', float('nan')):g})"
           + (f"; {prov['lower_courant']} converged at a lower Courant number after a diverged "
              "start" if prov.get("lower_courant") else "")
-          + f"; heat flux: {prov.get('heat_flux', '?')}")
+          + f"; heat flux: {prov.get('heat_flux', '?')}"
+          + (f"; the ROM's heat flux: {prov['heat_flux_rom']}" if "heat_flux_rom" in prov
+             else ""))
 
 
 def run_check(args: argparse.Namespace) -> int:

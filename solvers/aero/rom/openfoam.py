@@ -114,8 +114,8 @@ class SnapshotRecord:
     def from_arrays(cls, d: dict[str, np.ndarray]) -> SnapshotRecord:
         return cls(np.asarray(d["inputs"], float), bool(d["converged"]), str(d["reason"]),
                    np.asarray(d["pressure"], float), np.asarray(d["heat_flux"], float),
-                   np.asarray(d["edge_temperature"], float), int(d["iterations"]), float(d["drift_pressure"]),
-                   float(d["drift_heat_flux"]), float(d["seconds"]),
+                   np.asarray(d["edge_temperature"], float), int(d["iterations"]),
+                   float(d["drift_pressure"]), float(d["drift_heat_flux"]), float(d["seconds"]),
                    float(d["courant"]) if "courant" in d else math.nan)
 
 
