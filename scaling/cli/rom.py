@@ -136,7 +136,7 @@ def run_build(args: argparse.Namespace) -> int:
     return 0
 
 
-def _print_provenance(prov: dict) -> None:
+def _print_provenance(prov: dict, heat_flux_law: str) -> None:
     res = prov.get("resolution", {})
     it = prov.get("iterations", {})
     print(f"snapshots: {prov.get('solver', '?')} {prov.get('openfoam_version', '?')}, model "
@@ -147,9 +147,7 @@ def _print_provenance(prov: dict) -> None:
           f"{it.get('median', float('nan')):g} (max {it.get('max', float('nan')):g})"
           + (f"; {prov['lower_courant']} converged at a lower Courant number after a diverged "
              "start" if prov.get("lower_courant") else "")
-          + f"; heat flux: {prov.get('heat_flux', '?')}"
-          + (f"; the ROM's heat flux: {prov['heat_flux_rom']}" if "heat_flux_rom" in prov
-             else ""))
+          + f"; heat flux: {prov.get('heat_flux', '?')}; the ROM's heat flux: {heat_flux_law}")
 
 
 def run_check(args: argparse.Namespace) -> int:
@@ -164,7 +162,7 @@ def run_check(args: argparse.Namespace) -> int:
             print(dumps(result))
             return 0
         if rom.provenance:
-            _print_provenance(rom.provenance)
+            _print_provenance(rom.provenance, rom.heat_flux_law)
         for name in ("pressure", "heat_flux"):
             r = result[name]
             print(f"held-out {name.replace('_', ' ')} on {result['samples']} snapshots, in % "
