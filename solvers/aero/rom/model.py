@@ -50,8 +50,8 @@ The heat flux of an Euler CFD ROM
 The heat flux of an Euler snapshot is no CFD result: it is Eckert's reference-temperature
 flux (Eqs. 2.39-2.43) on the CFD wall pressure and wall-cell (edge) temperature ``T_e`` at
 the snapshot's wall temperature. Inviscid ``p`` and ``T_e`` depend on the deformation
-only, while ``q`` also depends on ``T_w``; so such a ROM kriges ``T_e`` as a third POD-kriging field
-and forms its reference heat flux on the reference grid by the same law,
+only, while ``q`` also depends on ``T_w``; so such a ROM kriges ``T_e`` as a third
+POD-kriging field and forms its reference heat flux on the reference grid by the same law,
 
     q_pk(d) = q_Eckert(p_ref + p_pk(d), T_e,pk(d), mean T_w, L_le,ref + x),
 
@@ -71,6 +71,7 @@ and its own POD-kriging prediction; the Jacobians are block-diagonal over the st
 """
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from collections.abc import Callable
@@ -357,6 +358,7 @@ class RomFluid(FluidModel):
         """Regime of the snapshots' Eckert flux (the correction's may be overridden)."""
         return str(self.source.get("regime", self.regime))
 
+    @functools.cached_property
     def _reference_x_le(self) -> Array:
         """Distance of the reference grid points from the leading edge (m), (n_rom,)."""
         return self.geometry.points(1.0).x_le
@@ -379,7 +381,7 @@ class RomFluid(FluidModel):
         ref = self.reference
         T_w = np.broadcast_to(d[:, -1:], p.shape)
         q, dq_dp, dq_dTe, dq_dTw = eckert_edge_with_derivatives(
-            ref, ref.pressure + p, T_e, T_w, self._reference_x_le(), self._eckert_regime)
+            ref, ref.pressure + p, T_e, T_w, self._reference_x_le, self._eckert_regime)
         dq = dq_dp.T[:, :, None] * dp + dq_dTe.T[:, :, None] * dT_e  # chain rule
         dq[:, :, -1] += dq_dTw.T  # the mean wall temperature is the last input
         return q, dq
@@ -396,7 +398,7 @@ class RomFluid(FluidModel):
         T_e = self.edge_temperature_model.predict(D)
         return p, eckert_heat_flux_edge(ref, ref.pressure + p, T_e,
                                         np.broadcast_to(D[:, -1:], p.shape),
-                                        self._reference_x_le(), self._eckert_regime)
+                                        self._reference_x_le, self._eckert_regime)
 
     @staticmethod
     def _on_points(c: _PointCache, y: Array, dy: Array) -> tuple[Array, Array]:
