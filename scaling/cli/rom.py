@@ -123,16 +123,20 @@ def run_build(args: argparse.Namespace) -> int:
     summary = {"out": str(out), "kind": rom.kind, "samples": int(rom.pressure_model.D_.shape[0]),
                "pressure_pod_modes": rom.pressure_model.n_modes,
                "heat_flux_pod_modes": rom.heat_model.n_modes}
+    edge = rom.edge_temperature_model
+    if edge is not None:
+        summary["edge_temperature_pod_modes"] = edge.n_modes
     if args.json:
         print(dumps(summary, indent=2))
     else:
         print(f"ROM ({rom.kind}) from {summary['samples']} samples: "
-              f"{summary['pressure_pod_modes']} pressure and {summary['heat_flux_pod_modes']} "
-              f"heat-flux POD modes -> {out}")
+              f"{summary['pressure_pod_modes']} pressure"
+              + (f", {edge.n_modes} edge-temperature" if edge is not None else "")
+              + f" and {summary['heat_flux_pod_modes']} heat-flux POD modes -> {out}")
     return 0
 
 
-def _print_provenance(prov: dict) -> None:
+def _print_provenance(prov: dict, heat_flux_law: str) -> None:
     res = prov.get("resolution", {})
     it = prov.get("iterations", {})
     print(f"snapshots: {prov.get('solver', '?')} {prov.get('openfoam_version', '?')}, model "
@@ -143,7 +147,7 @@ def _print_provenance(prov: dict) -> None:
           f"{it.get('median', float('nan')):g} (max {it.get('max', float('nan')):g})"
           + (f"; {prov['lower_courant']} converged at a lower Courant number after a diverged "
              "start" if prov.get("lower_courant") else "")
-          + f"; heat flux: {prov.get('heat_flux', '?')}")
+          + f"; heat flux: {prov.get('heat_flux', '?')}; the ROM's heat flux: {heat_flux_law}")
 
 
 def run_check(args: argparse.Namespace) -> int:
@@ -158,7 +162,7 @@ def run_check(args: argparse.Namespace) -> int:
             print(dumps(result))
             return 0
         if rom.provenance:
-            _print_provenance(rom.provenance)
+            _print_provenance(rom.provenance, rom.heat_flux_law)
         for name in ("pressure", "heat_flux"):
             r = result[name]
             print(f"held-out {name.replace('_', ' ')} on {result['samples']} snapshots, in % "

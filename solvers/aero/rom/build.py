@@ -36,14 +36,18 @@ from hypate.solvers.flow import FlowCondition
 from hypate.solvers.numerics.kriging import KernelName
 from hypate.solvers.numerics.random import as_rng
 
-__all__ = ["BUILD_STEPS", "build_rom", "build_rom_from_config", "check_holdout", "check_rom",
-           "check_samples", "geometry_from_config", "nrmse", "snapshots_path"]
+__all__ = ["BUILD_STEPS", "EDGE_TEMPERATURE_STEP", "build_rom", "build_rom_from_config",
+           "check_holdout", "check_rom", "check_samples", "geometry_from_config", "nrmse",
+           "snapshots_path"]
 
 #: The steps of a build, in order, as named to a ``progress(step, done, total)`` callback:
 #: source samples (``done`` of ``total`` samples; external snapshots are read in one go),
 #: then the pressure and the heat-flux POD-kriging (the POD, one kriging fit per optimized
 #: POD coefficient, the multi-output model).
 BUILD_STEPS = ("snapshots", "pressure POD-kriging", "heat-flux POD-kriging")
+#: The step that follows them in a build with an edge-temperature field (Euler CFD
+#: snapshots: the ROM forms its heat flux from the kriged p and T_e, :mod:`.model`).
+EDGE_TEMPERATURE_STEP = "edge-temperature POD-kriging"
 
 #: ``progress(step, done, total)``: ``step`` one of :data:`BUILD_STEPS`.
 BuildProgress = Callable[[str, int, int], None]
@@ -72,19 +76,26 @@ def build_rom(geometry: RomGeometry, reference: FlowCondition, inputs: Array,
               trend: str = "linear", n_restarts: int = 2,
               source: dict[str, Any] | None = None, regime: str = "turbulent",
               rng: np.random.Generator | int | None = None,
-              optimized_modes: int = 3, progress: BuildProgress | None = None) -> RomFluid:
+              optimized_modes: int = 3, progress: BuildProgress | None = None,
+              edge_temperature: Array | None = None) -> RomFluid:
     """Fit a ROM from samples ``inputs`` (N_s, N_d) and snapshots (N_s, n) each.
 
-    ``progress(step, done, total)`` reports the two POD-kriging steps of
-    :data:`BUILD_STEPS`.
+    ``edge_temperature`` (N_s, n), the edge temperature of Euler snapshots whose heat flux
+    is Eckert's on it: fitted as a third POD-kriging field, from which (with the pressure)
+    the ROM forms its heat flux (:class:`RomFluid`). ``progress(step, done, total)``
+    reports the two POD-kriging steps of :data:`BUILD_STEPS` (and
+    :data:`EDGE_TEMPERATURE_STEP` with ``edge_temperature``).
     """
     rng = as_rng(rng)
     p_model = PodKriging(tolerance, kernel, trend, n_restarts, rng, optimized_modes).fit(
         inputs, pressure, bounds, progress=_stage(progress, BUILD_STEPS[1]))
     q_model = PodKriging(tolerance, kernel, trend, n_restarts, rng, optimized_modes).fit(
         inputs, heat_flux, bounds, progress=_stage(progress, BUILD_STEPS[2]))
+    t_model = None if edge_temperature is None else PodKriging(
+        tolerance, kernel, trend, n_restarts, rng, optimized_modes).fit(
+        inputs, edge_temperature, bounds, progress=_stage(progress, EDGE_TEMPERATURE_STEP))
     return RomFluid(geometry, reference, p_model, q_model, kind=kind, regime=regime,
-                    source=source)
+                    source=source, edge_temperature_model=t_model)
 
 
 def geometry_from_config(cfg: RomBuildConfig) -> RomGeometry:
@@ -106,10 +117,11 @@ def _openfoam_snapshots(cfg: RomBuildConfig, geometry: RomGeometry, reference: F
                         D: Array, holdout: Array, executor: Executor | None,
                         store: str | Path | None, resume: bool,
                         progress: BuildProgress | None
-                        ) -> tuple[Array, Array, Array, dict[str, Any], tuple | None]:
+                        ) -> tuple[Array, Array, Array, Array, dict[str, Any], tuple | None]:
     """Training and held-out snapshots of the OpenFOAM source (:mod:`.openfoam`): inputs,
-    pressure, heat flux of the converged training snapshots, the provenance, the held-out
-    set. Rejected snapshots are left out with a warning that gives their reasons."""
+    pressure, heat flux, edge temperature of the converged training snapshots, the
+    provenance, the held-out set (inputs, pressure, heat flux). Rejected snapshots are left
+    out with a warning that gives their reasons."""
     openfoam = find_openfoam()
     src = cfg.source
     settings = OpenFoamSettings(src.model, src.resolution.resolution(src.model), src.regime,
@@ -131,7 +143,7 @@ def _openfoam_snapshots(cfg: RomBuildConfig, geometry: RomGeometry, reference: F
                              snapshot_store, executor, None if stage is None else
                              (lambda done, _n: stage(D.shape[0] + done, total)))
     rejected = train.rejections() + held.rejections()
-    X, P, Q = train.arrays()
+    X, P, Q, T_e = train.arrays()
     if X.shape[0] < MIN_SAMPLES:
         raise InputError("source", f"only {X.shape[0]} of {D.shape[0]} CFD snapshots "
                          f"converged (at least {MIN_SAMPLES} needed): "
@@ -139,8 +151,8 @@ def _openfoam_snapshots(cfg: RomBuildConfig, geometry: RomGeometry, reference: F
     if rejected:
         warnings.warn(f"{len(rejected)} CFD snapshot(s) rejected and left out: "
                       + "; ".join(rejected[:5]), RuntimeWarning, stacklevel=3)
-    Xh, Ph, Qh = held.arrays()
-    return X, P, Q, provenance(train, held), ((Xh, Ph, Qh) if Xh.shape[0] else None)
+    Xh, Ph, Qh, _ = held.arrays()
+    return X, P, Q, T_e, provenance(train, held), ((Xh, Ph, Qh) if Xh.shape[0] else None)
 
 
 def build_rom_from_config(cfg: RomBuildConfig, base_dir: str | Path | None = None,
@@ -208,14 +220,17 @@ def build_rom_from_config(cfg: RomBuildConfig, base_dir: str | Path | None = Non
         # the held-out plan has its own seed: the training plan stays that of the samples
         H = olh_plan(bounds, cfg.source.holdout, tr.seed + 1) if cfg.source.holdout else \
             np.zeros((0, bounds.shape[0]))
-        D, P, Q, prov, held = _openfoam_snapshots(cfg, geometry, reference, D, H, executor,
-                                                  store, resume, progress)
+        D, P, Q, T_e, prov, held = _openfoam_snapshots(cfg, geometry, reference, D, H,
+                                                       executor, store, resume, progress)
         src["model"] = cfg.source.model
+        euler = cfg.source.model == "euler"  # its heat flux is Eckert's on the edge state
         rom = build_rom(geometry, reference, D, P, Q, bounds=bounds,
                         tolerance=tr.pod_tolerance, kernel=tr.kernel, trend=tr.trend,
                         n_restarts=tr.restarts, source=src, regime=cfg.source.regime,
-                        rng=rng, optimized_modes=tr.optimized_modes, progress=progress)
-        rom.provenance, rom.holdout = prov, held
+                        rng=rng, optimized_modes=tr.optimized_modes, progress=progress,
+                        edge_temperature=T_e if euler else None)
+        rom.provenance = dict(prov, heat_flux_rom=rom.heat_flux_law)
+        rom.holdout = held
         return rom
     if cfg.source.kind == "snapshots":
         D, P, Q = read_snapshots(snapshots_path(cfg, base_dir), geometry)
@@ -305,7 +320,8 @@ def check_holdout(rom: RomFluid) -> dict[str, Any]:
 
     At the reference condition and scale, with a uniform wall temperature, the corrections
     of :class:`RomFluid` are the identity (Eqs. 2.65, 2.72), so the POD-kriging prediction
-    at the snapshot's inputs is what the ROM returns.
+    at the snapshot's inputs is what the ROM returns (:meth:`RomFluid.reference_loads`:
+    the heat flux kriged, or formed from the kriged pressure and edge temperature).
     """
     if rom.holdout is None:
         raise InputError("rom", "this ROM file holds no held-out snapshots (build it with "
@@ -313,9 +329,7 @@ def check_holdout(rom: RomFluid) -> dict[str, Any]:
     D, P, Q = rom.holdout
     w = rom.geometry.points(1.0).weights
     out: dict[str, Any] = {"samples": int(D.shape[0])}
-    for name, model, Y in (("pressure", rom.pressure_model, P),
-                           ("heat_flux", rom.heat_model, Q)):
-        pred = model.predict(D)
+    for name, pred, Y in zip(("pressure", "heat_flux"), rom.reference_loads(D), (P, Q)):
         e_rms = nrmse(Y, pred, w)
         e_max = np.max(np.abs(pred - Y), axis=1) / np.maximum(np.ptp(Y, axis=1), 1e-300)
         out[name] = {"nrmse_median": float(np.median(e_rms)), "nrmse_max": float(e_rms.max()),

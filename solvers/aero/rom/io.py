@@ -22,10 +22,16 @@ from hypate.solvers.flow import FlowCondition
 from hypate.solvers.npz import read_npz, require_finite
 from hypate.solvers.numerics.files import atomic_file
 
-__all__ = ["FORMAT_VERSION", "load_rom", "save_rom"]
+__all__ = ["EDGE_TEMPERATURE_FORMAT_VERSION", "FORMAT_VERSION", "load_rom", "save_rom"]
 
-#: Version of the NPZ layout written by :func:`save_rom`.
+#: Version of the NPZ layout written by :func:`save_rom` for a ROM without an
+#: edge-temperature model (unchanged since the first layout: such files stay the same).
 FORMAT_VERSION = 1
+#: Version written for a ROM with one (``edge_temperature_*`` members): a reader of
+#: version 1 refuses the file instead of ignoring the field and kriging the heat flux.
+EDGE_TEMPERATURE_FORMAT_VERSION = 2
+#: Prefix of the edge-temperature POD-kriging members.
+_EDGE = "edge_temperature"
 
 
 #: Optional members: the snapshots kept out of the fit (inputs, pressure, heat flux).
@@ -64,12 +70,15 @@ def save_rom(rom: RomFluid, path: str | Path) -> None:
     (training ranges), ``source`` ([kind, boundary_layer, regime] as strings), the
     ``pressure_*`` and ``heat_flux_*`` POD-kriging arrays and ``digest`` (SHA-256 of the
     rest); optional ``provenance`` (JSON text) and ``holdout_inputs``,
-    ``holdout_pressure``, ``holdout_heat_flux`` when the ROM has them.
+    ``holdout_pressure``, ``holdout_heat_flux`` when the ROM has them, and the
+    ``edge_temperature_*`` POD-kriging arrays of an Euler CFD ROM (then
+    ``format_version`` is :data:`EDGE_TEMPERATURE_FORMAT_VERSION`).
     """
     ref = rom.reference
     g = rom.geometry
     arrays: dict[str, np.ndarray] = {
-        "format_version": np.array(FORMAT_VERSION),
+        "format_version": np.array(FORMAT_VERSION if rom.edge_temperature_model is None
+                                   else EDGE_TEMPERATURE_FORMAT_VERSION),
         "kind": np.array(rom.kind), "correction": np.array(rom.correction),
         "regime": np.array(rom.regime),
         "reference": np.array([ref.mach, ref.pressure, ref.temperature, ref.gamma,
@@ -90,6 +99,8 @@ def save_rom(rom: RomFluid, path: str | Path) -> None:
             arrays[key] = np.asarray(value, float)
     arrays.update(rom.pressure_model.state("pressure"))
     arrays.update(rom.heat_model.state("heat_flux"))
+    if rom.edge_temperature_model is not None:
+        arrays.update(rom.edge_temperature_model.state(_EDGE))
     arrays["digest"] = np.array(_digest(arrays))
     path = Path(path)
     with atomic_file(path) as fh:
@@ -111,9 +122,10 @@ def load_rom(path: str | Path, correction: str | None = None, unsteady: bool = T
     data = read_npz(path, field, required=_MEMBERS)
     try:
         version = int(data["format_version"])
-        if version != FORMAT_VERSION:
+        if version not in (FORMAT_VERSION, EDGE_TEMPERATURE_FORMAT_VERSION):
             raise InputError(field, f"format version {version} is not supported (this "
-                             f"version reads {FORMAT_VERSION})")
+                             f"version reads {FORMAT_VERSION} and "
+                             f"{EDGE_TEMPERATURE_FORMAT_VERSION})")
         digest = str(data.pop("digest"))
         if _digest(data) != digest:
             raise InputError(field, "corrupted ROM file (content digest mismatch)")
@@ -137,6 +149,11 @@ def load_rom(path: str | Path, correction: str | None = None, unsteady: bool = T
         kind = str(data["kind"])
         p_model = PodKriging.from_state(data, "pressure")
         q_model = PodKriging.from_state(data, "heat_flux")
+        has_edge = any(k.startswith(f"{_EDGE}_") for k in data)
+        if has_edge != (version == EDGE_TEMPERATURE_FORMAT_VERSION):
+            raise InputError(field, f"format version {version} " + (
+                "cannot hold the" if has_edge else "needs the") + f" {_EDGE}_* members")
+        t_model = PodKriging.from_state(data, _EDGE) if has_edge else None
         src = [str(s) for s in data["source"]]
         provenance = json.loads(str(data["provenance"])) if "provenance" in data else {}
         holdout = None
@@ -154,7 +171,9 @@ def load_rom(path: str | Path, correction: str | None = None, unsteady: bool = T
         raise InputError(field, f"malformed ROM file ({exc})") from None
     n = geometry.n_x * geometry.n_y
     n_d = geometry.n_modes + (4 if kind == "conventional" else 1)
-    for name, model in (("pressure", p_model), ("heat_flux", q_model)):
+    models = [("pressure", p_model), ("heat_flux", q_model)] + (
+        [(_EDGE, t_model)] if t_model is not None else [])
+    for name, model in models:
         if model.pod_.modes_.shape[0] != n:
             raise InputError(field, f"{name} modes have {model.pod_.modes_.shape[0]} points; "
                              f"the grid has {n}")
@@ -168,4 +187,4 @@ def load_rom(path: str | Path, correction: str | None = None, unsteady: bool = T
     return RomFluid(geometry, reference, p_model, q_model, kind,
                     correction or str(data["correction"]), unsteady,
                     regime or str(data["regime"]), scale, source, provenance=provenance,
-                    holdout=holdout)
+                    holdout=holdout, edge_temperature_model=t_model)

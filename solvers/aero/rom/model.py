@@ -1,6 +1,7 @@
 """The fluid ROM as a :class:`~hypate.solvers.aero.base.FluidModel` (Sec. 2.4.4).
 
-:class:`RomFluid` evaluates two POD-kriging models (pressure ``p - p_inf`` and heat flux):
+:class:`RomFluid` evaluates two POD-kriging models (pressure ``p - p_inf`` and heat flux),
+or three (an Euler CFD ROM: pressure, heat flux and the edge temperature, below):
 
 - *scaled and corrected* ROM (Sec. 2.4.4): inputs ``d = [xi a, mean T_w]`` (Eq. 2.64)
   at the reference condition and geometry; heat-flux correction (Eq. 2.65, Eckert with
@@ -44,6 +45,22 @@ at the reference panel's own distance from its leading edge, ``L_le,ref + xi s``
 along the flow from the panel's leading edge), and the corrected flux at the panel's actual
 ``L_le + s``.
 
+The heat flux of an Euler CFD ROM
+---------------------------------
+The heat flux of an Euler snapshot is no CFD result: it is Eckert's reference-temperature
+flux (Eqs. 2.39-2.43) on the CFD wall pressure and wall-cell (edge) temperature ``T_e`` at
+the snapshot's wall temperature. Inviscid ``p`` and ``T_e`` depend on the deformation
+only, while ``q`` also depends on ``T_w``; so such a ROM kriges ``T_e`` as a third
+POD-kriging field and forms its reference heat flux on the reference grid by the same law,
+
+    q_pk(d) = q_Eckert(p_ref + p_pk(d), T_e,pk(d), mean T_w, L_le,ref + x),
+
+with ``dq_pk/dd`` by the chain rule through ``p_pk``, ``T_e,pk`` and ``mean T_w`` (the
+law's partials by complex step). Everything after -- the correction of Eq. (2.65), the
+unsteady correction, the strips, the Jacobians -- takes this ``q_pk`` where the kriged
+heat flux stands otherwise (the kriged heat flux is still fitted and stored, for
+comparison). A ROM without the field evaluates its kriged heat flux as before.
+
 Strip-wise evaluation of a 2-D ROM on a 3-D panel
 -------------------------------------------------
 A 2-D ROM (one line of points) evaluated on the structured grid of a 3-D panel aligned
@@ -54,6 +71,7 @@ and its own POD-kriging prediction; the Jacobians are block-diagonal over the st
 """
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from collections.abc import Callable
@@ -77,6 +95,10 @@ from hypate.solvers.aero.base import (
 )
 from hypate.solvers.aero.rom.geometry import RomGeometry, interpolation_matrix
 from hypate.solvers.aero.rom.pod import PodKriging
+from hypate.solvers.aero.shock_expansion import (
+    eckert_edge_with_derivatives,
+    eckert_heat_flux_edge,
+)
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 
@@ -148,6 +170,10 @@ class RomFluid(FluidModel):
     holdout : tuple of ndarray, optional
         ``(inputs, pressure, heat_flux)`` of snapshots kept out of the fit, for ``rom
         check``.
+    edge_temperature_model : PodKriging, optional
+        Fitted POD-kriging model of the edge temperature ``T_e`` (K) of Euler snapshots:
+        the reference heat flux is then Eckert's on the kriged ``p`` and ``T_e`` (module
+        docstring) instead of ``heat_model`` (scaled ROMs only).
     """
 
     def __init__(self, geometry: RomGeometry, reference: FlowCondition,
@@ -155,7 +181,8 @@ class RomFluid(FluidModel):
                  correction: str = "bl", unsteady: bool = True, regime: str = "turbulent",
                  scale: float | None = None, source: dict[str, Any] | None = None,
                  edge_pressure: str = "rom", provenance: dict[str, Any] | None = None,
-                 holdout: tuple[Array, Array, Array] | None = None) -> None:
+                 holdout: tuple[Array, Array, Array] | None = None,
+                 edge_temperature_model: PodKriging | None = None) -> None:
         if edge_pressure not in ("rom", "pt"):
             raise InputError("rom.edge_pressure", "must be 'rom' or 'pt'")
         self.edge_pressure = edge_pressure
@@ -163,8 +190,12 @@ class RomFluid(FluidModel):
             raise InputError("rom.kind", "must be 'scaled' or 'conventional'")
         if correction not in ("bl", "pt"):
             raise InputError("rom.correction", "must be 'bl' or 'pt'")
+        if edge_temperature_model is not None and kind != "scaled":
+            raise InputError("rom.edge_temperature", "an edge-temperature model needs a "
+                             "scaled ROM (its Eckert flux is at the reference condition)")
         self.geometry = geometry
         self.reference = reference
+        self.edge_temperature_model = edge_temperature_model
         self.pressure_model = pressure_model
         self.heat_model = heat_model
         self.kind = kind
@@ -213,7 +244,8 @@ class RomFluid(FluidModel):
                         self.kind, correction or self.correction,
                         self.unsteady if unsteady is None else unsteady, self.regime,
                         scale if scale is not None else self.scale, self.source,
-                        edge_pressure or self.edge_pressure, self.provenance, self.holdout)
+                        edge_pressure or self.edge_pressure, self.provenance, self.holdout,
+                        self.edge_temperature_model)
 
     def _points(self, points: SurfacePoints) -> _PointCache:
         c = self._cache
@@ -313,13 +345,67 @@ class RomFluid(FluidModel):
                           "ranges (by > 5 %)", RuntimeWarning, stacklevel=3)
 
     # -- evaluation ------------------------------------------------------------------------
-    def _predict(self, model: PodKriging, c: _PointCache, d: Array) -> tuple[Array, Array]:
-        """POD-kriging output on the points (n,) and its derivative with respect to the
-        inputs of the point's own group (n, N_d), Eqs. (2.56), (2.59)."""
+    @property
+    def heat_flux_law(self) -> str:
+        """How the reference heat flux is formed (for ``rom check``)."""
+        if self.edge_temperature_model is None:
+            return "POD-kriging of the snapshots' heat flux"
+        return ("Eckert reference temperature (Eqs. 2.39-2.43) on the POD-kriged wall "
+                "pressure and edge temperature")
+
+    @property
+    def _eckert_regime(self) -> str:
+        """Regime of the snapshots' Eckert flux (the correction's may be overridden)."""
+        return str(self.source.get("regime", self.regime))
+
+    @functools.cached_property
+    def _reference_x_le(self) -> Array:
+        """Distance of the reference grid points from the leading edge (m), (n_rom,)."""
+        return self.geometry.points(1.0).x_le
+
+    @staticmethod
+    def _kriged(model: PodKriging, d: Array) -> tuple[Array, Array]:
+        """POD-kriging output on the ROM grid (G, n_rom) and its input derivative
+        (n_rom, G, N_d) at the inputs ``d`` (G, N_d), Eqs. (2.56), (2.59)."""
         coef, dcoef = model.predict_coefficients(d, gradient=True)
         y = model.pod_.reconstruct(coef)  # (G, n_rom)
-        dy = np.einsum("rp,gpd->rgd", model.pod_.modes_, dcoef)  # (n_rom, G, N_d)
-        G, n_d = d.shape
+        return y, np.einsum("rp,gpd->rgd", model.pod_.modes_, dcoef)  # (n_rom, G, N_d)
+
+    def _kriged_heat_flux(self, d: Array, p: Array, dp: Array) -> tuple[Array, Array]:
+        """The reference heat flux on the ROM grid and its input derivative, as
+        :meth:`_kriged`: the kriged heat flux, or Eckert on the kriged pressure ``p``
+        (with ``dp``) and edge temperature at the group's mean wall temperature."""
+        if self.edge_temperature_model is None:
+            return self._kriged(self.heat_model, d)
+        T_e, dT_e = self._kriged(self.edge_temperature_model, d)
+        ref = self.reference
+        T_w = np.broadcast_to(d[:, -1:], p.shape)
+        q, dq_dp, dq_dTe, dq_dTw = eckert_edge_with_derivatives(
+            ref, ref.pressure + p, T_e, T_w, self._reference_x_le, self._eckert_regime)
+        dq = dq_dp.T[:, :, None] * dp + dq_dTe.T[:, :, None] * dT_e  # chain rule
+        dq[:, :, -1] += dq_dTw.T  # the mean wall temperature is the last input
+        return q, dq
+
+    def reference_loads(self, inputs: Array) -> tuple[Array, Array]:
+        """``p - p_inf`` and heat flux on the ROM grid at the reference condition and
+        geometry for inputs (N, N_d): the POD-kriging outputs, which the corrections
+        return unchanged there with a uniform wall temperature (Eqs. 2.65, 2.72)."""
+        D = np.atleast_2d(np.asarray(inputs, float))
+        p = self.pressure_model.predict(D)
+        if self.edge_temperature_model is None:
+            return p, self.heat_model.predict(D)
+        ref = self.reference
+        T_e = self.edge_temperature_model.predict(D)
+        return p, eckert_heat_flux_edge(ref, ref.pressure + p, T_e,
+                                        np.broadcast_to(D[:, -1:], p.shape),
+                                        self._reference_x_le, self._eckert_regime)
+
+    @staticmethod
+    def _on_points(c: _PointCache, y: Array, dy: Array) -> tuple[Array, Array]:
+        """A ROM-grid output (G, n_rom) with its derivative (n_rom, G, N_d) on the points
+        (n,), and the derivative with respect to the inputs of the point's own group
+        (n, N_d)."""
+        G, n_d = dy.shape[1:]
         I = c.interp  # (m, n_rom)
         y_pts = (I @ y.T).T.reshape(-1)
         dy_pts = (I @ dy.reshape(dy.shape[0], G * n_d)).reshape(-1, G, n_d)
@@ -347,9 +433,11 @@ class RomFluid(FluidModel):
         m = n // c.n_groups
         n_s = g.n_modes
         i_a = slice(3, 3 + n_s) if self.kind == "conventional" else slice(0, n_s)
-        # POD-kriging outputs on the points, Eqs. (2.56), (2.59)
-        p_pk, dp_pk = self._predict(self.pressure_model, c, d)
-        q_pk, dq_pk = self._predict(self.heat_model, c, d)
+        # POD-kriging outputs on the points, Eqs. (2.56), (2.59); the heat flux kriged or
+        # formed from the kriged pressure and edge temperature (module docstring)
+        p_g, dp_g = self._kriged(self.pressure_model, d)
+        p_pk, dp_pk = self._on_points(c, p_g, dp_g)
+        q_pk, dq_pk = self._on_points(c, *self._kriged_heat_flux(d, p_g, dp_g))
         dd_dw = (xi / g.thickness) * c.projection  # (N_S, m) within a group
         T_bar = np.repeat(d[:, -1], m)  # each point's group mean
 

@@ -84,13 +84,17 @@ class OpenFoamSettings:
 
 @dataclass
 class SnapshotRecord:
-    """One finished snapshot (converged or rejected) on the ROM grid."""
+    """One finished snapshot (converged or rejected) on the ROM grid: ``pressure`` is
+    ``p - p_inf`` (Pa), ``heat_flux`` into the wall (W/m^2), ``edge_temperature`` the CFD
+    wall-cell temperature (K; the Euler model's edge temperature, from which the ROM forms
+    its Eckert heat flux)."""
 
     inputs: Array
     converged: bool
     reason: str
     pressure: Array
     heat_flux: Array
+    edge_temperature: Array
     iterations: int
     drift_pressure: float
     drift_heat_flux: float
@@ -100,7 +104,8 @@ class SnapshotRecord:
     def arrays(self) -> dict[str, np.ndarray]:
         return {"inputs": self.inputs, "converged": np.array(self.converged),
                 "reason": np.array(self.reason), "pressure": self.pressure,
-                "heat_flux": self.heat_flux, "iterations": np.array(self.iterations),
+                "heat_flux": self.heat_flux, "edge_temperature": self.edge_temperature,
+                "iterations": np.array(self.iterations),
                 "drift_pressure": np.array(self.drift_pressure),
                 "drift_heat_flux": np.array(self.drift_heat_flux),
                 "seconds": np.array(self.seconds), "courant": np.array(self.courant)}
@@ -109,8 +114,8 @@ class SnapshotRecord:
     def from_arrays(cls, d: dict[str, np.ndarray]) -> SnapshotRecord:
         return cls(np.asarray(d["inputs"], float), bool(d["converged"]), str(d["reason"]),
                    np.asarray(d["pressure"], float), np.asarray(d["heat_flux"], float),
-                   int(d["iterations"]), float(d["drift_pressure"]),
-                   float(d["drift_heat_flux"]), float(d["seconds"]),
+                   np.asarray(d["edge_temperature"], float), int(d["iterations"]),
+                   float(d["drift_pressure"]), float(d["drift_heat_flux"]), float(d["seconds"]),
                    float(d["courant"]) if "courant" in d else math.nan)
 
 
@@ -145,19 +150,20 @@ def resample(x: Array, values: Array, x_new: Array) -> Array:
 
 
 def _wall_loads(geometry: RomGeometry, case: CaseResult, wall_temperature: float,
-                flow: FlowCondition, settings: OpenFoamSettings) -> tuple[Array, Array]:
-    """``p - p_inf`` and the heat flux into the wall on the ROM grid."""
+                flow: FlowCondition, settings: OpenFoamSettings
+                ) -> tuple[Array, Array, Array]:
+    """``p - p_inf``, the heat flux into the wall and the wall-cell (edge) temperature on
+    the ROM grid."""
     x_grid = geometry.points(1.0).x
     x_faces = case.x - geometry.leading_edge_length
-    p = resample(x_faces, case.pressure, x_grid) - flow.pressure
+    p_abs = resample(x_faces, case.pressure, x_grid)
+    T_e = resample(x_faces, case.temperature, x_grid)
     if settings.model == "euler":  # Eckert on the CFD edge state, Eqs. (2.39)-(2.43)
-        p_abs = resample(x_faces, case.pressure, x_grid)
-        T_e = resample(x_faces, case.temperature, x_grid)
         q = eckert_heat_flux_edge(flow, p_abs, T_e, np.full(x_grid.size, wall_temperature),
                                   geometry.leading_edge_length + x_grid, settings.regime)
     else:
         q = resample(x_faces, case.heat_flux, x_grid)
-    return p, q
+    return p_abs - flow.pressure, q, T_e
 
 
 def run_snapshot(geometry: RomGeometry, inputs: Array, flow: FlowCondition,
@@ -184,16 +190,16 @@ def run_snapshot(geometry: RomGeometry, inputs: Array, flow: FlowCondition,
             if case.diverged and attempt < DIVERGED_RETRIES:
                 continue
             nan = np.full(n, np.nan)
-            p, q = (_wall_loads(geometry, case, inputs[-1], flow, settings) if case.converged
-                    else (nan, nan))
+            p, q, T_e = (_wall_loads(geometry, case, inputs[-1], flow, settings)
+                         if case.converged else (nan, nan, nan))
             reason = case.reason
-            if case.converged and not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
+            if case.converged and not all(np.all(np.isfinite(v)) for v in (p, q, T_e)):
                 reason = "NaN in the sampled wall loads"
             if reason:
                 log = folder / "log.rhoCentralFoam"
                 if log.is_file():
                     shutil.copy(log, folder.with_suffix(".log"))
-            return SnapshotRecord(inputs, not reason, reason, p, q, case.iterations,
+            return SnapshotRecord(inputs, not reason, reason, p, q, T_e, case.iterations,
                                   case.drift_pressure, case.drift_heat_flux, seconds,
                                   run.resolution.courant)
         finally:
@@ -262,13 +268,14 @@ class SnapshotSet:
     def converged(self) -> np.ndarray:
         return np.array([r.converged for r in self.records], bool)
 
-    def arrays(self) -> tuple[Array, Array, Array]:
-        """Inputs, pressure and heat flux of the converged snapshots."""
+    def arrays(self) -> tuple[Array, Array, Array, Array]:
+        """Inputs, pressure, heat flux and edge temperature of the converged snapshots."""
         ok = [r for r in self.records if r.converged]
         if not ok:
-            return np.zeros((0, 0)), np.zeros((0, 0)), np.zeros((0, 0))
+            return np.zeros((0, 0)), np.zeros((0, 0)), np.zeros((0, 0)), np.zeros((0, 0))
         return (np.array([r.inputs for r in ok]), np.array([r.pressure for r in ok]),
-                np.array([r.heat_flux for r in ok]))
+                np.array([r.heat_flux for r in ok]),
+                np.array([r.edge_temperature for r in ok]))
 
     def rejections(self) -> list[str]:
         return [f"{np.array2string(r.inputs, precision=3)}: {r.reason}"

@@ -102,7 +102,8 @@ def test_fluid_models_side_by_side_at_table_9_8_xi4(tmp_path: Path) -> None:
     """Table 9.8's xi = 4 design on pt-bl + Eckert and on the CFD ROM (two full-resolution
     evaluations, about a minute): both runs the Ti 6242 model past its 811 K service limit (the
     accepted finding), and the fluid model moves J_u and J_T by less than 1.5 points (README,
-    "The Sec. 9.2.2 study on the CFD ROM": 0.44 / 0.27 measured at d8c9ce3)."""
+    "The Sec. 9.2.2 study on the CFD ROM": 0.39 / 0.27 measured at b9f7b19, 0.44 / 0.27
+    with the ROM before it)."""
     ctx = reproduction_plan.Context(quick=False, seeds=1, out=tmp_path)
     df = reproduction_plan._sec9_2_2_fluids(ctx).set_index("quantity")
     for label, _ in reproduction_plan.FLUID_STUDIES_9_2_2:

@@ -13,7 +13,7 @@ from hypate.solvers.aero.rom.build import build_rom_from_config, check_rom, nrms
 from hypate.solvers.aero.rom.config import parse_rom_config
 from hypate.solvers.aero.rom.model import RomFluid
 from hypate.solvers.aero.rom.snapshots import generate_samples
-from hypate.solvers.aero.shock_expansion import ShockExpansionFluid
+from hypate.solvers.aero.shock_expansion import ShockExpansionFluid, eckert_heat_flux_edge
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 
@@ -219,3 +219,89 @@ def test_conventional_rom_builds_and_predicts() -> None:
     assert nrmse(p_src, loads.pressure[None], pts.weights)[0] < 0.05
     with pytest.raises(InputError, match="no geometric scaling"):
         rom.evaluate(*rom_state(rom.geometry, 2.0, [1.0, 0.0, 0.0]), flow)
+
+
+def test_edge_rom_heat_flux_is_eckert_on_the_kriged_fields(edge_rom: RomFluid) -> None:
+    """An Euler ROM's reference heat flux is Eckert's flux (Eqs. 2.39-2.43) on the kriged
+    pressure and edge temperature at the wall temperature, not the kriged heat flux; at
+    the reference the corrections are the identity (Eqs. 2.65, 2.72)."""
+    rom = edge_rom
+    g, ref = rom.geometry, rom.reference
+    pts, st = rom_state(g, 1.0, [2.0, -1.0, 0.5], nonuniform=False)
+    d = rom.inputs(pts, st, ref)
+    p_pk = rom.pressure_model.predict(d[None])[0]
+    T_e = rom.edge_temperature_model.predict(d[None])[0]
+    law = eckert_heat_flux_edge(ref, ref.pressure + p_pk, T_e, st.wall_temperature, pts.x_le)
+    loads = rom.evaluate(pts, st, ref)
+    # the same arithmetic in another order (batched kriging with gradients): round-off
+    np.testing.assert_allclose(loads.heat_flux, law, rtol=1e-10, atol=1e-9)
+    np.testing.assert_allclose(rom.reference_loads(d)[1][0], law, rtol=1e-12)
+    # and the law, not the kriged heat flux: they differ by the kriging errors (the two
+    # fields fitted on 50 samples: about 1e-3 of the range here; equal would mean the
+    # edge-temperature field is ignored)
+    kriged = rom.heat_model.predict(d[None])[0]
+    assert np.max(np.abs(kriged - law)) > 1e-6 * np.ptp(law)
+    # the pressure path does not know the edge-temperature field: bit for bit the same
+    plain = RomFluid(g, ref, rom.pressure_model, rom.heat_model, source=rom.source)
+    other = plain.evaluate(pts, st, ref, jacobians=True)
+    both = rom.evaluate(pts, st, ref, jacobians=True)
+    np.testing.assert_array_equal(other.pressure, both.pressure)
+    for key in ("dp_dw", "dp_dws", "dp_dwdot", "dp_dTw"):
+        np.testing.assert_array_equal(dense(other.jacobians[key]), dense(both.jacobians[key]))
+    # without the field the ROM returns its kriged heat flux, as before
+    np.testing.assert_allclose(other.heat_flux, kriged, rtol=1e-10, atol=1e-9)
+
+
+def test_a_rom_without_edge_field_evaluates_the_kriged_heat_flux_unchanged(
+        small_rom: RomFluid) -> None:
+    """The heat-flux path of a ROM without the field is the kriged flux through the same
+    operations as before the field existed: the reference-grid prediction interpolated,
+    bit for bit equal to the POD-kriging prediction with gradients on the identity grid."""
+    assert small_rom.edge_temperature_model is None
+    pts, st = rom_state(small_rom.geometry, 1.0, [1.5, 0.5, -0.3], nonuniform=False)
+    d = small_rom.inputs(pts, st, small_rom.reference)
+    coef, _ = small_rom.heat_model.predict_coefficients(d[None], gradient=True)
+    q = small_rom.heat_model.pod_.reconstruct(coef)[0]
+    loads = small_rom.with_options(correction="pt").evaluate(pts, st, small_rom.reference)
+    # the Eq. (2.65) ratio at the reference is num / den of the same Eckert flux: one to
+    # round-off (the mean wall temperature is a weighted sum)
+    np.testing.assert_allclose(loads.heat_flux, q, rtol=1e-13, atol=0.0)
+    np.testing.assert_array_equal(small_rom.reference_loads(d)[1][0],
+                                  small_rom.heat_model.predict(d[None])[0])
+
+
+@pytest.mark.parametrize("scale, mach, altitude, n_y", [
+    (2.0, 7.0, 30000.0, 1), (1.0, 5.5, 22000.0, 1), (4.0, 6.5, 27000.0, 3)])
+def test_edge_rom_jacobians_match_central_differences(edge_rom: RomFluid, scale: float,
+                                                      mach: float, altitude: float,
+                                                      n_y: int) -> None:
+    """dq/d(w, w_s, w_dot, T_w) through the chain rule of the Eckert flux on the kriged p
+    and T_e (complex-step partials) against extrapolated central differences, on a 2-D
+    panel and strip-wise on a 3-D one at another flow and L_le (inviscid: any a / L_le)."""
+    flow = FlowCondition.from_altitude(mach, altitude)
+    a = 1.0 / scale
+    pts = SurfacePoints.grid(a, a, 0.6 * a, 17 if n_y > 1 else 33, n_y)
+    st = _strip_state(pts, scale, [3.0, -1.0, 0.5])
+    J = edge_rom.evaluate(pts, st, flow, jacobians=True).jacobians
+    fields = {"w": "displacement", "ws": "slope", "wdot": "velocity", "Tw": "wall_temperature"}
+    steps = {"w": 4e-4 / scale, "ws": 2e-5, "wdot": 2e-3, "Tw": 2.0}  # as the tests above
+    for key, name in fields.items():
+        def f(v, name=name):
+            kw = {k: getattr(st, k) for k in fields.values()}
+            kw[name] = v
+            return edge_rom.evaluate(pts, SurfaceState(**kw), flow).heat_flux
+
+        fd, bound = richardson_jacobian(f, getattr(st, name), steps[key])
+        an = dense(J["dq_d" + key])
+        if not np.any(fd):
+            assert not np.any(an), key
+            continue
+        assert_matches_richardson(an, fd, bound, key)
+
+
+def test_edge_temperature_field_needs_a_scaled_rom(edge_rom: RomFluid) -> None:
+    with pytest.raises(InputError, match="edge-temperature") as err:
+        RomFluid(edge_rom.geometry, edge_rom.reference, edge_rom.pressure_model,
+                 edge_rom.heat_model, kind="conventional",
+                 edge_temperature_model=edge_rom.edge_temperature_model)
+    assert err.value.field == "rom.edge_temperature"

@@ -218,6 +218,7 @@ def test_shipped_cfd_rom_holds_its_provenance_and_held_out_errors():
     prov = rom.provenance
     assert prov["solver"].startswith("OpenFOAM") and prov["model"] == "euler"
     assert prov["snapshots"] >= 100 and prov["holdout"] >= 20
+    assert rom.edge_temperature_model is not None  # q: Eckert on the kriged p and T_e
     check = check_holdout(rom)
     assert check["pressure"]["nrmse_max"] < 0.05
     assert check["heat_flux"]["nrmse_max"] < 0.05
