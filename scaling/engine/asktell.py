@@ -50,8 +50,8 @@ __all__ = ["AskTellOptimizer", "OWNED_SETTINGS"]
 #: executor, time limit, callback or polish; the budget plan sets the iterations).
 OWNED_SETTINGS = frozenset((
     "n_init", "n_iter", "seed", "store", "cheap_constraints", "batch_size", "executor",
-    "timeout", "callback", "polish", "polish_step", "max_evaluations", "convergence_tol",
-    "convergence_window", "stopping", "categorical", "acquisition"))
+    "timeout", "callback", "polish", "polish_method", "polish_step", "max_evaluations",
+    "convergence_tol", "convergence_window", "stopping", "categorical", "acquisition"))
 #: Store metadata key of the asks (module docstring).
 ASKS = "asks"
 #: Largest distance, as a fraction of each variable's range, between a told design and the

@@ -19,8 +19,9 @@ enforced by projection.
 ``J_j^2 = sum_g w_jg ||h_g - t_g||^2``, Eqs. 6.4, 9.6): the objectives' structure used
 directly. The residual histories ``r(x) = h(x) - t`` and the expensive constraints
 ``G(x)`` are linearized in the unit box (forward differences of one evaluation per
-variable, then Broyden secant updates from every evaluation the search makes), and each
-step solves the trust-region min-max problem
+variable, backward where the forward one is unusable, then Broyden secant updates from
+every usable evaluation the search makes, feasible or not), and each step solves the
+trust-region min-max problem
 
     min_d max_j sum_g w_jg ||r_g + A_g d||^2   s.t.  G + B d <= 0,  cheap constraints,
     0 <= u + d <= 1,  |d|_inf <= Delta
@@ -31,9 +32,11 @@ linearized histories follow it where a simplex, which sees only ``max J``, needs
 evaluations per turn. The panel's other equilibrium branches lie close to the valley floor
 (a design a fraction of a percent away can buckle the other way, J ~ 2): a step whose
 score jumps to more than :data:`JUMP` times the current one, or that fails, is taken as
-such a branch -- it shrinks the trust region and does not enter the secant model. When the
-trust region has shrunk below :data:`MIN_RADIUS` the remaining evaluations go to the
-Nelder-Mead search from the best design.
+such a branch -- it shrinks the trust region and does not enter the secant model. The steps
+keep :data:`BACKOFF` from the linearized constraints. When the trust region has shrunk
+below :data:`MIN_RADIUS` the remaining evaluations go to the Nelder-Mead search from the
+best design seen; a best design without usable histories goes to it at once, with a
+warning.
 """
 from __future__ import annotations
 
@@ -50,16 +53,26 @@ from hypate.scaling.engine.settings import OptimizerSettings, SettingError
 from hypate.scaling.engine.store import Evaluation
 from scipy.optimize import minimize
 
-__all__ = ["FD_STEP", "JUMP", "MIN_RADIUS", "RADIUS", "polish_best", "polish_composition"]
+__all__ = ["BACKOFF", "FD_STEP", "JUMP", "MAX_RADIUS", "MIN_RADIUS", "RADIUS",
+           "polish_best", "polish_composition"]
 
 #: Forward-difference step of the Gauss-Newton linearization, a share of each range.
 FD_STEP = 1e-3
-#: Initial trust-region radius (max-norm in the unit box) and its cap.
-RADIUS, MAX_RADIUS = 0.02, 0.2
+#: Initial trust-region radius (max-norm in the unit box).
+RADIUS = 0.02
+#: Largest trust-region radius.
+MAX_RADIUS = 0.2
 #: Below this radius the Gauss-Newton search hands over to Nelder-Mead.
 MIN_RADIUS = 1e-4
 #: A score above this multiple of the current one is another branch, not a slope.
 JUMP = 1.5
+#: The radius grows by this factor after a step that did better than GOOD_RATIO of the
+#: predicted gain, shrinks by it after a step that did not improve, and by its square
+#: after a failure or a jump to another branch.
+SHRINK, GOOD_RATIO = 2.0, 0.75
+#: Margin the steps keep from the linearized expensive constraints (a step aimed at the
+#: boundary would land on either side of it).
+BACKOFF = 1e-6
 
 
 class _PolishDone(Exception):
@@ -226,99 +239,149 @@ def _nelder_mead(search: _Search, x_best: np.ndarray) -> None:
 
 
 # -- Gauss-Newton on the histories --------------------------------------------------------
+def _usable(ev: Evaluation, composition: Composition, f_ref: float) -> np.ndarray | None:
+    """The residual histories ``h - t`` of ``ev`` if it can enter the linearization: a
+    successful evaluation with finite histories of the composition's length and finite
+    constraints, whose max J stays within :data:`JUMP` times ``f_ref`` (else another
+    branch); None otherwise. Feasibility does not matter here (the model includes G)."""
+    h = ev.aux.get(HISTORIES) if ev.ok else None
+    if h is None:
+        return None
+    r = np.asarray(h, float).ravel()
+    F, G = np.asarray(ev.F, float), np.asarray(ev.G, float)
+    if (r.size != composition.targets.size or not np.all(np.isfinite(r))
+            or not np.all(np.isfinite(G)) or not np.all(np.isfinite(F))
+            or float(worst_objective(F[None])[0]) > JUMP * f_ref):
+        return None
+    return r - composition.targets
+
+
 class _Linearization:
     """``r(u) ~ r0 + A (u - u0)`` and ``G(u) ~ G0 + B (u - u0)`` about the current design."""
 
-    def __init__(self, ev: Evaluation, u: np.ndarray, composition: Composition) -> None:
+    def __init__(self, r: np.ndarray, G: np.ndarray, u: np.ndarray,
+                 composition: Composition) -> None:
         self.comp = composition
-        self.move(ev, u)
-        self.A = np.zeros((self.r.size, u.size))
-        self.B = np.zeros((self.G.size, u.size))
+        self.move(r, G, u)
+        self.A = np.zeros((r.size, u.size))
+        self.B = np.zeros((G.size, u.size))
 
-    def move(self, ev: Evaluation, u: np.ndarray) -> None:
-        self.ev, self.u = ev, u
-        self.r = np.asarray(ev.aux[HISTORIES], float) - self.comp.targets
-        self.G = np.asarray(ev.G, float)
+    def move(self, r: np.ndarray, G: np.ndarray, u: np.ndarray) -> None:
+        self.r, self.G, self.u = r, np.asarray(G, float), u
 
-    def secant(self, ev: Evaluation, u: np.ndarray) -> None:
-        """Broyden's rank-one update: the model reproduces ``ev`` at ``u``."""
+    def secant(self, r: np.ndarray, G: np.ndarray, u: np.ndarray) -> None:
+        """Broyden's rank-one update: the model reproduces ``(r, G)`` at ``u``."""
         d = u - self.u
         dd = float(d @ d)
         if dd <= 0.0:
             return
-        r = np.asarray(ev.aux[HISTORIES], float) - self.comp.targets
         self.A += np.outer(r - self.r - self.A @ d, d) / dd
-        self.B += np.outer(np.asarray(ev.G, float) - self.G - self.B @ d, d) / dd
+        self.B += np.outer(np.asarray(G, float) - self.G - self.B @ d, d) / dd
 
     def squares(self, d: np.ndarray) -> np.ndarray:
-        """Predicted ``J_j^2`` of step ``d``."""
+        """Predicted ``J_j^2`` of step ``d``, (m,)."""
         res = self.r + self.A @ d
         S = np.array([res[g] @ res[g] for g in self.comp.groups])
         return np.asarray(self.comp.weights @ S)
 
     def squares_jac(self, d: np.ndarray) -> np.ndarray:
+        """Derivative of :meth:`squares` with respect to ``d``, (m, n)."""
         res = self.r + self.A @ d
         rows = [2.0 * res[g] @ self.A[g] for g in self.comp.groups]  # (G, n)
         return np.asarray(self.comp.weights @ np.array(rows))
 
     def step(self, radius: float, cons: list[dict[str, Any]]) -> np.ndarray:
-        """The trust-region min-max step (module docstring), SLSQP on ``(d, s)``."""
+        """The trust-region min-max step (module docstring), SLSQP on ``(d, s)``; no step
+        (zeros) when SLSQP returns a point that breaks the subproblem's constraints."""
         n = self.u.size
         lo = np.maximum(-radius, -self.u)
         hi = np.minimum(radius, 1.0 - self.u)
         sq0 = self.squares(np.zeros(n))
-        z0 = np.r_[np.zeros(n), sq0.max()]
-        unit = [{"type": c["type"], "fun": (lambda z, c=c: c["fun"](self.u + z[:n])),
-                 "jac": (lambda z, c=c: np.column_stack([c["jac"](self.u + z[:n]),
-                                                         np.zeros(len(c["fun"](self.u)))]))}
-                for c in cons]
-        m = len(sq0)
+        cheap = [_unit_constraint(c, self.u) for c in cons]
         model = [
             {"type": "ineq", "fun": lambda z: z[n] - self.squares(z[:n]),
-             "jac": lambda z: np.column_stack([-self.squares_jac(z[:n]), np.ones(m)])},
-            {"type": "ineq", "fun": lambda z: -(self.G + self.B @ z[:n]),
+             "jac": lambda z: np.column_stack([-self.squares_jac(z[:n]), np.ones(sq0.size)])},
+            {"type": "ineq", "fun": lambda z: -(self.G + self.B @ z[:n]) - BACKOFF,
              "jac": lambda z: np.column_stack([-self.B, np.zeros(self.G.size)])}]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
-            res = minimize(lambda z: (z[n], np.r_[np.zeros(n), 1.0]), z0, jac=True,
-                           method="SLSQP", bounds=list(zip(np.r_[lo, 0.0], np.r_[hi, np.inf])),
-                           constraints=model + unit, options={"maxiter": 200, "ftol": 1e-14})
-        return np.clip(res.x[:n], lo, hi)
+            res = minimize(lambda z: (z[n], np.r_[np.zeros(n), 1.0]), np.r_[np.zeros(n),
+                                                                             sq0.max()],
+                           jac=True, method="SLSQP",
+                           bounds=list(zip(np.r_[lo, 0.0], np.r_[hi, np.inf])),
+                           constraints=model + cheap, options={"maxiter": 200, "ftol": 1e-14})
+        z = np.asarray(res.x, float)
+        ok = np.all(np.isfinite(z)) and all(
+            np.all(np.asarray(c["fun"](z)) >= -1e-8 * max(1.0, float(sq0.max())))
+            if c["type"] == "ineq" else np.all(np.abs(np.asarray(c["fun"](z))) <= 1e-8)
+            for c in model + cheap)
+        return np.clip(z[:n], lo, hi) if ok else np.zeros(n)
+
+
+def _unit_constraint(c: dict[str, Any], u: np.ndarray) -> dict[str, Any]:
+    """A cheap constraint of the unit box (:func:`scipy_constraints`) as one of the step
+    ``z = (d, s)`` about ``u``."""
+    k = np.atleast_1d(np.asarray(c["fun"](u))).size
+    n = u.size
+    return {"type": c["type"], "fun": lambda z: c["fun"](u + z[:n]),
+            "jac": lambda z: np.column_stack([c["jac"](u + z[:n]), np.zeros(k)])}
 
 
 def _gauss_newton(search: _Search, start: Evaluation, composition: Composition) -> Evaluation:
     """The trust-region Gauss-Newton search of the min-max score (module docstring); returns
-    the best evaluation when the radius has shrunk below :data:`MIN_RADIUS` (the budget
-    spent raises :class:`_PolishDone`)."""
+    the best evaluation it has seen when the radius has shrunk below :data:`MIN_RADIUS` (the
+    budget spent raises :class:`_PolishDone`)."""
     lo, span = search.lo, search.span
-    u0 = (np.asarray(start.x, float) - lo) / span
-    lin = _Linearization(start, u0, composition)
     best, f_best = start, _score(start)
-    for i in range(u0.size):  # forward differences (backward on the upper bound)
-        u = u0.copy()
-        u[i] += FD_STEP if u0[i] + FD_STEP <= 1.0 else -FD_STEP
+    r0 = _usable(start, composition, f_best)
+    if r0 is None:
+        warnings.warn("polish: the best design holds no usable histories; Nelder-Mead "
+                      "instead of Gauss-Newton", RuntimeWarning, stacklevel=3)
+        return start
+    u0 = (np.asarray(start.x, float) - lo) / span
+    lin = _Linearization(r0, start.G, u0, composition)
+
+    lin_score = f_best  # the score of the linearization's base design
+
+    def visit(u: np.ndarray) -> tuple[Evaluation, np.ndarray, np.ndarray | None]:
+        """Evaluate unit-box point ``u`` (clipped, projected): the evaluation, its actual
+        unit-box point and its residual histories if usable."""
+        nonlocal best, f_best
         x = search.design(lo + u * span)
         ev = search(x)
-        if _score(ev) <= JUMP * f_best:  # a failure or another branch leaves the column 0
-            lin.secant(ev, (x - lo) / span)
+        if _score(ev) < f_best:
+            best, f_best = ev, _score(ev)
+        return ev, (x - lo) / span, _usable(ev, composition, lin_score)
+    for i in range(u0.size):  # forward differences; backward where forward is unusable
+        for sign in (1.0, -1.0):
+            u = u0.copy()
+            u[i] += sign * FD_STEP
+            if not 0.0 <= u[i] <= 1.0:
+                continue
+            ev, u, r = visit(u)
+            if r is not None:
+                lin.secant(r, ev.G, u)
+                break
     radius = RADIUS
     while radius >= MIN_RADIUS:
         d = lin.step(radius, search.cons)
-        x = search.design(lo + (lin.u + d) * span)
-        ev = search(x)
-        f = _score(ev)
-        if not f <= JUMP * f_best:  # failed, inadmissible or another branch
-            radius /= 4.0
+        if not np.any(d):
+            radius /= SHRINK
             continue
-        u = (x - lo) / span
-        predicted = math.sqrt(max(float(lin.squares(u - lin.u).max()), 0.0))
-        lin.secant(ev, u)
-        if f < f_best:
-            ratio = (f_best - f) / max(f_best - predicted, 1e-300)
-            lin.move(ev, u)
-            best, f_best = ev, f
-            if ratio > 0.75:
-                radius = min(2.0 * radius, MAX_RADIUS)
-        else:
-            radius /= 2.0
+        predicted = math.sqrt(max(float(lin.squares(d).max()), 0.0))
+        ev, u, r = visit(lin.u + d)
+        if r is None:  # failed, or another branch
+            radius /= SHRINK**2
+            continue
+        lin.secant(r, ev.G, u)
+        f = _score(ev)
+        if f < lin_score:
+            gain = lin_score - predicted
+            ratio = (lin_score - f) / gain if gain > 0.0 else 0.0
+            lin.move(r, ev.G, u)
+            lin_score = f
+            if ratio > GOOD_RATIO:  # an improvement keeps the radius otherwise: the
+                radius = min(SHRINK * radius, MAX_RADIUS)  # valley's turns mislead the model
+        else:  # worse, or infeasible on a smooth slope: a smaller step
+            radius /= SHRINK
     return best

@@ -295,7 +295,7 @@ class OptimizerSection(InputModel):
     coordinates: Literal["design", "log", "similarity"] = "design"
     polish: Annotated[int, Field(ge=0, le=10000)] = 0
     #: The polish's local search (scaling.engine.polish): a simplex on max(J), or
-    #: Gauss-Newton on the histories J is composed from ("histories" projections)
+    #: Gauss-Newton on the histories J is composed from (not the "fields" projection)
     polish_method: Literal["nelder-mead", "gauss-newton"] = "nelder-mead"
     timeout: PosFloat | None = None
     #: How the design point is chosen from the feasible evaluations (rundir.DESIGN_POINT_RULES;
@@ -369,6 +369,11 @@ class StudyFile(InputModel):
         if opt.iterations == "auto" and (self.robust is not None or self.fidelity):
             raise ValueError("optimizer.iterations: \"auto\" stops a single-fidelity search "
                              "(not a [robust] or [[fidelity]] one); give a number")
+        if (opt.polish and opt.polish_method == "gauss-newton"
+                and self.study.projection == "fields"):
+            raise ValueError("optimizer.polish_method: \"gauss-newton\" linearizes the "
+                             "histories J is composed from; the \"fields\" projection has "
+                             "none (projection \"center\" or \"modal\", or \"nelder-mead\")")
         if self.optimizer.polish and n_obj != 1 and self.optimizer.design_point != "minmax":
             raise ValueError(f"optimizer.polish: the polish minimizes max(J) (the \"minmax\" "
                              f"design point); with {n_obj} objectives and design_point = "

@@ -2,6 +2,8 @@
 objectives are composed from, against closed-form optima (issue 41)."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -23,10 +25,12 @@ class _CurvedValley(Problem):
     ``x1 = x0_max^2``: J_T = SCALE (1 - x0_max)); ``fail_above`` makes every design with
     ``x0`` above it fail."""
 
-    def __init__(self, x0_max: float | None = None, fail_above: float | None = None) -> None:
-        super().__init__(n_var=2, n_obj=2, n_ieq_constr=0 if x0_max is None else 1,
-                         xl=np.full(2, -2.0), xu=np.full(2, 2.0))
-        self.x0_max, self.fail_above = x0_max, fail_above
+    def __init__(self, x0_max: float | None = None, fail_above: float | None = None,
+                 disc: float | None = None) -> None:
+        n_con = (x0_max is not None) + (disc is not None)
+        super().__init__(n_var=2, n_obj=2, n_ieq_constr=n_con, xl=np.full(2, -2.0),
+                         xu=np.full(2, 2.0))
+        self.x0_max, self.fail_above, self.disc = x0_max, fail_above, disc
 
     def histories(self, X: np.ndarray) -> np.ndarray:
         ru = 10.0 * (X[:, 1] - X[:, 0] ** 2)
@@ -46,8 +50,13 @@ class _CurvedValley(Problem):
             F[X[:, 0] > self.fail_above] = np.nan
         out["F"] = F
         out["aux"] = [{HISTORIES: h.tolist()} for h in H]
+        G = []
         if self.x0_max is not None:
-            out["G"] = (X[:, 0] - self.x0_max)[:, None]
+            G.append(X[:, 0] - self.x0_max)
+        if self.disc is not None:  # inside a disc about the origin: curved, nonlinear
+            G.append(X[:, 0] ** 2 + X[:, 1] ** 2 - self.disc**2)
+        if G:
+            out["G"] = np.stack(G, axis=1)
 
 
 def _run(problem: Problem, method: str, polish: int = 20, seed: int = 3, **kw):
@@ -100,6 +109,26 @@ def test_gauss_newton_stops_on_an_expensive_constraint() -> None:
     assert x[0] == pytest.approx(0.8, abs=1e-3) and abs(x[1] - 0.64) <= 0.02
 
 
+def test_gauss_newton_moves_along_a_curved_constraint_it_starts_on() -> None:
+    # the disc x0^2 + x1^2 <= 1 keeps (1, 1) out; the min-max lies on its boundary, where
+    # max(J) = SCALE max(10 |sin t - cos^2 t|, 1 - cos t) over x = (cos t, sin t) is
+    # smallest (computed below on a fine grid of t). Started on the boundary, at a design
+    # whose forward differences step outside it (infeasible but smooth: they enter the
+    # model), Gauss-Newton reaches that minimum within 1 %; the simplex with the same 30
+    # evaluations does not get within 10 %
+    t = np.linspace(0.0, np.pi / 2, 200001)
+    exact = SCALE * np.min(np.maximum(10 * np.abs(np.sin(t) - np.cos(t) ** 2), 1 - np.cos(t)))
+    start = np.array([[np.cos(0.3), np.sin(0.3)]]) * (1 - 1e-9)  # on the boundary, inside
+    found = {}
+    for method in ("gauss-newton", "nelder-mead"):
+        opt = BayesianOptimizer(_CurvedValley(disc=1.0), acquisition="hvlcb", n_init=1,
+                                n_iter=0, seed=0, polish=30, polish_method=method)
+        opt.initial_design = lambda: start  # type: ignore[method-assign]  # one given start
+        found[method] = _best(opt.run())[0]
+    assert found["gauss-newton"] == pytest.approx(exact, rel=0.01)
+    assert found["nelder-mead"] > 1.1 * exact
+
+
 def test_gauss_newton_steps_back_from_failed_simulations() -> None:
     # every design with x0 > 0.9 fails: the steps that land there shrink the trust region
     # and enter no linearization, and the search ends at the edge of the failures, where
@@ -108,7 +137,7 @@ def test_gauss_newton_steps_back_from_failed_simulations() -> None:
     res = _run(_CurvedValley(fail_above=0.9), "gauss-newton", polish=50)
     assert (~res.ok).any()  # it did step into the failed region
     f, x = _best(res)
-    assert x[0] <= 0.9
+    assert x[0] == pytest.approx(0.9, abs=3e-3)
     assert f == pytest.approx(SCALE * 0.1, rel=0.03)
 
 
@@ -131,7 +160,9 @@ def test_a_killed_gauss_newton_polish_resumes_to_the_same_evaluations(tmp_path) 
     path = tmp_path / "killed.sqlite"
     with pytest.raises(_Kill):
         _run(_CurvedValley(), "gauss-newton", store=path, callback=kill, **kw)
-    resumed = _run(_CurvedValley(), "gauss-newton", store=path, **kw)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # "resumed point differs" fails
+        resumed = _run(_CurvedValley(), "gauss-newton", store=path, **kw)
     cols = ["iteration", "batch_index"] + [c for c in full.data if c[0] in "xf"]
     pd.testing.assert_frame_equal(resumed.data[cols], full.data[cols], check_exact=True)
 

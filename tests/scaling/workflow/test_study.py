@@ -72,6 +72,18 @@ def test_malformed_study_exits_2_and_writes_nothing(tmp_path: Path, capsys, labe
     assert not out.exists()
 
 
+def test_gauss_newton_polish_of_the_fields_projection_is_refused(tmp_path: Path,
+                                                                 capsys) -> None:
+    # the "fields" projection composes no histories for the Gauss-Newton polish to linearize
+    text = TINY.replace("[study]\n", '[study]\nprojection = "fields"\n').replace(
+        "[optimizer]", '[optimizer]\npolish = 4\npolish_method = "gauss-newton"')
+    out = tmp_path / "run"
+    assert main(["run", str(_tiny(tmp_path, text)), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "optimizer.polish_method" in err and "fields" in err
+    assert not out.exists()
+
+
 def test_run_writes_public_outputs_and_resume_adds_nothing(tmp_path: Path, capsys) -> None:
     path = _tiny(tmp_path)
     out = tmp_path / "run"
