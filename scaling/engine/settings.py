@@ -218,8 +218,9 @@ class OptimizerSettings:
         Input coordinates of the surrogates (all bounds must be positive); ``None``: the
         design variables themselves (scaled to the unit box).
     polish : int >= 0
-        Evaluations of a final local search (one objective only): Nelder-Mead from the best
-        feasible design, in ``coordinates`` (or the unit box), each point clipped to the
+        Evaluations of a final local search of the design-point score (the objective, or
+        ``max_j J_j``; ``polish_method``) from the best feasible design (Nelder-Mead in
+        ``coordinates``, or the unit box), each point clipped to the
         bounds and projected onto the cheap constraints, failures ranked last. A stationary
         kriging model spends its budget exploring when the optimum is a valley far narrower
         than the landscape (Sec. 9.1: ``lambda_F`` must match to ~1 % in a box spanning a
