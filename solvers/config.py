@@ -37,7 +37,12 @@ from hypate.solvers.aero.factory import AERO_NAMES, is_aero_name
 from hypate.solvers.errors import InputError
 from hypate.solvers.flow import FlowCondition
 from hypate.solvers.panel import Layer, PanelSpec
-from hypate.solvers.settings import DEFAULTS, MAX_STEPS, SimulationSettings
+from hypate.solvers.settings import (
+    DEFAULTS,
+    MAX_CONTINUATION_STEPS,
+    MAX_STEPS,
+    SimulationSettings,
+)
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 from pydantic.fields import FieldInfo
 
@@ -174,6 +179,8 @@ class SimulationKeys(InputModel):
     initial_deflection: Annotated[float, Field(ge=-10.0, le=10.0)] = DEFAULTS.initial_deflection
     lsa_modes: Annotated[int, Field(ge=1, le=50)] = DEFAULTS.lsa_modes
     unstable_steps: Annotated[int, Field(ge=1, le=1000)] = DEFAULTS.unstable_steps
+    continuation_steps: Annotated[int, Field(ge=0, le=MAX_CONTINUATION_STEPS)] = \
+        DEFAULTS.continuation_steps
     rho_bar: Annotated[float, Field(ge=0.0, le=1.0)] = DEFAULTS.rho_bar
 
 

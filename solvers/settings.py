@@ -11,6 +11,8 @@ from hypate.solvers.thermal.schedule import check_schedule
 
 #: Most time steps of one simulation (a study's ``steps`` has the same bound).
 MAX_STEPS = 100_000
+#: Largest ``continuation_steps`` (increments of one re-solved TC step).
+MAX_CONTINUATION_STEPS = 100
 #: The values of the string settings (for the type checker; checked at run time below).
 Scheme = Literal["tc", "s1", "s2"]
 Heating = Literal["eckert", "none"]
@@ -67,6 +69,14 @@ class SimulationSettings:
         LSA every this many steps (1 = every step).
     unstable_steps : int
         Consecutive unstable LSA results that end the run.
+    continuation_steps : int
+        0 (the scheme of Sec. 5.4.3 as it is): a TC step's equilibrium is one Newton from
+        the last state. N > 0: a step whose equilibrium the LSA finds divergent is re-solved
+        by continuation from the last state in N increments of the temperature, and the
+        continued state is kept when it is stable (the quasi-steady path's own branch: a
+        Newton across a large step from the flat, pre-buckling state can converge to the
+        unstable equilibrium between the buckled branches). A divergence the continuation
+        also finds is an instability as before.
     passes : int
         Maximum thermal/aeroelastic fixed-point passes per step (1 = one of each).
     pass_tol : float
@@ -101,6 +111,7 @@ class SimulationSettings:
     lsa_modes: int = 6
     lsa_every: int = 1
     unstable_steps: int = 2
+    continuation_steps: int = 0
     passes: int = 1
     pass_tol: float = 1e-5
     newton_rtol: float = 1e-8
@@ -135,6 +146,10 @@ class SimulationSettings:
                              f"{self.duration / self.time_step:.6g} steps; at most {MAX_STEPS}")
         if self.unstable_steps < 1:
             raise InputError("simulation.unstable_steps", "must be >= 1")
+        if not 0 <= self.continuation_steps <= MAX_CONTINUATION_STEPS:
+            raise InputError("simulation.continuation_steps",
+                             f"must be an integer in [0, {MAX_CONTINUATION_STEPS}]; "
+                             f"got {self.continuation_steps}")
         if self.passes < 1:
             raise InputError("simulation.passes", "must be >= 1")
         if self.radiation_schedule is not None:

@@ -21,6 +21,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -399,6 +400,28 @@ class PanelModel:
             except EquilibriumError:
                 continue
         return self._newton(u, T, 1.0)  # raises with the diagnostic of the full problem
+
+    def continued_equilibrium(self, u: Array, T_from: Array, T_to: Array, steps: int
+                              ) -> Array:
+        """The equilibrium at ``T_to`` followed from the converged state ``(u, T_from)``
+        through ``steps`` equal increments of the temperature field, each Newton started
+        at the last (natural continuation of Eq. 5.31b in the thermal load): the branch
+        the quasi-steady path is on, where one Newton from ``u`` at ``T_to`` may converge to
+        an unstable equilibrium of another branch. Raises :class:`EquilibriumError` when
+        an increment has no equilibrium."""
+        x = u
+        for k in range(1, steps + 1):
+            x, _ = self.equilibrium(x, T_from + (T_to - T_from) * (k / steps))
+        return x
+
+    def solver_state(self) -> tuple[Any, ...]:
+        """What the solvers carry from one call to the next (the Newton preconditioner, the
+        last residual's state, the Arnoldi start): :meth:`restore_solver_state` undoes a
+        trial so the run proceeds exactly as without it."""
+        return (self._precond, self._last_state, self._lsa_start)
+
+    def restore_solver_state(self, state: tuple[Any, ...]) -> None:
+        self._precond, self._last_state, self._lsa_start = state
 
     def _newton(self, u: Array, T: Array, load: float) -> tuple[Array, int]:
         """Newton iterations on ``F_I(u, T) - load * F_S(u, T) = 0`` (free DOFs; the

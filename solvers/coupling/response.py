@@ -133,6 +133,9 @@ class Response:
     layer_temperature: list[Array] = field(default_factory=list)
     #: The layers' material names, bottom to top (the columns of ``layer_temperature``).
     layer_materials: list[str] = field(default_factory=list)
+    #: Times (s) of the TC steps re-solved by continuation after the LSA found divergence
+    #: (``SimulationSettings.continuation_steps``).
+    continued: list[float] = field(default_factory=list)
 
     # -- building ------------------------------------------------------------------------
     @classmethod
@@ -263,7 +266,8 @@ class Response:
                 "message": self.message, "instability_time": self.instability_time,
                 "instability_type": self.instability_type, "wall_seconds": self.wall_seconds,
                 "timing": self.timing, "mode_indices": self.mode_indices,
-                "lsa_status": self.lsa_status, "layer_materials": self.layer_materials}
+                "lsa_status": self.lsa_status, "layer_materials": self.layer_materials,
+                "continued": self.continued}
         arrays: dict[str, Array] = {
             "times": np.asarray(self.times),
             "center_deflection": np.asarray(self.center_deflection),
@@ -331,6 +335,7 @@ class Response:
                 values = float_member(arrays, name, field)
                 setattr(r, name, values.tolist() if values.ndim == 1 else list(values))
         r.layer_materials = [str(n) for n in meta.get("layer_materials", [])]
+        r.continued = [float(t) for t in meta.get("continued", [])]
         r.status, r.message = meta["status"], meta["message"]
         r.instability_time, r.instability_type = meta["instability_time"], meta["instability_type"]
         r.wall_seconds, r.timing = meta["wall_seconds"], meta["timing"]

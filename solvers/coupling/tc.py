@@ -4,7 +4,9 @@
 thermal step with the aerodynamic heat flux implicit in the wall temperature, then the
 aeroelastic equilibrium with fluid and structure converged together, optionally repeated
 (fixed-point passes) until both fields stop changing; then the LSA (Eqs. 5.33-5.35). The run
-stops after ``unstable_steps`` consecutive unstable LSA results.
+stops after ``unstable_steps`` consecutive unstable LSA results. With ``continuation_steps``
+> 0 a step whose equilibrium the LSA finds divergent is first re-solved by continuation in
+the temperature from the last state (:func:`_continued_step`).
 """
 from __future__ import annotations
 
@@ -30,6 +32,60 @@ def extrapolate(history: list[Array]) -> Array:
     if len(history) == 2:
         return 2.0 * history[0] - history[1]
     return np.array(history[0], copy=True)
+
+
+def _coupled_step(model: PanelModel, T: Array, u: Array, t: float, T_hist: list[Array],
+                  u_hist: list[Array], u_from: Array | None = None
+                  ) -> tuple[Array, Array]:
+    """One step from the converged state ``(T, u)`` to time ``t``: the thermal step and the
+    aeroelastic equilibrium, repeated as fixed-point passes (Sec. 5.4.3). ``T_hist`` and
+    ``u_hist`` are the earlier states, newest first (the Newton predictors). With
+    ``u_from``, each pass's equilibrium is instead followed by continuation in the
+    temperature from ``(u_from, T)`` (:meth:`PanelModel.continued_equilibrium`)."""
+    s = model.settings
+    dt = s.time_step
+    T_new, u_new = T, u
+    for k in range(s.passes):
+        T_prev, u_prev = T_new, u_new
+        if not model.thermal_frozen:
+            # the thermal Newton starts from the extrapolation of the last steps (same
+            # solution, about one Newton iteration fewer per step)
+            guess = T_new if (k > 0 or not T_hist) else extrapolate([T, *T_hist])
+            T_new = model.thermal_step(T, u_new, dt, T_guess=guess, t=t - dt)
+        if u_from is not None:
+            u_new = model.continued_equilibrium(u_from, T, T_new, s.continuation_steps)
+        else:
+            # likewise the aeroelastic Newton (the same equilibrium to its tolerance: 1.3
+            # instead of 2.4 iterations per step on the Sec. 9.2 benchmark)
+            u_guess = extrapolate([u, *u_hist]) if (k == 0 and u_hist) else None
+            u_new, _ = model.equilibrium(u_new, T_new, guess=u_guess)
+        dT = np.max(np.abs(T_new - T_prev)) / max(np.max(np.abs(T_new - T)), 1e-12)
+        du = np.max(np.abs(u_new - u_prev)) / max(np.max(np.abs(u_new)), 1e-12)
+        if dT <= s.pass_tol and du <= s.pass_tol:
+            break
+    return T_new, u_new
+
+
+def _continued_step(model: PanelModel, T: Array, u: Array, t: float,
+                    found: tuple[Array, Array, StabilityResult], resp: Response
+                    ) -> tuple[Array, Array, StabilityResult]:
+    """A step whose equilibrium the LSA found divergent, re-solved by continuation from the
+    last state ``(T, u)`` (``settings.continuation_steps`` increments of the temperature):
+    one Newton from the flat, pre-buckling state across a large temperature step can
+    converge to the unstable equilibrium between the buckled branches. The continued
+    state is kept when it is not unstable (the step is listed in ``resp.continued``);
+    otherwise ``found`` is, and the run proceeds exactly as without the trial."""
+    state = model.solver_state()
+    try:
+        T_c, u_c = _coupled_step(model, T, u, t, [], [], u_from=u)
+        lsa_c = model.stability(u_c, T_c)
+    except EquilibriumError:
+        lsa_c = None
+    if lsa_c is None or lsa_c.unstable:
+        model.restore_solver_state(state)
+        return found
+    resp.continued.append(t)
+    return T_c, u_c, lsa_c
 
 
 def run_tc(model: PanelModel, progress=None) -> Response:
@@ -72,25 +128,13 @@ def _run_tc(model: PanelModel, progress) -> Response:
         u_hist: list[Array] = []
         for n in range(1, n_steps + 1):
             t = n * dt
-            T_new, u_new = T, u
-            for k in range(s.passes):
-                T_prev, u_prev = T_new, u_new
-                if not model.thermal_frozen:
-                    # the thermal Newton starts from the extrapolation of the last steps (same
-                    # solution, about one Newton iteration fewer per step)
-                    guess = T_new if (k > 0 or not T_hist) else extrapolate([T, *T_hist])
-                    T_new = model.thermal_step(T, u_new, dt, T_guess=guess, t=t - dt)
-                # likewise the aeroelastic Newton (the same equilibrium to its tolerance: 1.3
-                # instead of 2.4 iterations per step on the Sec. 9.2 benchmark)
-                u_guess = extrapolate([u, *u_hist]) if (k == 0 and u_hist) else None
-                u_new, _ = model.equilibrium(u_new, T_new, guess=u_guess)
-                dT = np.max(np.abs(T_new - T_prev)) / max(np.max(np.abs(T_new - T)), 1e-12)
-                du = np.max(np.abs(u_new - u_prev)) / max(np.max(np.abs(u_new)), 1e-12)
-                if dT <= s.pass_tol and du <= s.pass_tol:
-                    break
+            T_new, u_new = _coupled_step(model, T, u, t, T_hist, u_hist)
             T_hist, u_hist = [T, *T_hist[:1]], [u, *u_hist[:1]]
             T, u = T_new, u_new
             lsa = model.stability(u, T) if n % s.lsa_every == 0 else None
+            if lsa is not None and lsa.status == "divergence" and s.continuation_steps:
+                T, u, lsa = _continued_step(model, T_hist[0], u_hist[0], t, (T, u, lsa),
+                                            resp)
             resp.record(t, u, T, model, lsa)
             if progress is not None:
                 progress(n, n_steps)

@@ -10,8 +10,9 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
                    condition: ``mach`` alone keeps the case's static p and T, ``altitude``
                    (m, 1976 standard atmosphere) needs ``mach`` or a case Mach number)
     [simulation]   time_step, steps, aero, heating, boundary_layer, initial_deflection,
-                   lsa_modes, unstable_steps, rho_bar, mesh, simulator (the user's own:
-                   "package.module:function" or "file.py:function", vocabulary.external)
+                   lsa_modes, unstable_steps, continuation_steps, rho_bar, mesh,
+                   simulator (the user's own: "package.module:function" or
+                   "file.py:function", vocabulary.external)
     [model]        material (a library name or a [materials.NAME] of the study), thickness,
                    sublayers, boundary, emissivity, initial_temperature,
                    temperature_independent
@@ -525,7 +526,8 @@ def simulation_settings(kind: str, sim: SimulationSection) -> SimulationSettings
         scheme="tc" if kind == "quasi_steady" else "s2", aero=sim.aero, heating=sim.heating,
         boundary_layer=sim.boundary_layer, time_step=sim.time_step,
         duration=sim.time_step * sim.steps, lsa_modes=sim.lsa_modes,
-        unstable_steps=sim.unstable_steps, rho_bar=sim.rho_bar,
+        unstable_steps=sim.unstable_steps, continuation_steps=sim.continuation_steps,
+        rho_bar=sim.rho_bar,
         initial_deflection=sim.initial_deflection)
 
 
