@@ -71,12 +71,15 @@ class SimulationSettings:
         Consecutive unstable LSA results that end the run.
     continuation_steps : int
         0 (the scheme of Sec. 5.4.3 as it is): a TC step's equilibrium is one Newton from
-        the last state. N > 0: a step whose equilibrium the LSA finds divergent is re-solved
-        by continuation from the last state in N increments of the temperature, and the
-        continued state is kept when it is stable (the quasi-steady path's own branch: a
-        Newton across a large step from the flat, pre-buckling state can converge to the
-        unstable equilibrium between the buckled branches). A divergence the continuation
-        also finds is an instability as before.
+        the last state. N > 0: a step whose equilibrium the LSA finds divergent, or whose
+        deflection field moved by more than half its size, is followed from the last state
+        by continuation in N increments of the temperature, and the continued state is
+        kept when it is a stable equilibrium all the way (the quasi-steady path's branch:
+        one Newton across a large step from the flat, pre-buckling state converges to the
+        unstable equilibrium between the buckled branches or to the branch the panel does
+        not buckle onto, by a hair's difference in the design). Where the path has no
+        equilibrium (a snap-through) or the continuation finds the same state, the step is
+        as without it.
     passes : int
         Maximum thermal/aeroelastic fixed-point passes per step (1 = one of each).
     pass_tol : float

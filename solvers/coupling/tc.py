@@ -5,8 +5,9 @@ thermal step with the aerodynamic heat flux implicit in the wall temperature, th
 aeroelastic equilibrium with fluid and structure converged together, optionally repeated
 (fixed-point passes) until both fields stop changing; then the LSA (Eqs. 5.33-5.35). The run
 stops after ``unstable_steps`` consecutive unstable LSA results. With ``continuation_steps``
-> 0 a step whose equilibrium the LSA finds divergent is first re-solved by continuation in
-the temperature from the last state (:func:`_continued_step`).
+> 0 a step whose equilibrium may have left the quasi-steady path (divergent, or a jump of
+the deflection field) is checked by continuation in the temperature from the last state
+(:func:`_off_path`, :func:`_continued_step`).
 """
 from __future__ import annotations
 
@@ -21,6 +22,13 @@ from hypate.solvers.numerics.threads import single_threaded_blas
 from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
+
+#: Relative change of the deflection field in one step above which the step's equilibrium
+#: is checked against the continuation (``continuation_steps``): a buckling or a branch jump
+#: moves it by about its own size or twice, a quasi-steady step by a fraction.
+JUMP = 0.5
+#: Relative distance below which the continued state is the one Newton found (kept as is).
+SAME_STATE = 1e-3
 
 
 def extrapolate(history: list[Array]) -> Array:
@@ -66,26 +74,47 @@ def _coupled_step(model: PanelModel, T: Array, u: Array, t: float, T_hist: list[
     return T_new, u_new
 
 
+def _off_path(model: PanelModel, u_last: Array, u: Array, lsa: StabilityResult | None
+              ) -> bool:
+    """Whether one Newton's equilibrium of a step may have left the quasi-steady path: the
+    LSA finds it divergent, or its deflection field moved by more than :data:`JUMP` of its
+    size (the flat panel buckling, or a jump onto another branch)."""
+    if lsa is not None and lsa.status == "divergence":
+        return True
+    w_last, w = model.structure.deflection(u_last), model.structure.deflection(u)
+    size = max(float(np.linalg.norm(w_last)), float(np.linalg.norm(w)))
+    return float(np.linalg.norm(w - w_last)) > JUMP * size
+
+
 def _continued_step(model: PanelModel, T: Array, u: Array, t: float,
-                    found: tuple[Array, Array, StabilityResult], resp: Response
-                    ) -> tuple[Array, Array, StabilityResult]:
-    """A step whose equilibrium the LSA found divergent, re-solved by continuation from the
-    last state ``(T, u)`` (``settings.continuation_steps`` increments of the temperature):
-    one Newton from the flat, pre-buckling state across a large temperature step can
-    converge to the unstable equilibrium between the buckled branches. The continued
-    state is kept when it is not unstable (the step is listed in ``resp.continued``);
-    otherwise ``found`` is, and the run proceeds exactly as without the trial."""
+                    found: tuple[Array, Array, StabilityResult | None], resp: Response
+                    ) -> tuple[Array, Array, StabilityResult | None]:
+    """A step off the path (:func:`_off_path`) followed from the last state ``(T, u)`` by
+    continuation in ``settings.continuation_steps`` increments of the temperature: one
+    Newton from the flat, pre-buckling state across a large temperature step converges to
+    whichever equilibrium its start is nearest in Newton's sense -- the unstable one between
+    the buckled branches, or the branch the panel does not buckle onto. The continued state
+    replaces ``found`` when it is an equilibrium all the way, not unstable, and another
+    state than ``found`` (the step is then listed in ``resp.continued``); otherwise
+    ``found`` stays (a snap-through: the path's equilibrium ceased to exist), and the run
+    proceeds exactly as without the trial."""
     state = model.solver_state()
-    try:
-        T_c, u_c = _coupled_step(model, T, u, t, [], [], u_from=u)
-        lsa_c = model.stability(u_c, T_c)
+    T_f, u_f, _ = found
+    try:  # the equilibrium at the step's temperature (the thermal solver is not touched)
+        u_c = model.continued_equilibrium(u, T, T_f, model.settings.continuation_steps)
+        lsa_c = model.stability(u_c, T_f)
     except EquilibriumError:
         lsa_c = None
-    if lsa_c is None or lsa_c.unstable:
+    if lsa_c is None or lsa_c.unstable or \
+            np.linalg.norm(u_c - u_f) <= SAME_STATE * np.linalg.norm(u_f):
         model.restore_solver_state(state)
         return found
     resp.continued.append(t)
-    return T_c, u_c, lsa_c
+    if model.settings.passes == 1:  # T_f came from the last state: it is the step's
+        return T_f, u_c, lsa_c
+    # fixed-point passes: the temperature converges with the continued deflection
+    T_c, u_c = _coupled_step(model, T, u, t, [], [], u_from=u)
+    return T_c, u_c, model.stability(u_c, T_c)
 
 
 def run_tc(model: PanelModel, progress=None) -> Response:
@@ -132,7 +161,7 @@ def _run_tc(model: PanelModel, progress) -> Response:
             T_hist, u_hist = [T, *T_hist[:1]], [u, *u_hist[:1]]
             T, u = T_new, u_new
             lsa = model.stability(u, T) if n % s.lsa_every == 0 else None
-            if lsa is not None and lsa.status == "divergence" and s.continuation_steps:
+            if s.continuation_steps and _off_path(model, u_hist[0], u, lsa):
                 T, u, lsa = _continued_step(model, T_hist[0], u_hist[0], t, (T, u, lsa),
                                             resp)
             resp.record(t, u, T, model, lsa)
