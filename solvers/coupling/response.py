@@ -133,8 +133,8 @@ class Response:
     layer_temperature: list[Array] = field(default_factory=list)
     #: The layers' material names, bottom to top (the columns of ``layer_temperature``).
     layer_materials: list[str] = field(default_factory=list)
-    #: Times (s) of the TC steps re-solved by continuation after the LSA found divergence
-    #: (``SimulationSettings.continuation_steps``).
+    #: Times (s) of the TC steps whose equilibrium was replaced by the continuation's (one
+    #: Newton's diverged or jumped branches: ``SimulationSettings.continuation_steps``).
     continued: list[float] = field(default_factory=list)
 
     # -- building ------------------------------------------------------------------------

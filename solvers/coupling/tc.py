@@ -43,13 +43,12 @@ def extrapolate(history: list[Array]) -> Array:
 
 
 def _coupled_step(model: PanelModel, T: Array, u: Array, t: float, T_hist: list[Array],
-                  u_hist: list[Array], u_from: Array | None = None
-                  ) -> tuple[Array, Array]:
+                  u_hist: list[Array], continued: bool = False) -> tuple[Array, Array]:
     """One step from the converged state ``(T, u)`` to time ``t``: the thermal step and the
     aeroelastic equilibrium, repeated as fixed-point passes (Sec. 5.4.3). ``T_hist`` and
     ``u_hist`` are the earlier states, newest first (the Newton predictors). With
-    ``u_from``, each pass's equilibrium is instead followed by continuation in the
-    temperature from ``(u_from, T)`` (:meth:`PanelModel.continued_equilibrium`)."""
+    ``continued``, each pass's equilibrium is instead followed by continuation in the
+    temperature from ``(u, T)`` (:meth:`PanelModel.continued_equilibrium`)."""
     s = model.settings
     dt = s.time_step
     T_new, u_new = T, u
@@ -60,8 +59,8 @@ def _coupled_step(model: PanelModel, T: Array, u: Array, t: float, T_hist: list[
             # solution, about one Newton iteration fewer per step)
             guess = T_new if (k > 0 or not T_hist) else extrapolate([T, *T_hist])
             T_new = model.thermal_step(T, u_new, dt, T_guess=guess, t=t - dt)
-        if u_from is not None:
-            u_new = model.continued_equilibrium(u_from, T, T_new, s.continuation_steps)
+        if continued:
+            u_new = model.continued_equilibrium(u, T, T_new, s.continuation_steps)
         else:
             # likewise the aeroelastic Newton (the same equilibrium to its tolerance: 1.3
             # instead of 2.4 iterations per step on the Sec. 9.2 benchmark)
@@ -95,9 +94,9 @@ def _continued_step(model: PanelModel, T: Array, u: Array, t: float,
     whichever equilibrium its start is nearest in Newton's sense -- the unstable one between
     the buckled branches, or the branch the panel does not buckle onto. The continued state
     replaces ``found`` when it is an equilibrium all the way, not unstable, and another
-    state than ``found`` (the step is then listed in ``resp.continued``); otherwise
-    ``found`` stays (a snap-through: the path's equilibrium ceased to exist), and the run
-    proceeds exactly as without the trial."""
+    state than ``found`` (the step is then listed in ``resp.continued``). Otherwise
+    ``found`` stays -- the same state, or a snap-through (the path's equilibrium ceased to
+    exist) -- and the run proceeds exactly as without the trial."""
     state = model.solver_state()
     T_f, u_f, _ = found
     try:  # the equilibrium at the step's temperature (the thermal solver is not touched)
@@ -113,7 +112,7 @@ def _continued_step(model: PanelModel, T: Array, u: Array, t: float,
     if model.settings.passes == 1:  # T_f came from the last state: it is the step's
         return T_f, u_c, lsa_c
     # fixed-point passes: the temperature converges with the continued deflection
-    T_c, u_c = _coupled_step(model, T, u, t, [], [], u_from=u)
+    T_c, u_c = _coupled_step(model, T, u, t, [], [], continued=True)
     return T_c, u_c, model.stability(u_c, T_c)
 
 
