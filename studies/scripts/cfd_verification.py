@@ -6,8 +6,9 @@ loads"; the figures of the README's "CFD snapshots" section).
 * :func:`bump` -- Euler, the flat plate and a panel deformed by a sine mode: the panel
   pressure against the built-in shock-expansion march (no boundary layer);
 * :func:`flat_plate` -- laminar, a flat plate at a uniform wall temperature on a family of
-  grids refined in the wall-normal direction by a constant ratio: the panel-mean heat flux,
-  its Richardson extrapolation (observed order from three grids) and the laminar Eckert
+  grids refined in the wall-normal direction by a constant ratio, run coarse to fine (each
+  started from the coarser one's state, :func:`mapped_from`): the panel-mean heat flux,
+  its Richardson extrapolation (observed order from the three finest) and the laminar Eckert
   reference-temperature estimate (Eqs. 2.39-2.43) with the Prandtl number the CFD gas has
   (OpenFOAM's Sutherland transport: Eucken conductivity, Pr 0.690);
 * :func:`leading_edge` -- Euler, the same deformed panel behind rigid plates of different
@@ -24,7 +25,9 @@ at import. Each case runs on one core.
 from __future__ import annotations
 
 import math
+import subprocess
 import tempfile
+from collections.abc import Callable
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
@@ -48,7 +51,14 @@ from hypate.solvers.aero.rom.openfoam_case3d import (
     panel_deflection,
     write_case_3d,
 )
-from hypate.solvers.aero.rom.openfoam_run import CaseResult, find_openfoam, run_case
+from hypate.solvers.aero.rom.openfoam_run import (
+    CaseResult,
+    drift,
+    find_openfoam,
+    read_averages,
+    read_samples,
+    run_case,
+)
 from hypate.solvers.aero.shock_expansion import (
     ShockExpansionFluid,
     eckert_heat_flux_edge,
@@ -58,8 +68,9 @@ from hypate.solvers.config import load_case
 from hypate.solvers.coupling.run import simulate
 from hypate.solvers.flow import FlowCondition
 
-__all__ = ["FLAT_PLATE_GRIDS", "WEDGE_RESOLUTION", "bump", "flat_plate", "leading_edge",
-           "prototype_deflection", "richardson", "run", "strips", "wedge"]
+__all__ = ["FLAT_PLATE_GRIDS", "FLAT_PLATE_ITERATIONS", "WEDGE_RESOLUTION", "bump", "flat_plate",
+           "leading_edge", "mapped_from", "prototype_deflection", "richardson", "run", "strips",
+           "wedge"]
 
 #: Euler wedge mesh of the issue's table: 7,200 cells, 6.7 mm wall cell.
 WEDGE_RESOLUTION = Resolution(cells_panel=60, cells_plate=60, cells_normal=60, wall_cell=6.7e-3,
@@ -67,7 +78,14 @@ WEDGE_RESOLUTION = Resolution(cells_panel=60, cells_plate=60, cells_normal=60, w
                               window=20, tolerance=1e-4)
 #: Laminar flat-plate grids, coarse to fine: wall-normal cells and first-cell height refined
 #: together by 1.5 (streamwise 40 cells per metre on all).
-FLAT_PLATE_GRIDS = ((40, 1.5e-4), (60, 1.0e-4), (90, 6.667e-5))
+FLAT_PLATE_GRIDS = ((40, 1.5e-4), (60, 1.0e-4), (90, 6.667e-5), (135, 4.444e-5),
+                    (203, 2.963e-5))
+#: Iterations of the coarsest flat-plate level (from the free stream) and of each finer one
+#: (from the coarser level's last state, by mapFields). A level's heat flux is the mean of
+#: its samples over the second half of its iterations: the panel mean oscillates from sample
+#: to sample about a mean that settles, and a drift test stops inside the swings (README,
+#: "CFD snapshots").
+FLAT_PLATE_ITERATIONS = (100000, 60000)
 
 
 def _run(spec: CaseSpec, folder: Path | None) -> CaseResult:
@@ -141,39 +159,76 @@ def richardson(coarse: float, medium: float, fine: float, ratio: float
     return p, fine + d21 / (ratio**p - 1.0)
 
 
+def mapped_from(source: Path) -> Callable[[Path], None]:
+    """An ``after_mesh`` hook of :func:`run_case` that starts the case from the last written
+    state of the case in ``source`` (OpenFOAM's ``mapFields``, same geometry)."""
+    def map_fields(case: Path) -> None:
+        of = find_openfoam()
+        tool = str(Path(of.solver).parent / "mapFields")
+        with open(case / "log.mapFields", "w", encoding="utf-8") as log:
+            code = subprocess.run([tool, str(source), "-consistent", "-sourceTime",
+                                   "latestTime", "-case", str(case)], env=of.environment(),
+                                  stdout=log, stderr=subprocess.STDOUT).returncode
+        if code != 0:
+            raise RuntimeError(f"mapFields from {source} failed: see {case / 'log.mapFields'}")
+    return map_fields
+
+
+def _settled_mean(folder: Path, iterations: int) -> dict[str, float]:
+    """Panel-mean heat flux into the wall over the second half of a run's samples: the mean,
+    the 5-95 % spread of the samples and the drift between the halves of that window."""
+    avg = read_averages(folder)
+    q = -avg[avg[:, 0] > iterations / 2, 3]
+    if q.size < 2 or not np.all(np.isfinite(q)):
+        raise RuntimeError(f"no finite wall averages in {folder}")
+    return {"mean_heat_flux": float(np.mean(q)), "p05": float(np.percentile(q, 5)),
+            "p95": float(np.percentile(q, 95)), "drift_heat_flux": drift(q)}
+
+
 def flat_plate(wall_temperature: float, grids: tuple[tuple[int, float], ...] = FLAT_PLATE_GRIDS,
-               ratio: float = 1.5, altitude: float = 25000.0, cells_per_metre: int = 40,
+               iterations: tuple[int, int] = FLAT_PLATE_ITERATIONS, ratio: float = 1.5,
+               altitude: float = 25000.0, cells_per_metre: int = 40,
                folder: Path | None = None) -> dict[str, Any]:
     """Laminar flat plate (plate + panel, each 1 m) at M 6: the panel-mean heat flux into the
-    wall on each grid, the Richardson value, and the Eckert estimate (Pr of the CFD gas)."""
+    wall on each grid, the Richardson value of the three finest, and the Eckert estimate (Pr
+    of the CFD gas) on each grid's own wall pressure.
+
+    The grids run coarse to fine, each finer one started from the coarser one's last state
+    (``iterations``: of the coarsest, of each finer one); the levels' cases stay in
+    ``folder``/``level<i>`` when given."""
     flow = FlowCondition.from_altitude(6.0, altitude)
+    gas = replace(flow, prandtl=eucken_prandtl(flow.gamma))
     plate = np.array([[0.0, 0.0], [1.0, 0.0]])
     panel = np.array([[1.0, 0.0], [2.0, 0.0]])
-    levels = []
-    x = p = None
-    for cells, wall_cell in grids:
-        res = Resolution(cells_panel=cells_per_metre, cells_plate=cells_per_metre,
-                         cells_normal=cells, wall_cell=wall_cell, height=0.3, upstream=0.05,
-                         courant=0.1, smoothing=0.2, max_iterations=200000,
-                         sample_every=200, window=10, tolerance=2e-3)
-        r = _run(CaseSpec(plate, panel, flow, wall_temperature, "laminar", res), folder)
-        level = {"cells_normal": cells, "wall_cell": wall_cell, "converged": r.converged,
-                 "reason": r.reason, "iterations": r.iterations, "seconds": r.cpu_seconds,
-                 "drift_heat_flux": r.drift_heat_flux}
-        if r.converged:
-            level["mean_heat_flux"] = float(np.mean(r.heat_flux))
-            level["point_scatter"] = float(np.std(np.diff(r.heat_flux, 2)) / np.mean(
-                np.abs(r.heat_flux)))
-            x, p = r.x, r.pressure
-        levels.append(level)
+    of = find_openfoam()
+    levels: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        root = folder or Path(tmp)
+        previous: Path | None = None
+        for i, (cells, wall_cell) in enumerate(grids):
+            n = iterations[0 if previous is None else 1]
+            res = Resolution(cells_panel=cells_per_metre, cells_plate=cells_per_metre,
+                             cells_normal=cells, wall_cell=wall_cell, height=0.3,
+                             upstream=0.05, courant=0.1, smoothing=0.2, max_iterations=n,
+                             sample_every=200, window=10, tolerance=0.0)
+            case = write_case(root / f"level{i}", CaseSpec(plate, panel, flow,
+                                                           wall_temperature, "laminar", res))
+            r = run_case(case, of, res, True,
+                         after_mesh=None if previous is None else mapped_from(previous))
+            if r.iterations < n:
+                raise RuntimeError(f"flat plate {wall_temperature:g} K, level {i}: {r.reason}")
+            x, _, p, _, _ = read_samples(case, [n])
+            level = {"cells_normal": cells, "wall_cell": wall_cell, "iterations": n,
+                     "seconds": r.cpu_seconds, **_settled_mean(case, n),
+                     "eckert_mean_heat_flux": float(np.mean(eckert_heat_flux(
+                         gas, p, wall_temperature, x, "laminar")))}
+            levels.append(level)
+            previous = case
     out: dict[str, Any] = {"wall_temperature": wall_temperature, "levels": levels,
-                           "ratio": ratio}
-    if x is not None:
-        gas = replace(flow, prandtl=eucken_prandtl(flow.gamma))
-        out["eckert_mean_heat_flux"] = float(np.mean(eckert_heat_flux(
-            gas, p, wall_temperature, x, "laminar")))
-    q = [lv.get("mean_heat_flux") for lv in levels]
-    if len(q) == 3 and all(v is not None for v in q):
+                           "ratio": ratio,
+                           "eckert_mean_heat_flux": levels[-1]["eckert_mean_heat_flux"]}
+    if len(levels) >= 3:
+        q = [lv["mean_heat_flux"] for lv in levels[-3:]]
         order, value = richardson(q[0], q[1], q[2], ratio)
         out.update(observed_order=order, richardson_heat_flux=value)
     return out
