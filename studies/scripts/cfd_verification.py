@@ -8,9 +8,11 @@ loads"; the figures of the README's "CFD snapshots" section).
 * :func:`flat_plate` -- laminar, a flat plate at a uniform wall temperature on a family of
   grids refined in the wall-normal direction by a constant ratio, run coarse to fine (each
   started from the coarser one's state, :func:`mapped_from`): the panel-mean heat flux,
-  its Richardson extrapolation (observed order from the three finest) and the laminar Eckert
-  reference-temperature estimate (Eqs. 2.39-2.43) with the Prandtl number the CFD gas has
-  (OpenFOAM's Sutherland transport: Eucken conductivity, Pr 0.690);
+  its Richardson extrapolation (observed order from the three finest), the exact
+  compressible similarity solution (:mod:`~hypate.solvers.aero.similarity`, Sutherland
+  viscosity) and the laminar Eckert reference-temperature estimate (Eqs. 2.39-2.43), both
+  with the Prandtl number the CFD gas has (OpenFOAM's Sutherland transport: Eucken
+  conductivity, Pr 0.690) and on the level's own wall pressure;
 * :func:`leading_edge` -- Euler, the same deformed panel behind rigid plates of different
   lengths ``L_le``: the premise of an inviscid ROM serving any ``a / L_le`` (the panel
   pressure does not depend on ``L_le``);
@@ -64,6 +66,7 @@ from hypate.solvers.aero.shock_expansion import (
     eckert_heat_flux_edge,
     oblique_shock,
 )
+from hypate.solvers.aero.similarity import similarity_heat_flux
 from hypate.solvers.config import load_case
 from hypate.solvers.coupling.run import simulate
 from hypate.solvers.flow import FlowCondition
@@ -190,8 +193,10 @@ def flat_plate(wall_temperature: float, grids: tuple[tuple[int, float], ...] = F
                altitude: float = 25000.0, cells_per_metre: int = 40,
                folder: Path | None = None) -> dict[str, Any]:
     """Laminar flat plate (plate + panel, each 1 m) at M 6: the panel-mean heat flux into the
-    wall on each grid, the Richardson value of the three finest, and the Eckert estimate (Pr
-    of the CFD gas) on each grid's own wall pressure.
+    wall on each grid, the Richardson value of the three finest, the exact similarity
+    solution on each grid's mean wall pressure (zero pressure gradient: the wall pressure
+    varies by < 1 % along the panel) and the Eckert estimate on each grid's own wall
+    pressure (both with the Pr of the CFD gas).
 
     The grids run coarse to fine, each finer one started from the coarser one's last state
     (``iterations``: of the coarsest, of each finer one); the levels' cases stay in
@@ -221,12 +226,15 @@ def flat_plate(wall_temperature: float, grids: tuple[tuple[int, float], ...] = F
             level = {"cells_normal": cells, "wall_cell": wall_cell, "iterations": n,
                      "seconds": r.cpu_seconds, **_settled_mean(case, n),
                      "eckert_mean_heat_flux": float(np.mean(eckert_heat_flux(
-                         gas, p, wall_temperature, x, "laminar")))}
+                         gas, p, wall_temperature, x, "laminar"))),
+                     "similarity_mean_heat_flux": float(np.mean(similarity_heat_flux(
+                         gas, float(np.mean(p)), wall_temperature, x)))}
             levels.append(level)
             previous = case
     out: dict[str, Any] = {"wall_temperature": wall_temperature, "levels": levels,
                            "ratio": ratio,
-                           "eckert_mean_heat_flux": levels[-1]["eckert_mean_heat_flux"]}
+                           "eckert_mean_heat_flux": levels[-1]["eckert_mean_heat_flux"],
+                           "similarity_mean_heat_flux": levels[-1]["similarity_mean_heat_flux"]}
     if len(levels) >= 3:
         q = [lv["mean_heat_flux"] for lv in levels[-3:]]
         order, value = richardson(q[0], q[1], q[2], ratio)

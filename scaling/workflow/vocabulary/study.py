@@ -1,5 +1,10 @@
 """Study files (TOML): a scaling problem plus optimizer settings, validated.
 
+Size: 683 lines, a third of them the key reference below. The rest is the schema's
+sections, their cross-key checks and :func:`parse_study`, which builds the scaling spec from
+the validated ``StudyFile``: one schema, one module. What derives from a parsed study (the
+sweep's points, the study of one point, its plain data) lives in :mod:`.derived`.
+
 Public keys (documented in the README, used by the shipped ``studies/optimization/*.toml``)::
 
     [study]        name, description, kind ("quasi_steady" | "aeroelastic"), objectives,
@@ -66,10 +71,6 @@ Public keys (documented in the README, used by the shipped ``studies/optimizatio
 Every error is an :class:`~solvers.errors.InputError` naming its key; nothing runs on a bad
 file.
 
-Size: 682 lines, a third of them this key reference. The schema sections, their
-cross-key checks, building the scaling spec and the sweep points share the validated
-``StudyFile``; the sweep part (``SweepPoint``, ``sweep_points``, ``study_at``) is the piece
-that could move to its own module next.
 """
 from __future__ import annotations
 
