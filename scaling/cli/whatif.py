@@ -16,6 +16,7 @@ from hypate.scaling.cli.progress import StepProgress
 from hypate.scaling.report.figures import plot_sweep
 from hypate.scaling.workflow.analyses.whatif import (
     MISMATCH,
+    at_sweep_point,
     evaluate_whatif,
     load_base,
     scatter_whatif,
@@ -43,6 +44,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "whatif_NAME.png and whatif_NAME.csv to --out")
     p.add_argument("--base", metavar="RUN_DIR", help="unset variables take the design point "
                    "of this run directory (or design_point.json) instead of their midpoints")
+    p.add_argument("--point", metavar="LABEL", help="a point of the study's [sweep] "
+                   "(e.g. M7_H20km, xi_3): evaluate at its scale and flight condition "
+                   "(default: the point whose run directory --base names, else the study's "
+                   "own)")
     p.add_argument("--out", help="output directory of --sweep (default: runs/whatif-STUDY)")
     p.add_argument("--scatter", action="store_true", help="propagate the study's "
                    "[uncertainty] at the design (polynomial chaos on the simulator): "
@@ -206,7 +211,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--samples", "only used with --scatter")
     if args.scatter and sweep is not None:
         raise InputError("--scatter", "cannot be combined with --sweep")
-    study = load_study(resolve(args.study, "study"))
+    study, _ = at_sweep_point(load_study(resolve(args.study, "study")), args.point, args.base)
     base = load_base(args.base) if args.base else None
     if args.out and not sweep:
         raise InputError("--out", "only used with --sweep")

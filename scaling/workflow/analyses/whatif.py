@@ -19,6 +19,10 @@ Rules (documented in ``--help`` and the README):
   design point instead: "the optimized model, but with only 6 MPa".
 * A value outside its bounds (or outside the tunnel envelope / manufacturing limits) is
   evaluated anyway -- that is the point of a what-if -- and flagged in the output.
+* A study with a ``[sweep]`` (scales, flight conditions) is evaluated at one of its points:
+  ``--point LABEL`` (``M7_H20km``, ``xi_3``: the sub-directory names of its run), or the
+  point whose run directory ``--base`` names (``--base runs/envelope/M7_H20km``), else at the
+  study's own scale and condition (:func:`at_sweep_point`).
 * ``--sweep NAME=LOW:HIGH:N`` evaluates N designs with ``NAME`` linearly spaced from LOW to
   HIGH (other values as above) and writes ``whatif_<NAME>.png`` and ``whatif_<NAME>.csv`` to
   ``--out`` (default: the current directory).
@@ -56,9 +60,10 @@ from hypate.scaling.workflow.campaigns.rundir import DESIGN_POINT_JSON
 from hypate.scaling.workflow.campaigns.verdict import verdict_fields
 from hypate.scaling.workflow.vocabulary.admissibility import admissible
 from hypate.scaling.workflow.vocabulary.configuration import with_choice
+from hypate.scaling.workflow.vocabulary.derived import study_at, sweep_points
 from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
 from hypate.scaling.workflow.vocabulary.spec import MATERIAL
-from hypate.scaling.workflow.vocabulary.study import constant_material
+from hypate.scaling.workflow.vocabulary.study import Study, constant_material
 from hypate.scaling.workflow.vocabulary.uncertainty import propagate_or_failure
 from hypate.scaling.workflow.vocabulary.variables import CATEGORICAL, DESIGN_VARIABLES, HARD_LIMITS
 from hypate.solvers.config import resolve_material
@@ -409,6 +414,28 @@ def sweep_whatif(study: Any, values: Mapping[str, float | str], name: str, low: 
             "sources": w.sources({name: low})}
 
 
+def at_sweep_point(study: Study, label: str | None = None,
+                   base: str | Path | None = None) -> tuple[Study, str | None]:
+    """The single study of one point of ``study``'s ``[sweep]`` and its label: the point
+    ``label`` names, else the one whose run directory ``base`` is (``RUN/<label>`` or its
+    ``design_point.json``), else ``study`` itself (label None). InputError on ``--point``
+    for an unknown label or a study without a sweep."""
+    points = {p.label: p for p in sweep_points(study)} if study.sweep is not None else {}
+    if label is not None:
+        if not points:
+            raise InputError("--point", f"study {study.name} has no [sweep]")
+        if label not in points:
+            raise InputError("--point", f"{label!r} is not a point of the sweep; one of "
+                             f"{', '.join(points)}")
+    elif base is not None:
+        folder = Path(base)
+        folder = folder.parent if folder.name == DESIGN_POINT_JSON else folder
+        label = folder.name if folder.name in points else None
+    if label is None:
+        return study, None
+    return study_at(study, points[label], first=False), label
+
+
 def load_base(path: str | Path) -> dict[str, float]:
     """The ``design`` of a run directory's ``design_point.json`` (InputError on ``--base``)."""
     path = Path(path)
@@ -423,4 +450,5 @@ def load_base(path: str | Path) -> dict[str, float]:
     return {str(k): float(v) for k, v in design.items()}
 
 
-__all__ = ["WhatIf", "evaluate_whatif", "load_base", "scatter_whatif", "sweep_whatif"]
+__all__ = ["WhatIf", "at_sweep_point", "evaluate_whatif", "load_base", "scatter_whatif",
+           "sweep_whatif"]

@@ -107,6 +107,49 @@ def test_whatif_base_from_run(study: Path, tmp_path: Path, capsys) -> None:
     assert res["sources"]["M"] == "design point" and res["sources"]["p0"] == "set"
 
 
+def test_whatif_of_a_sweep_evaluates_at_the_point_the_base_run_directory_names(
+        tmp_path: Path, capsys) -> None:
+    """A [sweep] study's what-if at a point (``--point`` or the point run directory of
+    ``--base``) equals the same design in a single study written for that flight condition
+    ([prototype] mach/altitude), bit for bit; at the study's own condition it differs."""
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text(tiny_study_text(name="s", tail="\n[sweep]\n"
+                                     "conditions = [[6.0, 25000.0], [5.5, 22000.0]]\n"))
+    design = evaluate_whatif(load_study(sweep), {})["design"]  # the midpoints: it runs
+    point = tmp_path / "run" / "M5.5_H22km"
+    point.mkdir(parents=True)
+    (point / "design_point.json").write_text(json.dumps({"design": design}))
+    assert main(["whatif", str(sweep), "--base", str(point), "--json"]) == 0
+    at_base = _json(capsys)
+    assert at_base["study"] == "s [M5.5_H22km]" and at_base["status"] == "ok"
+    single = tmp_path / "single.toml"
+    single.write_text(tiny_study_text(name="s").replace(
+        "[prototype]\n", "[prototype]\nmach = 5.5\naltitude = 22000.0\n"))
+    assert main(["whatif", str(single), "--base", str(point), "--json"]) == 0
+    assert _json(capsys)["objectives"] == at_base["objectives"]
+    assert main(["whatif", str(sweep), "--point", "M5.5_H22km", "--base",
+                 str(point / "design_point.json"), "--json"]) == 0
+    assert _json(capsys)["objectives"] == at_base["objectives"]
+    assert main(["whatif", str(sweep), "--point", "M6_H25km", "--base", str(point),
+                 "--json"]) == 0
+    other = _json(capsys)
+    assert other["study"] == "s [M6_H25km]"
+    assert other["objectives"]["J_s"] != at_base["objectives"]["J_s"]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--point", "M9_H1km"], "not a point of the sweep; one of M6_H25km"),
+    (["--point", "xi_2", "--no-sweep"], "has no [sweep]"),
+])
+def test_whatif_point_errors_name_the_option(tmp_path: Path, capsys, argv, message) -> None:
+    path = tmp_path / "s.toml"
+    tail = "" if "--no-sweep" in argv else "\n[sweep]\nconditions = [[6.0, 25000.0]]\n"
+    path.write_text(tiny_study_text(name="s", tail=tail))
+    assert main(["whatif", str(path), *[a for a in argv if a != "--no-sweep"]]) == 2
+    err = capsys.readouterr().err
+    assert "--point" in err and message in err, err
+
+
 def test_whatif_external_heat_flux_reaches_the_simulation(study: Path) -> None:
     # q_ext (Eq. 6.1d) was only in the similarity table (Bi_ext), the simulated J_u and
     # J_T bit-identical; now it heats the model's upper surface. q_ext = 0 is the default
