@@ -16,7 +16,9 @@ tolerances and accepted findings in :mod:`.reproduction_plan`):
   (Table 9.11, the envelope sweep) per seed in the full run only. The full run also evaluates each published
   design point of Tables 9.8-9.10 in hypate and checks that the run's own design point beats
   it (:func:`~.ch9_tables.published_rows`), the premise of the accepted finding on the
-  design-variable rows and Table 9.11 (:data:`~.ch9_tables.FINDING_SEC9_2_MODEL`).
+  design-variable rows and Table 9.11 (:data:`~.ch9_tables.FINDING_SEC9_2_MODEL`), and puts
+  Table 9.8's xi = 4 design and the first seed's envelope designs through the CFD fluid ROM
+  too (``sec9_2_2_fluids``, ``sec9_2_4_fluids``: the fluid model's share, measured).
 
 ``quick`` runs the Ch. 9 studies as coarse variants (:data:`~.ch9_runs.COARSE_9_1`,
 :data:`~.ch9_runs.COARSE_9_2`: 4 x 4 meshes, fewer steps, 36-50 evaluations) with their own stated
@@ -202,8 +204,8 @@ def schedule(items: Sequence[Item], ctx: Context) -> list[tuple[str, Any]]:
     pole (the full run's envelope sweep, about 70 min) while the others clear the scripts
     and fill in behind it, so no long job starts last.
     """
-    runs = [(name, seed) for seed in range(ctx.seeds) for item in items
-            for name in item.studies(ctx.quick)]
+    runs = list(dict.fromkeys((name, seed) for seed in range(ctx.seeds) for item in items
+                              for name in item.studies(ctx.quick)))  # once per study
     cost = {name: budget(Optimization(name, ctx.quick)) for name, _ in runs}
     runs.sort(key=lambda r: -cost[r[0]])  # stable: seed by seed, page order
     builds = [("build", item.key) for item in items if not item.seeded]

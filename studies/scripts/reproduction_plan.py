@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
 from hypate.scaling.workflow.campaigns.rundir import SWEEP_CSV
-from hypate.scaling.workflow.analyses.whatif import evaluate_whatif
+from hypate.scaling.workflow.analyses.whatif import at_sweep_point, evaluate_whatif
 from hypate.studies.scripts import (
     ch7_benchmark,
     ch7_flutter,
@@ -357,6 +357,59 @@ def _sec9_2_4(ctx: Context) -> pd.DataFrame:
     return side_by_side_seeds(rows_by_seed, rtol=ch9_tables.RTOL)
 
 
+#: The CFD-ROM variant of the envelope sweep (issue 44): its points evaluate the pt-bl
+#: sweep's designs on the CFD ROM (:func:`_sec9_2_4_fluids`).
+ENVELOPE_CFD = "sec9_2_4_envelope_cfd"
+
+
+def envelope_fluid_rows(path: Path, progress: Progress | None = None) -> list[tuple]:
+    """Rows of :func:`_sec9_2_4_fluids` from a ``pt-bl`` + Eckert envelope sweep directory
+    (``sweep.csv`` and each point's ``design_point.json``): each finished point's design
+    evaluated on the CFD ROM at that point's flight condition, then the mean and the
+    largest difference from the sweep's own J_s (points)."""
+    done = pd.read_csv(path / SWEEP_CSV).dropna(subset=["J_s"])
+    cfd = Optimization(ENVELOPE_CFD).study()
+    rows: list[tuple] = []
+    diffs: list[float] = []
+    for i, (_, r) in enumerate(done.iterrows()):
+        if progress is not None:
+            progress("Sec. 9.2.4: envelope designs on the CFD ROM", i, len(done))
+        label, mach, h_km = str(r["label"]), float(r["mach"]), float(r["altitude"]) / 1000.0
+        res = evaluate_whatif(at_sweep_point(cfd, label)[0],
+                              design_point(path / label)["design"])
+        J_s = (res["objectives"] or {}).get("J_s")
+        own = 100.0 * float(r["J_s"])
+        rows.append((f"Table 9.11 M = {mach:g}, H = {h_km:g} km: the pt-bl design on the CFD "
+                     "ROM, J_s (%)", None, None if J_s is None else 100.0 * J_s,
+                     f"the pt-bl + Eckert sweep's J_s there: {own:.2f} %" if J_s is not None
+                     else res["message"]))
+        if J_s is not None:
+            diffs.append(100.0 * J_s - own)
+    if diffs:
+        what = "Table 9.11 envelope designs: J_s, CFD ROM minus pt-bl + Eckert"
+        rows.append((f"{what}, mean over the conditions (points)", None,
+                     float(np.mean(diffs)), f"{len(diffs)} of {len(done)} designs ran on both"))
+        rows.append((f"{what}, largest magnitude (points)", None,
+                     diffs[int(np.argmax(np.abs(diffs)))],
+                     "the fluid model's share of the envelope's errors"))
+    return rows
+
+
+def _sec9_2_4_fluids(ctx: Context) -> pd.DataFrame:
+    """Table 9.11's envelope with both fluid models: the first seed's ``pt-bl`` + Eckert
+    sweep's design of each flight condition evaluated on the CFD ROM at that condition
+    (:func:`envelope_fluid_rows`: 25 full-resolution what-ifs, about 20 minutes; full run
+    only). What the fluid model alone changes in the envelope's errors, without a second
+    25-point sweep on the ROM."""
+    if ctx.quick:
+        return side_by_side_seeds([[(
+            "Table 9.11 envelope designs on the CFD ROM: J_s, CFD ROM minus pt-bl + Eckert "
+            "(points)", NotCompared(None, "not run with --quick (25 optimizations, hours)"),
+            None)]], rtol=ch9_tables.RTOL)
+    path = ctx.run_dirs("Sec. 9.2.4", names_9_2_4(ctx.quick))[0]["sec9_2_4_envelope"]
+    return side_by_side_seeds([envelope_fluid_rows(path, ctx.progress)], rtol=ch9_tables.RTOL)
+
+
 def plan() -> list[Item]:
     """Every reproduction, in page order."""
     flutter_full = ch7_flutter.Config(time_domain=True)
@@ -385,4 +438,9 @@ def plan() -> list[Item]:
              "Case 1", _sec9_2_3, seeded=True, studies=names_9_2_3),
         Item("sec9_2_4", "Ch. 9", "Sec. 9.2.4 / Table 9.11: errors over the flight envelope",
              _sec9_2_4, seeded=True, studies=names_9_2_4),
+        # seeded: built in the main process once the pooled envelope sweep has finished
+        # (it reads the first seed's)
+        Item("sec9_2_4_fluids", "Ch. 9", "Sec. 9.2.4: the envelope's designs with both "
+             "fluid models (pt-bl + Eckert, CFD ROM)", _sec9_2_4_fluids, seeded=True,
+             studies=names_9_2_4),
     ]

@@ -115,6 +115,40 @@ def test_fluid_models_side_by_side_at_table_9_8_xi4(tmp_path: Path) -> None:
         assert abs(diff) < 1.5
 
 
+def test_envelope_fluid_models_item_is_not_run_quick(tmp_path: Path) -> None:
+    ctx = reproduction_plan.Context(quick=True, seeds=1, out=tmp_path)
+    df = reproduction_plan._sec9_2_4_fluids(ctx)
+    assert len(df) == 1 and df["hypate"].isna().all() and df["matches"].isna().all()
+    assert not any(tmp_path.iterdir())  # nothing ran
+
+
+@pytest.mark.slow
+def test_envelope_design_on_the_cfd_rom_at_its_flight_condition(tmp_path: Path) -> None:
+    """One point of a (fabricated) pt-bl envelope sweep, the M 7 / 20 km corner, with a
+    design that runs: the item evaluates it on the CFD ROM at that condition (the same as
+    ``hypate whatif sec9_2_4_envelope_cfd --base RUN/M7_H20km``) and reports the
+    difference from the sweep's J_s (about a minute)."""
+    from hypate.scaling.workflow.analyses.whatif import at_sweep_point
+
+    cfd = reproduction_plan.Optimization(reproduction_plan.ENVELOPE_CFD).study()
+    ptbl = reproduction_plan.Optimization("sec9_2_4_envelope").study()
+    design = reproduction_plan.evaluate_whatif(cfd, {})["design"]  # the midpoints
+    J = {name: reproduction_plan.evaluate_whatif(at_sweep_point(s, "M7_H20km")[0],
+                                                 design)["objectives"]["J_s"]
+         for name, s in (("cfd", cfd), ("ptbl", ptbl))}
+    run = tmp_path / "sec9_2_4_envelope"
+    (run / "M7_H20km").mkdir(parents=True)
+    (run / "M7_H20km" / "design_point.json").write_text(json.dumps({"design": design}))
+    pd.DataFrame([{"label": "M7_H20km", "mach": 7.0, "altitude": 20000.0,
+                   "J_s": J["ptbl"]}]).to_csv(run / "sweep.csv", index=False)
+    rows = {r[0]: r[2] for r in reproduction_plan.envelope_fluid_rows(run)}
+    assert rows["Table 9.11 M = 7, H = 20 km: the pt-bl design on the CFD ROM, J_s (%)"] == \
+        pytest.approx(100.0 * J["cfd"], rel=1e-12)
+    mean = ("Table 9.11 envelope designs: J_s, CFD ROM minus pt-bl + Eckert, mean over the "
+            "conditions (points)")
+    assert rows[mean] == pytest.approx(100.0 * (J["cfd"] - J["ptbl"]), rel=1e-9)
+
+
 @pytest.mark.parametrize("seeds", [0, reproduce.MAX_SEEDS + 1])
 def test_seeds_out_of_range_are_refused_before_anything_runs(seeds: int, tmp_path) -> None:
     with pytest.raises(ValueError, match=r"seeds must be an integer in \[1, 20\]"):
