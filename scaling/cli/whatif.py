@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -17,6 +18,7 @@ from hypate.scaling.report.figures import plot_sweep
 from hypate.scaling.workflow.analyses.whatif import (
     MISMATCH,
     at_sweep_point,
+    base_point,
     evaluate_whatif,
     load_base,
     scatter_whatif,
@@ -204,6 +206,27 @@ def _print_scatter(res: dict[str, Any]) -> None:
         print(f"  failed: {msg}")
 
 
+def _print_point(point: str | None) -> None:
+    if point is not None:
+        print(f"at sweep point {point}")
+
+
+def _at_point(study: Any, point: str | None, base: str | None) -> tuple[Any, str | None]:
+    """The study at the sweep point ``--point`` names, else at the one the ``--base`` run
+    directory is; a sweep study evaluated at its own condition, or a base design evaluated
+    at another point, says so (stderr)."""
+    from_base = base_point(study, base) if base else None
+    label = point or from_base
+    if study.sweep is not None and label is None:
+        print(f"note: {study.name} has a [sweep]; evaluated at its own scale and flight "
+              "condition (--point LABEL for one of its points)", file=sys.stderr)
+        return study, None
+    if point is not None and from_base is not None and from_base != point:
+        print(f"note: the design of point {from_base} (--base) evaluated at point {point}",
+              file=sys.stderr)
+    return (study, None) if label is None else (at_sweep_point(study, label), label)
+
+
 def run(args: argparse.Namespace) -> int:
     values = parse_set(args.set_values)
     sweep = parse_sweep(args.sweep) if args.sweep else None
@@ -211,12 +234,15 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--samples", "only used with --scatter")
     if args.scatter and sweep is not None:
         raise InputError("--scatter", "cannot be combined with --sweep")
-    study, _ = at_sweep_point(load_study(resolve(args.study, "study")), args.point, args.base)
+    study = load_study(resolve(args.study, "study"))
+    stem = study.name
+    study, point = _at_point(study, args.point, args.base)
     base = load_base(args.base) if args.base else None
     if args.out and not sweep:
         raise InputError("--out", "only used with --sweep")
     # like every command, under runs/ unless --out says otherwise
-    default = str(Path("runs") / f"whatif-{study.name}") if sweep else "."
+    default = str(Path("runs") / f"whatif-{stem}{'' if point is None else '-' + point}"
+                  ) if sweep else "."
     out = output_directory(args.out or default, "--out")
     with warnings.catch_warnings():
         # numerical noise of a diverging what-if design; property tables left behind are
@@ -230,21 +256,24 @@ def run(args: argparse.Namespace) -> int:
                     progress=lambda d, t: bar("scatter", d, t))
             finally:
                 bar.close()
+            result["point"] = point
             if args.json:
                 print(dumps(result, indent=2))
             else:
+                _print_point(point)
                 _print_scatter(result)
             return 0
         if sweep is not None:
             name, lo, hi, n = sweep
-            result = {"study": study.name,
+            result = {"study": study.name, "point": point,
                       "sweep": sweep_whatif(study, values, name, lo, hi, n, out, base=base,
                                             plot=plot_sweep)}
         else:
-            result = evaluate_whatif(study, values, base=base)
+            result = {**evaluate_whatif(study, values, base=base), "point": point}
     if args.json:
         print(dumps(result, indent=2))
     elif sweep is not None:
+        _print_point(point)
         _print_sweep(result["sweep"])
     else:
         _print_result(result)

@@ -64,6 +64,8 @@ def laminar_similarity(mach_e: float, T_e: float, T_w: float, gamma: float, pran
     for name, value in (("mach_e", mach_e), ("T_e", T_e), ("T_w", T_w), ("prandtl", prandtl)):
         if not (np.isfinite(value) and value > 0.0):
             raise InputError(name, f"must be a positive number; got {value:g}")
+    if not gamma > 1.0:
+        raise InputError("gamma", f"must be > 1 (a perfect gas); got {gamma:g}")
     g_w = T_w / T_e
     e = (gamma - 1.0) * mach_e**2
     mu_e = float(viscosity(np.asarray(T_e, float)))
@@ -119,5 +121,7 @@ def similarity_heat_flux(flow: FlowCondition, p_e: float, T_w: float, x_le: Arra
     rho_e = p_e / (flow.gas_constant * T_e)
     mu_e = float(viscosity(np.asarray(T_e, float)))
     x = np.asarray(x_le, float)
+    if not np.all(x > 0.0):
+        raise InputError("x_le", "must be > 0 (m from the leading edge)")
     return (flow.cp * T_e / flow.prandtl) * s.wall_chapman_rubesin * s.heat * np.sqrt(
         rho_e * mu_e * u_e / (2.0 * x))

@@ -205,10 +205,11 @@ def schedule(items: Sequence[Item], ctx: Context) -> list[tuple[str, Any]]:
     and fill in behind it, so no long job starts last.
     """
     runs = list(dict.fromkeys((name, seed) for seed in range(ctx.seeds) for item in items
+                              if seed == 0 or not item.first_seed
                               for name in item.studies(ctx.quick)))  # once per study
     cost = {name: budget(Optimization(name, ctx.quick)) for name, _ in runs}
     runs.sort(key=lambda r: -cost[r[0]])  # stable: seed by seed, page order
-    builds = [("build", item.key) for item in items if not item.seeded]
+    builds = [("build", item.key) for item in items if not item.in_main]
     jobs = [("run", r) for r in runs]
     return jobs[:1] + builds + jobs[1:]
 

@@ -21,8 +21,9 @@ Rules (documented in ``--help`` and the README):
   evaluated anyway -- that is the point of a what-if -- and flagged in the output.
 * A study with a ``[sweep]`` (scales, flight conditions) is evaluated at one of its points:
   ``--point LABEL`` (``M7_H20km``, ``xi_3``: the sub-directory names of its run), or the
-  point whose run directory ``--base`` names (``--base runs/envelope/M7_H20km``), else at the
-  study's own scale and condition (:func:`at_sweep_point`).
+  point whose run directory ``--base`` is (``--base runs/envelope/M7_H20km``:
+  :func:`base_point`), else at the study's own scale and condition, with a note
+  (:func:`at_sweep_point`). The result's ``point`` field names the point (None).
 * ``--sweep NAME=LOW:HIGH:N`` evaluates N designs with ``NAME`` linearly spaced from LOW to
   HIGH (other values as above) and writes ``whatif_<NAME>.png`` and ``whatif_<NAME>.csv`` to
   ``--out`` (default: the current directory).
@@ -56,7 +57,7 @@ from typing import Any
 
 import numpy as np
 from hypate.scaling.engine.propagation import expansion_terms
-from hypate.scaling.workflow.campaigns.rundir import DESIGN_POINT_JSON
+from hypate.scaling.workflow.campaigns.rundir import DESIGN_POINT_JSON, SWEEP_JSON
 from hypate.scaling.workflow.campaigns.verdict import verdict_fields
 from hypate.scaling.workflow.vocabulary.admissibility import admissible
 from hypate.scaling.workflow.vocabulary.configuration import with_choice
@@ -414,26 +415,39 @@ def sweep_whatif(study: Any, values: Mapping[str, float | str], name: str, low: 
             "sources": w.sources({name: low})}
 
 
-def at_sweep_point(study: Study, label: str | None = None,
-                   base: str | Path | None = None) -> tuple[Study, str | None]:
-    """The single study of one point of ``study``'s ``[sweep]`` and its label: the point
-    ``label`` names, else the one whose run directory ``base`` is (``RUN/<label>`` or its
-    ``design_point.json``), else ``study`` itself (label None). InputError on ``--point``
-    for an unknown label or a study without a sweep."""
-    points = {p.label: p for p in sweep_points(study)} if study.sweep is not None else {}
-    if label is not None:
-        if not points:
-            raise InputError("--point", f"study {study.name} has no [sweep]")
-        if label not in points:
-            raise InputError("--point", f"{label!r} is not a point of the sweep; one of "
-                             f"{', '.join(points)}")
-    elif base is not None:
-        folder = Path(base)
-        folder = folder.parent if folder.name == DESIGN_POINT_JSON else folder
-        label = folder.name if folder.name in points else None
-    if label is None:
-        return study, None
-    return study_at(study, points[label], first=False), label
+def base_point(study: Study, base: str | Path) -> str | None:
+    """The label of the ``[sweep]`` point whose run directory ``base`` is (or whose
+    ``design_point.json``): the point its design point records (``"study": "NAME
+    [LABEL]"``), else the directory's name inside a sweep run (beside ``sweep.json``); None
+    when it is no point of ``study``'s sweep."""
+    if study.sweep is None:
+        return None
+    labels = {p.label for p in sweep_points(study)}
+    folder = Path(base).resolve()
+    folder = folder.parent if folder.is_file() else folder
+    try:
+        recorded = json.loads((folder / DESIGN_POINT_JSON).read_text()).get("study", "")
+    except (OSError, ValueError, AttributeError):
+        recorded = ""
+    found = re.search(r"\[([^\[\]]+)\]\s*$", str(recorded))
+    if found and found.group(1) in labels:
+        return found.group(1)
+    if folder.name in labels and (folder.parent / SWEEP_JSON).is_file():
+        return folder.name
+    return None
+
+
+def at_sweep_point(study: Study, label: str) -> Study:
+    """The single study of the point ``label`` of ``study``'s ``[sweep]`` (its scale and
+    flight condition); InputError on ``--point`` for an unknown label or a study without a
+    sweep."""
+    if study.sweep is None:
+        raise InputError("--point", f"study {study.name} has no [sweep]")
+    points = {p.label: p for p in sweep_points(study)}
+    if label not in points:
+        raise InputError("--point", f"{label!r} is not a point of the sweep; one of "
+                         f"{', '.join(points)}")
+    return study_at(study, points[label], first=False)
 
 
 def load_base(path: str | Path) -> dict[str, float]:
@@ -450,5 +464,5 @@ def load_base(path: str | Path) -> dict[str, float]:
     return {str(k): float(v) for k, v in design.items()}
 
 
-__all__ = ["WhatIf", "at_sweep_point", "evaluate_whatif", "load_base", "scatter_whatif",
-           "sweep_whatif"]
+__all__ = ["WhatIf", "at_sweep_point", "base_point", "evaluate_whatif", "load_base",
+           "scatter_whatif", "sweep_whatif"]

@@ -8,8 +8,8 @@ import pandas as pd
 import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.main import main
-from hypate.scaling.workflow.vocabulary.study import load_study
 from hypate.scaling.workflow.analyses.whatif import evaluate_whatif
+from hypate.scaling.workflow.vocabulary.study import load_study
 
 TINY = tiny_study_text(sections='\n[constraints]\nequality = ["T_inf"]\n')
 
@@ -108,33 +108,60 @@ def test_whatif_base_from_run(study: Path, tmp_path: Path, capsys) -> None:
 
 
 def test_whatif_of_a_sweep_evaluates_at_the_point_the_base_run_directory_names(
-        tmp_path: Path, capsys) -> None:
-    """A [sweep] study's what-if at a point (``--point`` or the point run directory of
-    ``--base``) equals the same design in a single study written for that flight condition
-    ([prototype] mach/altitude), bit for bit; at the study's own condition it differs."""
+        tmp_path: Path, capsys, monkeypatch) -> None:
+    """A [sweep] study's what-if at a point (``--point``, or the point whose run directory
+    ``--base`` is: recorded in its design_point.json, even when copied elsewhere) equals the
+    same design in a single study written for that flight condition ([prototype]
+    mach/altitude), bit for bit; at another point it differs and says so."""
     sweep = tmp_path / "sweep.toml"
     sweep.write_text(tiny_study_text(name="s", tail="\n[sweep]\n"
                                      "conditions = [[6.0, 25000.0], [5.5, 22000.0]]\n"))
     design = evaluate_whatif(load_study(sweep), {})["design"]  # the midpoints: it runs
-    point = tmp_path / "run" / "M5.5_H22km"
-    point.mkdir(parents=True)
-    (point / "design_point.json").write_text(json.dumps({"design": design}))
+    point = tmp_path / "copied"  # a point directory under another name
+    point.mkdir()
+    (point / "design_point.json").write_text(json.dumps({"study": "s [M5.5_H22km]",
+                                                         "design": design}))
     assert main(["whatif", str(sweep), "--base", str(point), "--json"]) == 0
     at_base = _json(capsys)
     assert at_base["study"] == "s [M5.5_H22km]" and at_base["status"] == "ok"
+    assert at_base["point"] == "M5.5_H22km"
     single = tmp_path / "single.toml"
     single.write_text(tiny_study_text(name="s").replace(
         "[prototype]\n", "[prototype]\nmach = 5.5\naltitude = 22000.0\n"))
     assert main(["whatif", str(single), "--base", str(point), "--json"]) == 0
     assert _json(capsys)["objectives"] == at_base["objectives"]
-    assert main(["whatif", str(sweep), "--point", "M5.5_H22km", "--base",
-                 str(point / "design_point.json"), "--json"]) == 0
-    assert _json(capsys)["objectives"] == at_base["objectives"]
+    monkeypatch.chdir(point)  # --base . and the design_point.json file name the point too
+    for base in (".", "design_point.json"):
+        assert main(["whatif", str(sweep), "--base", base, "--json"]) == 0
+        assert _json(capsys)["objectives"] == at_base["objectives"]
     assert main(["whatif", str(sweep), "--point", "M6_H25km", "--base", str(point),
                  "--json"]) == 0
-    other = _json(capsys)
-    assert other["study"] == "s [M6_H25km]"
+    captured = capsys.readouterr()
+    other = json.loads(captured.out)
+    assert other["study"] == "s [M6_H25km]" and other["status"] == "ok"
     assert other["objectives"]["J_s"] != at_base["objectives"]["J_s"]
+    assert "the design of point M5.5_H22km (--base) evaluated at point M6_H25km" in \
+        captured.err
+
+
+def test_whatif_of_a_sweep_without_a_point_says_so(tmp_path: Path, capsys) -> None:
+    """A base directory that merely has a label's name (not inside a sweep run, nothing
+    recorded) picks no point: the study's own condition, with a note."""
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text(tiny_study_text(name="s", tail="\n[sweep]\n"
+                                     "conditions = [[5.5, 22000.0]]\n"))
+    lookalike = tmp_path / "M5.5_H22km"
+    lookalike.mkdir()
+    (lookalike / "design_point.json").write_text(json.dumps(
+        {"study": "other", "design": {"h": 0.004}}))
+    assert main(["whatif", str(sweep), "--base", str(lookalike), "--json"]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["point"] is None
+    assert json.loads(captured.out)["study"] == "s"
+    assert "has a [sweep]; evaluated at its own scale and flight condition" in captured.err
+    (tmp_path / "sweep.json").write_text("{}")  # inside a sweep run: the directory's name
+    assert main(["whatif", str(sweep), "--base", str(lookalike), "--json"]) == 0
+    assert _json(capsys)["point"] == "M5.5_H22km"
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -115,6 +115,34 @@ def test_fluid_models_side_by_side_at_table_9_8_xi4(tmp_path: Path) -> None:
         assert abs(diff) < 1.5
 
 
+def test_an_item_of_the_first_seed_runs_and_carries_that_seed_once(monkeypatch) -> None:
+    """The envelope fluid item reads seed 0's sweep only: alone it schedules that one run;
+    beside the seeded Table 9.11 item the sweep of every seed runs once, and the pooled
+    run's seconds are carried by the first reader, not again by the second."""
+    from concurrent.futures import Future
+
+    items = {i.key: i for i in reproduction_plan.plan()}
+    ctx = reproduction_plan.Context(quick=False, seeds=3, out=Path("unused"))
+    fluids = items["sec9_2_4_fluids"]
+    assert fluids.in_main and not fluids.seeded
+    assert reproduce.schedule([fluids], ctx) == [("run", ("sec9_2_4_envelope", 0))]
+    both = reproduce.schedule([items["sec9_2_4"], fluids], ctx)
+    assert both == [("run", ("sec9_2_4_envelope", s)) for s in range(3)]
+    monkeypatch.setattr(reproduction_plan, "run_directory",  # the finished directory
+                        lambda opt, root, seed, progress=None: Path(root) / opt.name)
+    for seed in range(3):
+        done: Future = Future()
+        done.set_result(((f"warning {seed}",), 12.0))
+        ctx.pending[("sec9_2_4_envelope", seed)] = done
+        ctx.jobs.append(done)
+    assert len(ctx.run_dirs("Table 9.11", ["sec9_2_4_envelope"])) == 3
+    assert ctx.carried_seconds == [12.0] * 3 and len(ctx.carried) == 3
+    ctx.carried.clear()
+    ctx.carried_seconds.clear()
+    assert len(ctx.run_dirs("fluids", ["sec9_2_4_envelope"], seeds=1)) == 1
+    assert ctx.carried_seconds == [] and ctx.carried == []  # carried once, by the first
+
+
 def test_envelope_fluid_models_item_is_not_run_quick(tmp_path: Path) -> None:
     ctx = reproduction_plan.Context(quick=True, seeds=1, out=tmp_path)
     df = reproduction_plan._sec9_2_4_fluids(ctx)
@@ -276,7 +304,7 @@ def test_schedule_runs_the_long_pole_first_then_the_scripts_then_the_rest() -> N
     items = reproduction_plan.plan()
     ctx = reproduction_plan.Context(quick=False, seeds=2, out=Path("unused"))
     jobs = reproduce.schedule(items, ctx)
-    builds = [("build", i.key) for i in items if not i.seeded]
+    builds = [("build", i.key) for i in items if not i.in_main]
     runs = [what for kind, what in jobs if kind == "run"]
     # every (study, seed) of every item exactly once, every deterministic item once
     expected = {(n, s) for i in items for n in i.studies(False) for s in (0, 1)}
