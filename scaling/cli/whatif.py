@@ -26,7 +26,7 @@ from hypate.scaling.workflow.analyses.whatif import (
 )
 from hypate.scaling.workflow.campaigns.verdict import admissibility_lines, prototype_note
 from hypate.scaling.workflow.vocabulary.shipped import resolve
-from hypate.scaling.workflow.vocabulary.study import load_study
+from hypate.scaling.workflow.vocabulary.study import Study, load_study
 from hypate.scaling.workflow.vocabulary.variables import CATEGORICAL, variable_unit
 from hypate.solvers.errors import InputError
 
@@ -211,7 +211,8 @@ def _print_point(point: str | None) -> None:
         print(f"at sweep point {point}")
 
 
-def _at_point(study: Any, point: str | None, base: str | None) -> tuple[Any, str | None]:
+def _at_point(study: Study, point: str | None, base: str | None
+              ) -> tuple[Study, str | None]:
     """The study at the sweep point ``--point`` names, else at the one the ``--base`` run
     directory is; a sweep study evaluated at its own condition, or a base design evaluated
     at another point, says so (stderr)."""
