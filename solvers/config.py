@@ -170,7 +170,7 @@ class SimulationKeys(InputModel):
     """The ``[simulation]`` keys a case file and a study share: one key set, one set of
     limits, the defaults of :class:`SimulationSettings` (:data:`DEFAULTS`). A case file adds
     its scheme, duration and external loads (:class:`SimulationConfig`); a study its step
-    count, mesh and simulator (``scaling.workflow.vocabulary.study.SimulationSection``)."""
+    count, mesh and simulator (``scaling.workflow.vocabulary.study_file.SimulationSection``)."""
 
     aero: str = DEFAULTS.aero
     heating: Literal["eckert", "none"] = DEFAULTS.heating

@@ -147,12 +147,12 @@ def test_missing_file(capsys: pytest.CaptureFixture, tmp_path: Path) -> None:
 
 def _schemas() -> list[type]:
     """Every pydantic model of the input-file schemas (case, study, ROM build)."""
-    from hypate.scaling.workflow.vocabulary import study
+    from hypate.scaling.workflow.vocabulary import study_file
     from hypate.solvers import config
     from hypate.solvers.aero.rom import config as rom_config
     from pydantic import BaseModel
 
-    return [obj for module in (config, study, rom_config) for obj in vars(module).values()
+    return [obj for module in (config, study_file, rom_config) for obj in vars(module).values()
             if isinstance(obj, type) and issubclass(obj, BaseModel)
             and obj.__module__ == module.__name__]
 

@@ -42,7 +42,7 @@ def _num(value: float) -> str:
 
 def sweep_points(study: Study) -> list[SweepPoint]:
     """The points of a study's ``[sweep]`` in the order they are run
-    (:meth:`~hypate.scaling.workflow.vocabulary.study.SweepSection.grid`), with their labels. A
+    (:meth:`~hypate.scaling.workflow.vocabulary.study_file.SweepSection.grid`), with their labels. A
     study without ``[sweep]`` has no points."""
     if study.sweep is None:
         return []
