@@ -209,19 +209,42 @@ def names_9_2_4(quick: bool) -> tuple[str, ...]:
     return () if quick else ("sec9_2_4_envelope",)
 
 
+#: The CFD-ROM variants of the Sec. 9.2 studies (issue 44), full run only.
+XI4_CFD = "sec9_2_2_xi4_cfd"
+ENVELOPE_CFD = "sec9_2_4_envelope_cfd"
+
+
+def names_9_2_2_cfd(quick: bool) -> tuple[str, ...]:
+    """The Sec. 9.2.2 xi = 4 study with both fluid models (``pt-bl`` + Eckert and its
+    CFD-ROM variant), full run only."""
+    return () if quick else ("sec9_2_2_xi4", XI4_CFD)
+
+
+def names_9_2_4_cfd(quick: bool) -> tuple[str, ...]:
+    """The envelope sweep with both fluid models, full run only."""
+    return () if quick else ("sec9_2_4_envelope", ENVELOPE_CFD)
+
+
 def no_studies(quick: bool) -> tuple[str, ...]:
     """No optimization (the deterministic reproductions)."""
     return ()
 
 
+#: Cost of a simulation on a CFD fluid ROM (``aero = "rom:..."``) relative to ``pt-bl``: the
+#: Sec. 9.2.2 xi = 4 study took 2,183 s on the CFD ROM against 689 s with ``pt-bl`` (one
+#: worker each, at e90e6a0).
+ROM_COST = 3.2
+
+
 def budget(opt: Optimization) -> float:
     """Relative cost of an optimization for the schedule: evaluations x time steps (a sweep:
-    every point's)."""
+    every point's), times :data:`ROM_COST` on a fluid ROM."""
     study = opt.study()
+    rom = str(study.raw.simulation.aero).startswith("rom:")
     o, sweep = study.optimizer, study.sweep
     evaluations = o.initial_samples + study.iteration_cap + o.polish
     if sweep is not None:  # the later points' budgets (None: the study's)
         later = (o.initial_samples if sweep.initial_samples is None else sweep.initial_samples)
         later += study.iteration_cap if sweep.iterations is None else sweep.iterations
         evaluations += (len(sweep_points(study)) - 1) * later
-    return float(evaluations * study.raw.simulation.steps)
+    return float(evaluations * study.raw.simulation.steps) * (ROM_COST if rom else 1.0)

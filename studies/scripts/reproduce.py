@@ -18,7 +18,9 @@ tolerances and accepted findings in :mod:`.reproduction_plan`):
   it (:func:`~.ch9_tables.published_rows`), the premise of the accepted finding on the
   design-variable rows and Table 9.11 (:data:`~.ch9_tables.FINDING_SEC9_2_MODEL`), and puts
   Table 9.8's xi = 4 design and the first seed's envelope designs through the CFD fluid ROM
-  too (``sec9_2_2_fluids``, ``sec9_2_4_fluids``: the fluid model's share, measured).
+  too (``sec9_2_2_fluids``, ``sec9_2_4_fluids``: the fluid model's share, measured), and
+  optimizes on it: the xi = 4 study per seed and the envelope sweep for the first seed,
+  beside their ``pt-bl`` + Eckert runs (``sec9_2_2_cfd``, ``sec9_2_4_cfd``).
 
 ``quick`` runs the Ch. 9 studies as coarse variants (:data:`~.ch9_runs.COARSE_9_1`,
 :data:`~.ch9_runs.COARSE_9_2`: 4 x 4 meshes, fewer steps, 36-50 evaluations) with their own stated
@@ -201,8 +203,8 @@ def schedule(items: Sequence[Item], ctx: Context) -> list[tuple[str, Any]]:
     The costliest optimization goes first, then the deterministic scripts, then the other
     optimizations costliest first (:func:`~.ch9_runs.budget`; among equal costs seed by
     seed, in page order, the order the tables read them): one process stays on the long
-    pole (the full run's envelope sweep, about 70 min) while the others clear the scripts
-    and fill in behind it, so no long job starts last.
+    pole (the full run's envelope sweep on the CFD ROM, some 5 h) while the others clear
+    the scripts and fill in behind it, so no long job starts last.
     """
     runs = list(dict.fromkeys((name, seed) for seed in range(ctx.seeds) for item in items
                               if seed == 0 or not item.first_seed

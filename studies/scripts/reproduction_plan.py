@@ -33,8 +33,10 @@ from hypate.studies.scripts import (
     ch9_tables,
 )
 from hypate.studies.scripts.ch9_runs import (
+    ENVELOPE_CFD,
     EQ_9_2_VARIABLES,
     TUNNELS_9_2_3,
+    XI4_CFD,
     Optimization,
     best_minmax,
     design_point,
@@ -42,8 +44,10 @@ from hypate.studies.scripts.ch9_runs import (
     j_u_optimum,
     names_9_1,
     names_9_2_2,
+    names_9_2_2_cfd,
     names_9_2_3,
     names_9_2_4,
+    names_9_2_4_cfd,
     no_studies,
     published_design_errors,
     run_directory,
@@ -289,7 +293,7 @@ def _sec9_2_2(ctx: Context) -> pd.DataFrame:
 
 #: The two fluid models of the Sec. 9.2.2 xi = 4 study: pt-bl with Eckert heating (the
 #: shipped study) and the CFD ROM of OpenFOAM snapshots (its ``_cfd`` variant, issue 44).
-FLUID_STUDIES_9_2_2 = (("pt-bl + Eckert", "sec9_2_2_xi4"), ("CFD ROM", "sec9_2_2_xi4_cfd"))
+FLUID_STUDIES_9_2_2 = (("pt-bl + Eckert", "sec9_2_2_xi4"), ("CFD ROM", XI4_CFD))
 
 
 def _sec9_2_2_fluids(ctx: Context) -> pd.DataFrame:
@@ -368,11 +372,6 @@ def _sec9_2_4(ctx: Context) -> pd.DataFrame:
     return side_by_side_seeds(rows_by_seed, rtol=ch9_tables.RTOL)
 
 
-#: The CFD-ROM variant of the envelope sweep (issue 44): its points evaluate the pt-bl
-#: sweep's designs on the CFD ROM (:func:`_sec9_2_4_fluids`).
-ENVELOPE_CFD = "sec9_2_4_envelope_cfd"
-
-
 def envelope_fluid_rows(path: Path, progress: Progress | None = None) -> list[tuple]:
     """Rows of :func:`_sec9_2_4_fluids` from a ``pt-bl`` + Eckert envelope sweep directory
     (``sweep.csv`` and each point's ``design_point.json``): each finished point's design
@@ -422,6 +421,76 @@ def _sec9_2_4_fluids(ctx: Context) -> pd.DataFrame:
     return side_by_side_seeds([envelope_fluid_rows(path, ctx.progress)], rtol=ch9_tables.RTOL)
 
 
+def _on_the_cfd_rom(rows: list[tuple], prefix: str) -> list[tuple]:
+    """``rows`` of a CFD-ROM run, their quantities marked: ``prefix`` -> ``prefix, CFD ROM``."""
+    return [(r[0].replace(prefix, f"{prefix}, CFD ROM", 1), *r[1:]) for r in rows]
+
+
+def _not_run_quick(quantity: str, reference: object, why: str) -> pd.DataFrame:
+    """The one unjudged row of a CFD-ROM item under ``--quick`` (nothing runs)."""
+    return side_by_side_seeds([[(quantity, NotCompared(reference, f"not run with --quick "
+                                                      f"({why})"), None)]],
+                              rtol=ch9_tables.RTOL)
+
+
+def _sec9_2_2_cfd(ctx: Context) -> pd.DataFrame:
+    """Table 9.8's xi = 4 study optimized on the CFD ROM (``sec9_2_2_xi4_cfd``, per seed;
+    about 36 min a seed on one worker; full run only): its design point against Table 9.8,
+    and its best admissible max(J_u, J_T) and design-point errors beside the ``pt-bl`` +
+    Eckert run of the same seed and budget (the fluid model's share in the optimum)."""
+    bound = Bound("<", 10.0, "< 10 % (Sec. 9.2.2, with the dissertation's CFD ROM)")
+    best = "Table 9.8 xi4 min over admissible evaluations of max(J_u, J_T)"
+    if ctx.quick:
+        return _not_run_quick(f"{best}, CFD ROM (%)", bound,
+                              "the study on the CFD ROM, about 36 min a seed")
+    rows_by_seed = []
+    for dirs in ctx.run_dirs("Sec. 9.2.2 CFD ROM", names_9_2_2_cfd(ctx.quick)):
+        cfd, ptbl = dirs[XI4_CFD], dirs["sec9_2_2_xi4"]
+        dp, dp_ptbl = design_point(cfd), design_point(ptbl)
+        rows = _on_the_cfd_rom(ch9_tables.design_point_rows(
+            cfd, dp, "9.8", "xi4", ch9_tables.FINDING_SEC9_2_MODEL), "Table 9.8 xi4")
+        J = {k: 100.0 * best_minmax(d) for k, d in (("cfd", cfd), ("ptbl", ptbl))}
+        rows.append((f"{best}, CFD ROM (%)", bound, J["cfd"], ch9_tables.FINDING_ADMISSIBILITY))
+        rows.append((f"{best}: CFD ROM minus pt-bl + Eckert (points)", None,
+                     J["cfd"] - J["ptbl"], f"pt-bl + Eckert: {J['ptbl']:.2f} %, same seed and "
+                     "budget"))
+        for o in ("J_u", "J_T"):
+            a, b = dp.get("objectives", {}).get(o), dp_ptbl.get("objectives", {}).get(o)
+            if a is not None and b is not None:
+                rows.append((f"Table 9.8 xi4 {o} at the design point: CFD ROM minus pt-bl + "
+                             "Eckert (points)", None, 100.0 * (float(a) - float(b)),
+                             "each run's own design point"))
+        rows_by_seed.append(rows)
+    return side_by_side_seeds(rows_by_seed, rtol=ch9_tables.RTOL)
+
+
+def _sec9_2_4_cfd(ctx: Context) -> pd.DataFrame:
+    """Table 9.11's envelope swept on the CFD ROM (``sec9_2_4_envelope_cfd``, the first
+    seed; about three times the ``pt-bl`` sweep's time, some 5 h of one core; full run
+    only): its errors against Table 9.11, each condition's difference from the ``pt-bl`` +
+    Eckert sweep of the same seed, and the text's trend on the CFD errors."""
+    if ctx.quick:
+        return _not_run_quick("Table 9.11 error, CFD ROM (%)", None,
+                              "25 optimizations on the CFD ROM, hours")
+    dirs = ctx.run_dirs("Sec. 9.2.4 CFD ROM", names_9_2_4_cfd(ctx.quick), seeds=1)[0]
+    errors: dict[tuple[float, float], float] = {}
+    ptbl: dict[tuple[float, float], float] = {}
+    rows = _on_the_cfd_rom(ch9_tables.envelope_rows(
+        dirs[ENVELOPE_CFD], errors, ch9_tables.FINDING_SEC9_2_MODEL), "Table 9.11 error")
+    ch9_tables.envelope_rows(dirs["sec9_2_4_envelope"], ptbl)
+    diffs = {c: errors[c] - ptbl[c] for c in errors if c in ptbl}
+    if diffs:
+        what = "Table 9.11 error: CFD ROM sweep minus pt-bl + Eckert sweep"
+        worst = max(diffs, key=lambda c: abs(diffs[c]))
+        rows.append((f"{what}, mean over the conditions (points)", None,
+                     float(np.mean(list(diffs.values()))),
+                     f"{len(diffs)} conditions finished in both sweeps"))
+        rows.append((f"{what}, largest magnitude (points)", None, diffs[worst],
+                     f"at M = {worst[0]:g}, H = {worst[1]:g} km"))
+    rows += _on_the_cfd_rom(ch9_tables.envelope_trend_rows(errors), "Table 9.11")
+    return side_by_side_seeds([rows], rtol=ch9_tables.RTOL)
+
+
 def plan() -> list[Item]:
     """Every reproduction, in page order."""
     flutter_full = ch7_flutter.Config(time_domain=True)
@@ -446,6 +515,9 @@ def plan() -> list[Item]:
              seeded=True, studies=names_9_2_2),
         Item("sec9_2_2_fluids", "Ch. 9", "Sec. 9.2.2: Table 9.8's xi = 4 design with both "
              "fluid models (pt-bl + Eckert, CFD ROM)", _sec9_2_2_fluids),
+        Item("sec9_2_2_cfd", "Ch. 9", "Sec. 9.2.2 / Table 9.8: the xi = 4 study optimized on "
+             "the CFD ROM, beside pt-bl + Eckert", _sec9_2_2_cfd, seeded=True,
+             studies=names_9_2_2_cfd),
         Item("sec9_2_3", "Ch. 9", "Sec. 9.2.3 / Fig. 9.13: realistic tunnels, Case 2 against "
              "Case 1", _sec9_2_3, seeded=True, studies=names_9_2_3),
         Item("sec9_2_4", "Ch. 9", "Sec. 9.2.4 / Table 9.11: errors over the flight envelope",
@@ -453,4 +525,7 @@ def plan() -> list[Item]:
         Item("sec9_2_4_fluids", "Ch. 9", "Sec. 9.2.4: the first seed's envelope designs "
              "with both fluid models (pt-bl + Eckert, CFD ROM)", _sec9_2_4_fluids,
              studies=names_9_2_4, first_seed=True),
+        Item("sec9_2_4_cfd", "Ch. 9", "Sec. 9.2.4 / Table 9.11: the envelope swept on the CFD "
+             "ROM (first seed), beside pt-bl + Eckert", _sec9_2_4_cfd,
+             studies=names_9_2_4_cfd, first_seed=True),
     ]

@@ -150,6 +150,92 @@ def test_envelope_fluid_models_item_is_not_run_quick(tmp_path: Path) -> None:
     assert not any(tmp_path.iterdir())  # nothing ran
 
 
+@pytest.mark.parametrize("key", ["sec9_2_2_cfd", "sec9_2_4_cfd"])
+def test_cfd_rom_optimizations_are_not_run_quick(key: str, tmp_path: Path) -> None:
+    items = {i.key: i for i in reproduction_plan.plan()}
+    ctx = reproduction_plan.Context(quick=True, seeds=1, out=tmp_path)
+    assert items[key].studies(True) == ()
+    df = items[key].build(ctx)
+    assert len(df) == 1 and df["hypate"].isna().all() and df["matches"].isna().all()
+    assert "CFD ROM" in df["quantity"].iloc[0]
+    assert not any(tmp_path.iterdir())  # nothing ran
+
+
+def test_the_cfd_envelope_sweep_is_the_long_pole_and_runs_for_the_first_seed() -> None:
+    """The CFD-ROM sweep costs ROM_COST times the pt-bl one's budget, so the pool starts it
+    first; it and the pt-bl sweep it is compared with run for seed 0 only, the seeded
+    Table 9.11 item adds the other seeds' pt-bl sweeps."""
+    from hypate.studies.scripts.ch9_runs import ROM_COST
+
+    items = {i.key: i for i in reproduction_plan.plan()}
+    ctx = reproduction_plan.Context(quick=False, seeds=2, out=Path("unused"))
+    cfd, ptbl = reproduction_plan.ENVELOPE_CFD, "sec9_2_4_envelope"
+    assert budget(Optimization(cfd)) == pytest.approx(ROM_COST * budget(Optimization(ptbl)))
+    assert reproduce.schedule([items["sec9_2_4"], items["sec9_2_4_cfd"]], ctx) == [
+        ("run", (cfd, 0)), ("run", (ptbl, 0)), ("run", (ptbl, 1))]
+    xi4 = reproduce.schedule([items["sec9_2_2_cfd"]], ctx)
+    assert xi4 == [("run", (reproduction_plan.XI4_CFD, 0)), ("run", (reproduction_plan.XI4_CFD, 1)),
+                   ("run", ("sec9_2_2_xi4", 0)), ("run", ("sec9_2_2_xi4", 1))]
+
+
+def _finished_runs(monkeypatch, root: Path) -> None:
+    """``run_directory`` returns ``root/<study>`` (fabricated finished runs)."""
+    monkeypatch.setattr(reproduction_plan, "run_directory",
+                        lambda opt, runs, seed, progress=None: root / opt.name)
+
+
+def test_xi4_study_on_the_cfd_rom_beside_pt_bl(monkeypatch, tmp_path: Path) -> None:
+    """Fabricated finished runs of the two fluid models: the CFD run's design point against
+    Table 9.8 xi4, and its best admissible max(J_u, J_T) and design-point errors minus the
+    pt-bl run's (the inadmissible 1 % evaluation is not the best)."""
+    _finished_runs(monkeypatch, tmp_path)
+    runs = {"sec9_2_2_xi4": (0.08, 0.06, [(0.09, 0.05, True), (0.08, 0.06, True)]),
+            reproduction_plan.XI4_CFD: (0.081, 0.044,
+                                        [(0.01, 0.01, False), (0.081, 0.044, True)])}
+    for name, (J_u, J_T, ev) in runs.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "design_point.json").write_text(json.dumps({
+            "design": {"M": 6.944, "p0": 4.826e7, "T0": 1403.0, "L_le": 0.3964, "h": 0.002534},
+            "objectives": {"J_u": J_u, "J_T": J_T}, "active_constraints": ["temperature"]}))
+        pd.DataFrame([{"status": "ok", "J_u": a, "J_T": b, "admissible": ok}
+                      for a, b, ok in ev]).to_csv(tmp_path / name / "evaluations.csv",
+                                                  index=False)
+    ctx = reproduction_plan.Context(quick=False, seeds=1, out=tmp_path)
+    df = reproduction_plan._sec9_2_2_cfd(ctx).set_index("quantity")
+    best = "Table 9.8 xi4 min over admissible evaluations of max(J_u, J_T)"
+    assert df.loc[f"{best}, CFD ROM (%)", "hypate"] == pytest.approx(8.1)
+    assert df.loc[f"{best}: CFD ROM minus pt-bl + Eckert (points)", "hypate"] == \
+        pytest.approx(0.1)
+    assert df.loc["Table 9.8 xi4 J_T at the design point: CFD ROM minus pt-bl + Eckert "
+                  "(points)", "hypate"] == pytest.approx(-1.6)
+    assert df.loc["Table 9.8 xi4, CFD ROM M", "hypate"] == pytest.approx(6.944)
+    assert df.loc["Table 9.8 xi4, CFD ROM M", "dissertation"] == pytest.approx(5.407)
+
+
+def test_envelope_swept_on_the_cfd_rom_beside_pt_bl(monkeypatch, tmp_path: Path) -> None:
+    """Fabricated sweeps (the CFD one partial): each finished condition against Table 9.11
+    and the pt-bl sweep's error there; the mean and largest difference over the conditions
+    both finished."""
+    _finished_runs(monkeypatch, tmp_path)
+    sweeps = {"sec9_2_4_envelope": [(5.0, 20000.0, 0.30), (7.0, 30000.0, 0.40),
+                                    (6.0, 25000.0, 0.35)],
+              reproduction_plan.ENVELOPE_CFD: [(5.0, 20000.0, 0.31), (7.0, 30000.0, 0.37),
+                                               (6.0, 25000.0, float("nan"))]}
+    for name, points in sweeps.items():
+        (tmp_path / name).mkdir()
+        pd.DataFrame([{"label": f"M{m:g}_H{h / 1000:g}km", "mach": m, "altitude": h, "J_s": J}
+                      for m, h, J in points]).to_csv(tmp_path / name / "sweep.csv", index=False)
+    ctx = reproduction_plan.Context(quick=False, seeds=3, out=tmp_path)
+    df = reproduction_plan._sec9_2_4_cfd(ctx).set_index("quantity")
+    row = df.loc["Table 9.11 error, CFD ROM at M = 7, H = 30 km (%)"]
+    assert row["hypate"] == pytest.approx(37.0) and row["dissertation"] == pytest.approx(2.01)
+    assert "Table 9.11 error, CFD ROM at M = 6, H = 25 km (%)" not in df.index  # unfinished
+    what = "Table 9.11 error: CFD ROM sweep minus pt-bl + Eckert sweep"
+    assert df.loc[f"{what}, mean over the conditions (points)", "hypate"] == pytest.approx(-1.0)
+    largest = df.loc[f"{what}, largest magnitude (points)"]
+    assert largest["hypate"] == pytest.approx(-3.0) and "M = 7, H = 30 km" in largest["note"]
+
+
 @pytest.mark.slow
 def test_envelope_design_on_the_cfd_rom_at_its_flight_condition(tmp_path: Path) -> None:
     """One point of a (fabricated) pt-bl envelope sweep, the M 7 / 20 km corner, with a
@@ -307,12 +393,15 @@ def test_schedule_runs_the_long_pole_first_then_the_scripts_then_the_rest() -> N
     builds = [("build", i.key) for i in items if not i.in_main]
     runs = [what for kind, what in jobs if kind == "run"]
     # every (study, seed) of every item exactly once, every deterministic item once
-    expected = {(n, s) for i in items for n in i.studies(False) for s in (0, 1)}
+    # (a first-seed item's for seed 0 only)
+    expected = {(n, s) for i in items for n in i.studies(False) for s in (0, 1)
+                if s == 0 or not i.first_seed or any(n in j.studies(False) for j in items
+                                                     if not j.first_seed)}
     assert len(runs) == len(set(runs)) and set(runs) == expected
-    assert len(expected) == 2 * (4 + 4 + 6 + 1)
-    # the envelope sweep (25 points) is the costliest, then the scripts in page order, then
-    # the other optimizations in non-increasing cost
-    assert jobs[0] == ("run", ("sec9_2_4_envelope", 0))
+    assert len(expected) == 2 * (4 + 4 + 1 + 6 + 1) + 1
+    # the envelope sweep on the CFD ROM (25 points) is the costliest, then the scripts in
+    # page order, then the other optimizations in non-increasing cost
+    assert jobs[0] == ("run", ("sec9_2_4_envelope_cfd", 0))
     assert jobs[1:1 + len(builds)] == builds
     costs = [budget(Optimization(n)) for n, _ in runs]
     assert costs[0] == max(costs) and costs[1:] == sorted(costs[1:], reverse=True)
