@@ -367,6 +367,7 @@ def _sec9_2_4(ctx: Context) -> pd.DataFrame:
         path = dirs["sec9_2_4_envelope"]
         errors: dict[tuple[float, float], float] = {}
         rows = (ch9_tables.envelope_rows(path, errors, ch9_tables.FINDING_SEC9_2_MODEL)
+                + ch9_tables.envelope_temperature_rows(path)
                 if (path / SWEEP_CSV).exists() else [])
         rows_by_seed.append(rows + ch9_tables.envelope_trend_rows(errors))
     return side_by_side_seeds(rows_by_seed, rtol=ch9_tables.RTOL)
@@ -487,7 +488,8 @@ def _sec9_2_4_cfd(ctx: Context) -> pd.DataFrame:
                      f"{len(diffs)} conditions finished in both sweeps"))
         rows.append((f"{what}, largest magnitude (points)", None, diffs[worst],
                      f"at M = {worst[0]:g}, H = {worst[1]:g} km"))
-    rows += _on_the_cfd_rom(ch9_tables.envelope_trend_rows(errors), "Table 9.11")
+    rows += _on_the_cfd_rom(ch9_tables.envelope_temperature_rows(dirs[ENVELOPE_CFD])
+                            + ch9_tables.envelope_trend_rows(errors), "Table 9.11")
     return side_by_side_seeds([rows], rtol=ch9_tables.RTOL)
 
 

@@ -184,6 +184,40 @@ def _finished_runs(monkeypatch, root: Path) -> None:
                         lambda opt, runs, seed, progress=None: root / opt.name)
 
 
+def _fabricated_sweep(path: Path, points: list[tuple[float, float, float, float]]) -> None:
+    """An envelope sweep directory: ``sweep.csv`` and per point a ``design_point.json``
+    with the responses and limits :func:`ch9_tables.needed_model_temperature` reads; points
+    (M, H m, J_s, the prototype's mean temperature / T0), the model's T0 2400 K and its
+    material's service temperature 810.9 K."""
+    rows = []
+    for m, h, J, ratio in points:
+        label = f"M{m:g}_H{h / 1000:g}km"
+        rows.append({"label": label, "mach": m, "altitude": h, "J_s": J})
+        (path / label).mkdir(parents=True)
+        (path / label / "design_point.json").write_text(json.dumps({
+            "responses": {"prototype": {"mean_temperature_over_T0": ratio},
+                          "model": {"stagnation_temperature": 2400.0}},
+            "limits": {"model": [{"material": "ti6242", "service_temperature": 810.9}]}}))
+    pd.DataFrame(rows).to_csv(path / "sweep.csv", index=False)
+
+
+def test_envelope_temperature_rows_count_the_conditions_no_admissible_model_matches(
+        tmp_path: Path) -> None:
+    """The needed volume-mean temperature is the prototype's mean temperature / T0 times the
+    model's T0 (0.30 / 0.35 / 0.45 x 2400 K = 720 / 840 / 1080 K against 810.9 K: two
+    above); J_s linear in it correlates with r = 1."""
+    from hypate.studies.scripts import ch9_tables
+
+    _fabricated_sweep(tmp_path, [(m, 20000.0, 0.1 + 0.5 * r, r)
+                                 for m, r in ((5.0, 0.30), (6.0, 0.35), (7.0, 0.45))])
+    rows = {r[0]: r for r in ch9_tables.envelope_temperature_rows(tmp_path)}
+    what = "Table 9.11 model volume-mean temperature J_T's similarity needs"
+    count = rows[f"{what}: conditions above the model's service temperature"]
+    assert count[2] == 2 and "720-1080 K against 810.9 K" in count[3]
+    assert rows[f"{what}: correlation with J_s over the conditions (Pearson r)"][2] == \
+        pytest.approx(1.0, abs=1e-12)
+
+
 def test_xi4_study_on_the_cfd_rom_beside_pt_bl(monkeypatch, tmp_path: Path) -> None:
     """Fabricated finished runs of the two fluid models: the CFD run's design point against
     Table 9.8 xi4, and its best admissible max(J_u, J_T) and design-point errors minus the
@@ -222,9 +256,7 @@ def test_envelope_swept_on_the_cfd_rom_beside_pt_bl(monkeypatch, tmp_path: Path)
               reproduction_plan.ENVELOPE_CFD: [(5.0, 20000.0, 0.31), (7.0, 30000.0, 0.37),
                                                (6.0, 25000.0, float("nan"))]}
     for name, points in sweeps.items():
-        (tmp_path / name).mkdir()
-        pd.DataFrame([{"label": f"M{m:g}_H{h / 1000:g}km", "mach": m, "altitude": h, "J_s": J}
-                      for m, h, J in points]).to_csv(tmp_path / name / "sweep.csv", index=False)
+        _fabricated_sweep(tmp_path / name, [(m, h, J, 0.4) for m, h, J in points])
     ctx = reproduction_plan.Context(quick=False, seeds=3, out=tmp_path)
     df = reproduction_plan._sec9_2_4_cfd(ctx).set_index("quantity")
     row = df.loc["Table 9.11 error, CFD ROM at M = 7, H = 30 km (%)"]
