@@ -452,9 +452,10 @@ def _sec9_2_2_cfd(ctx: Context) -> pd.DataFrame:
             cfd, dp, "9.8", "xi4", ch9_tables.FINDING_SEC9_2_MODEL), "Table 9.8 xi4")
         J = {k: 100.0 * best_minmax(d) for k, d in (("cfd", cfd), ("ptbl", ptbl))}
         rows.append((f"{best}, CFD ROM (%)", bound, J["cfd"], ch9_tables.FINDING_ADMISSIBILITY))
-        rows.append((f"{best}: CFD ROM minus pt-bl + Eckert (points)", None,
-                     J["cfd"] - J["ptbl"], f"pt-bl + Eckert: {J['ptbl']:.2f} %, same seed and "
-                     "budget"))
+        if np.isfinite(J["cfd"]) and np.isfinite(J["ptbl"]):  # inf: no admissible evaluation
+            rows.append((f"{best}: CFD ROM minus pt-bl + Eckert (points)", None,
+                         J["cfd"] - J["ptbl"], f"pt-bl + Eckert: {J['ptbl']:.2f} %, same seed "
+                         "and budget"))
         for o in ("J_u", "J_T"):
             a, b = dp.get("objectives", {}).get(o), dp_ptbl.get("objectives", {}).get(o)
             if a is not None and b is not None:

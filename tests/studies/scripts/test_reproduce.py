@@ -184,20 +184,24 @@ def _finished_runs(monkeypatch, root: Path) -> None:
                         lambda opt, runs, seed, progress=None: root / opt.name)
 
 
-def _fabricated_sweep(path: Path, points: list[tuple[float, float, float, float]]) -> None:
+def _fabricated_sweep(path: Path, points: list[tuple[float, float, float, float | None]]
+                      ) -> None:
     """An envelope sweep directory: ``sweep.csv`` and per point a ``design_point.json``
     with the responses and limits :func:`ch9_tables.needed_model_temperature` reads; points
-    (M, H m, J_s, the prototype's mean temperature / T0), the model's T0 2400 K and its
-    material's service temperature 810.9 K."""
+    (M, H m, J_s, the prototype's mean temperature / T0 or None: no responses, as a run
+    before admissibility), the model's T0 2400 K and its material's service temperature
+    810.9 K. A point with J_s NaN (unfinished) has no design point."""
     rows = []
     for m, h, J, ratio in points:
         label = f"M{m:g}_H{h / 1000:g}km"
         rows.append({"label": label, "mach": m, "altitude": h, "J_s": J})
         (path / label).mkdir(parents=True)
-        (path / label / "design_point.json").write_text(json.dumps({
-            "responses": {"prototype": {"mean_temperature_over_T0": ratio},
-                          "model": {"stagnation_temperature": 2400.0}},
-            "limits": {"model": [{"material": "ti6242", "service_temperature": 810.9}]}}))
+        if J == J:
+            (path / label / "design_point.json").write_text(json.dumps({
+                "responses": {} if ratio is None else {
+                    "prototype": {"mean_temperature_over_T0": ratio},
+                    "model": {"stagnation_temperature": 2400.0}},
+                "limits": {"model": [{"material": "ti6242", "service_temperature": 810.9}]}}))
     pd.DataFrame(rows).to_csv(path / "sweep.csv", index=False)
 
 
@@ -205,15 +209,18 @@ def test_envelope_temperature_rows_count_the_conditions_no_admissible_model_matc
         tmp_path: Path) -> None:
     """The needed volume-mean temperature is the prototype's mean temperature / T0 times the
     model's T0 (0.30 / 0.35 / 0.45 x 2400 K = 720 / 840 / 1080 K against 810.9 K: two
-    above); J_s linear in it correlates with r = 1."""
+    above); J_s linear in it correlates with r = 1, the unfinished condition between them
+    and the one without responses left out (and the latter counted)."""
     from hypate.studies.scripts import ch9_tables
 
-    _fabricated_sweep(tmp_path, [(m, 20000.0, 0.1 + 0.5 * r, r)
-                                 for m, r in ((5.0, 0.30), (6.0, 0.35), (7.0, 0.45))])
+    points = [(m, 20000.0, 0.1 + 0.5 * r, r) for m, r in ((5.0, 0.30), (6.0, 0.35), (7.0, 0.45))]
+    points[1:1] = [(5.5, 20000.0, float("nan"), 0.9), (6.5, 20000.0, 0.99, None)]
+    _fabricated_sweep(tmp_path, points)
     rows = {r[0]: r for r in ch9_tables.envelope_temperature_rows(tmp_path)}
     what = "Table 9.11 model volume-mean temperature J_T's similarity needs"
     count = rows[f"{what}: conditions above the model's service temperature"]
-    assert count[2] == 2 and "720-1080 K against 810.9 K" in count[3]
+    assert count[2] == 2 and "of 3 (1 without the responses)" in count[3]
+    assert "720-1080 K against 810.9 K" in count[3]
     assert rows[f"{what}: correlation with J_s over the conditions (Pearson r)"][2] == \
         pytest.approx(1.0, abs=1e-12)
 
@@ -250,7 +257,10 @@ def test_envelope_swept_on_the_cfd_rom_beside_pt_bl(monkeypatch, tmp_path: Path)
     """Fabricated sweeps (the CFD one partial): each finished condition against Table 9.11
     and the pt-bl sweep's error there; the mean and largest difference over the conditions
     both finished."""
-    _finished_runs(monkeypatch, tmp_path)
+    seeds: list[int] = []
+    monkeypatch.setattr(reproduction_plan, "run_directory",
+                        lambda opt, runs, seed, progress=None: seeds.append(seed) or
+                        tmp_path / opt.name)
     sweeps = {"sec9_2_4_envelope": [(5.0, 20000.0, 0.30), (7.0, 30000.0, 0.40),
                                     (6.0, 25000.0, 0.35)],
               reproduction_plan.ENVELOPE_CFD: [(5.0, 20000.0, 0.31), (7.0, 30000.0, 0.37),
@@ -266,6 +276,9 @@ def test_envelope_swept_on_the_cfd_rom_beside_pt_bl(monkeypatch, tmp_path: Path)
     assert df.loc[f"{what}, mean over the conditions (points)", "hypate"] == pytest.approx(-1.0)
     largest = df.loc[f"{what}, largest magnitude (points)"]
     assert largest["hypate"] == pytest.approx(-3.0) and "M = 7, H = 30 km" in largest["note"]
+    assert df.loc["Table 9.11, CFD ROM model volume-mean temperature J_T's similarity needs: "
+                  "conditions above the model's service temperature", "hypate"] == 2
+    assert seeds == [0, 0]  # the first seed's two sweeps only, of three seeds
 
 
 @pytest.mark.slow
