@@ -3,6 +3,7 @@ study refused, one process per directory, Ctrl-C, and the run's own preflight er
 exits 2 naming the flag or key, with no traceback and nothing written)."""
 from __future__ import annotations
 
+import copy
 import os
 import signal
 import sqlite3
@@ -371,3 +372,52 @@ def test_a_missing_rom_file_is_refused_before_any_work(tmp_path: Path,
     assert _error_line(capsys) == ("hypate: error: simulation.aero: ROM file missing.npz "
                                    "not found")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["study.toml"]
+
+
+def test_a_rom_study_resumes_from_another_working_directory(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A study finds its ``rom:`` file as given from the working directory, else beside the
+    study or as the shipped copy, so a run started in the checkout records the shipped
+    envelope study's ROM as ``rom:studies/rom/...`` and the same study loaded elsewhere
+    names it by its absolute path (``--resume`` from another directory was refused: "holds
+    a different campaign (study.simulation.aero ...)"). The resume checks compare the ROM by
+    file name, its content by hash, and still refuse another ROM."""
+    from hypate.scaling.workflow.campaigns.campaign import (
+        campaign_identity,
+        check_resume,
+        fingerprint,
+        record_campaign,
+        sweep_changes,
+        sweep_identity,
+    )
+    from hypate.scaling.workflow.vocabulary.shipped import shipped
+    from hypate.scaling.workflow.vocabulary.study import load_study
+    from hypate.solvers.errors import InputError
+
+    path = shipped("study")["sec9_2_4_envelope_cfd"]
+    monkeypatch.chdir(Path(__file__).resolve().parents[2])  # the checkout
+    here = load_study(path)
+    started = campaign_identity(here, 0)  # as a run started in the checkout records it
+    monkeypatch.chdir(tmp_path)
+    there = load_study(path)
+    aero = [s.spec.prototype.simulation.aero for s in (here, there)]
+    assert aero[0] == "rom:studies/rom/rom_sec9_2_cfd.npz" and Path(aero[1][4:]).is_absolute()
+    old = sweep_identity(here)
+    assert sweep_changes({"study_data": old["study"], "case": old["case"]}, there) == []
+    store = tmp_path / "evaluations.sqlite"
+    with EvaluationStore(store) as st:
+        st.set_meta("campaign", started)
+        st.set_meta("fingerprint", fingerprint(started))
+    check_resume(store, campaign_identity(there, 0))  # no refusal
+    with EvaluationStore(store) as st:  # and the resumed run keeps the identity it started with
+        record_campaign(st, campaign_identity(there, 0), there)
+        assert st.get_meta("campaign") == started
+        assert st.get_meta("fingerprint") == fingerprint(started)
+    other = copy.deepcopy(old["study"])
+    other["simulation"]["aero"] = "rom:studies/rom/rom_2d_panel_cfd.npz"
+    assert sweep_changes({"study_data": other, "case": old["case"]}, there) == [
+        'study.simulation.aero "rom:rom_2d_panel_cfd.npz" -> "rom:rom_sec9_2_cfd.npz"']
+    changed = campaign_identity(there, 0)
+    changed["files"]["rom_sha256"] = "0" * 64  # another file of the same name
+    with pytest.raises(InputError, match="files.rom_sha256"):
+        check_resume(store, changed)

@@ -210,7 +210,29 @@ def check_resume(store_path: Path, identity: dict[str, Any]) -> None:
     if record is None:
         raise InputError("resume", f"{where} holds no hypate campaign record (not a run "
                          "directory of this version); start a new run with another --out")
-    refuse_changes(where, changed_keys(record, identity))
+    refuse_changes(where, changed_keys(_comparable(record), _comparable(identity)))
+
+
+def _comparable(identity: dict[str, Any]) -> dict[str, Any]:
+    """A campaign identity with its ROM named by file name (:func:`rom_by_name`), at the
+    top level and in its study."""
+    return dict(rom_by_name(identity), study=rom_by_name(identity.get("study")))
+
+
+def rom_by_name(data: Any) -> Any:
+    """A copy of a study's data (or of a campaign identity's top level, whose
+    ``simulation`` holds the same setting) whose ``rom:PATH`` fluid model is named by its
+    file name alone, for the resume checks: where a study finds its ROM depends on the working
+    directory (as given, beside the study, or the shipped copy:
+    :func:`~hypate.scaling.workflow.vocabulary.shipped.resolve_aero`), so a run started in
+    one directory would be refused in another; what decides the results is the file's
+    content, which the campaign's ``files.rom_sha256`` checks (a sweep: each point's)."""
+    data = copy.deepcopy(data)
+    sim = data.get("simulation") if isinstance(data, dict) else None
+    aero = sim.get("aero") if isinstance(sim, dict) else None
+    if isinstance(sim, dict) and isinstance(aero, str) and aero.startswith(ROM_PREFIX):
+        sim["aero"] = ROM_PREFIX + Path(aero[len(ROM_PREFIX):]).name
+    return data
 
 
 def refuse_changes(where: Path, changes: list[str]) -> None:
@@ -236,7 +258,8 @@ def sweep_changes(stored: dict[str, Any], study: Study) -> list[str]:
     sweep written before that content was recorded, so a finished sweep of a moved or
     freshly cloned checkout resumes (its points' stores compare content alone as well)."""
     new = sweep_identity(study)
-    old_study = copy.deepcopy(stored.get("study_data"))
+    new["study"] = rom_by_name(new["study"])  # the ROM's content: in each point's store
+    old_study = rom_by_name(stored.get("study_data"))
     if stored.get("case") is None:  # the path is all there is to compare
         return changed_keys({"study": old_study}, {"study": new["study"]})
     for data in (old_study, new["study"]):
@@ -363,8 +386,12 @@ def record_campaign(store: EvaluationStore, identity: dict[str, Any], study: Stu
     pointers to the study (``study_path``, ``study``) and the numerical environment
     (:data:`ENVIRONMENTS`, appended when it differs from the last one recorded)."""
     try:
-        store.set_meta("campaign", identity)
-        store.set_meta("fingerprint", fingerprint(identity))
+        stored = store.get_meta("campaign")
+        # a resumed run keeps the identity it was started with where only the ROM's path
+        # differs (found from another working directory; the content hash is the same)
+        if not (isinstance(stored, dict) and _comparable(stored) == _comparable(identity)):
+            store.set_meta("campaign", identity)
+            store.set_meta("fingerprint", fingerprint(identity))
         if study.path != "<memory>":
             store.set_meta("study_path", str(Path(study.path).resolve()), replace=True)
         store.set_meta("study", study.name, replace=True)
