@@ -75,7 +75,10 @@ def test_laminar_flat_plate_heat_flux_converges_to_the_similarity_solution(
     -2.7 / -3.2 %) at 300 / 600 / 900 K; Eckert's estimate is within 1.2 % of the
     similarity solution there (here within 2 %). Run end to end at 600 K at fca4231 (1 h 31
     min beside other jobs): levels 5.41 / 6.14 / 7.54 / 8.37 / 8.72 kW/m^2, order 2.1,
-    Richardson 8.97 (-3.0 %). ``--junitxml`` records the figures."""
+    Richardson 8.97 (-3.0 %); at 300 and 900 K at 76c7e6a (1 h 19 min each, side by side):
+    11.57 / 11.46 / 11.24 / 11.87 / 12.24, order 1.3, Richardson 12.77 (-0.04 %), and 1.51 /
+    3.57 / 4.66 / 5.29 / 5.60, order 1.8, Richardson 5.89 (-2.5 %). ``--junitxml`` records
+    the figures."""
     r = ver.flat_plate(wall_temperature)
     # the figures, in the report of --junitxml
     record_testsuite_property(f"flat_plate_{wall_temperature:g}K", r)
