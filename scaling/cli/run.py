@@ -146,7 +146,9 @@ class Progress:
     nothing when quiet.
 
     Called as the ``progress`` callback of :func:`hypate.scaling.workflow.campaigns.run.run_study`:
-    ``progress(done, budget, evaluation)`` with the evaluation just stored (or None).
+    ``progress(done, budget, evaluation)`` with the evaluation just stored (or None);
+    ``done`` counts the campaign's stored evaluations, a resumed one's earlier sessions
+    too, and the ETA this session's.
 
     Parameters
     ----------
@@ -157,18 +159,19 @@ class Progress:
     verbose : bool
         Print each evaluation's recorded warnings as it is stored
         (``"evaluation 12: RuntimeWarning: ... (3 times)"``), even when quiet.
-    first_id : int
-        Evaluation id of the first evaluation of this run (the number already stored).
+    history : sequence of ndarray
+        Objectives of the successful evaluations stored before this session (a resume):
+        the best and the hypervolume count them.
     """
 
     def __init__(self, quiet: bool = False, tty: bool | None = None, verbose: bool = False,
-                 first_id: int = 0) -> None:
+                 history: Sequence[np.ndarray] = ()) -> None:
         tty = sys.stderr.isatty() if tty is None else tty
-        self.verbose, self.first_id = verbose, first_id
+        self.verbose = verbose
         self.lines = not quiet and not tty
         self.bar = tqdm(total=1, unit="eval", desc="evaluations", disable=quiet or not tty,
                         dynamic_ncols=True)
-        self.F: list[np.ndarray] = []
+        self.F: list[np.ndarray] = [np.asarray(f, float) for f in history]
         self.t0 = self.last = time.monotonic()
         self.first: int | None = None
 
@@ -176,7 +179,7 @@ class Progress:
         self.bar.total = budget
         if self.verbose and evaluation is not None:
             for entry in evaluation.warnings:  # above the bar, not through it
-                self.bar.write(f"evaluation {self.first_id + done - 1}: {entry}",
+                self.bar.write(f"evaluation {done - 1}: {entry}",
                                file=sys.stderr)
         if evaluation is not None and evaluation.status == "ok":
             self.F.append(np.asarray(evaluation.F, float))
@@ -273,6 +276,15 @@ def stored_evaluations(run_dir: Path) -> int:
             return len(store)
     except StoreError as exc:
         raise InputError("resume", str(exc)) from None
+
+
+def stored_objectives(run_dir: Path) -> list[np.ndarray]:
+    """Objectives of the successful evaluations in a run directory's store (none without
+    one), read-only: a resumed run's progress starts from them."""
+    if not (run_dir / STORE).is_file():
+        return []
+    with EvaluationStore(run_dir / STORE, read_only=True) as store:
+        return [np.asarray(r.F, float) for r in store.load() if r.ok]
 
 
 def failure_reasons(run_dir: Path, limit: int = 5) -> list[str]:
@@ -481,7 +493,8 @@ class Terminal:
         self.t0 = time.perf_counter()
         self.code = 0  # the single run's exit code
         self.failed = 0  # seeds without a result
-        #: evaluations each sweep point's store held before this run
+        #: evaluations each sweep point's store held before this run (its warnings are
+        #: those of the later ones)
         self.stored = {store.parent.name: stored_evaluations(store.parent)
                        for store in (out.glob(f"*/{STORE}")
                                      if args.resume and kind == "sweep" else ())}
@@ -500,7 +513,7 @@ class Terminal:
         args = self.args
         if start.kind == "sweep":
             self.bars.append(Progress(quiet=args.quiet, verbose=args.verbose,
-                                      first_id=self.stored.get(start.label, 0)))
+                                      history=self._history(start)))
             return
         self.t0, self.mark = time.perf_counter(), len(self.caught)
         if local_workers(args.workers, args.scheduler) is not None:
@@ -515,7 +528,10 @@ class Terminal:
                          f"{', '.join(missing_outputs(start.directory))}")
         self.say("simulating the prototype ...")
         self.bars.append(Progress(quiet=args.quiet, verbose=args.verbose,
-                                  first_id=self.before))
+                                  history=self._history(start)))
+
+    def _history(self, start: RunStart) -> list[np.ndarray]:
+        return stored_objectives(start.directory) if self.args.resume else []
 
     def progress(self, done: int, budget: int, evaluation: Any) -> None:
         if self.bars:

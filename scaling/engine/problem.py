@@ -187,17 +187,6 @@ class Outcome:
     def ok(self) -> bool:
         return self.status == STATUS_OK
 
-    def __getitem__(self, key: str) -> Any:
-        """Transitional read access by the former dict keys (``outcome["F"]``): the seed
-        loop of ``scaling/workflow/campaigns/run.py`` still reads them. Remove once it reads
-        attributes."""
-        if key not in _OUTCOME_KEYS:
-            raise KeyError(key)
-        return getattr(self, key)
-
-
-_OUTCOME_KEYS = frozenset(("F", "G", "status", "message", "seconds", "warnings"))
-
 
 # ------------------------------------------------------------------- warnings
 @contextlib.contextmanager

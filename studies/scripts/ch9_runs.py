@@ -30,6 +30,7 @@ from hypate.scaling.workflow.vocabulary.similarity import analytical_scaling
 from hypate.scaling.workflow.vocabulary.study import Study, load_study, parse_study
 from hypate.scaling.workflow.campaigns.sweep import run_sweep
 from hypate.scaling.workflow.analyses.whatif import evaluate_whatif
+from hypate.solvers.aero.factory import ROM_PREFIX
 from hypate.studies.scripts.ch9_tables import published_design, study_of
 
 #: Coarse Sec. 9.1 variant: 4 x 4 mesh, 40 of the 100 steps, 10 + 40 evaluations of BO
@@ -240,7 +241,7 @@ def budget(opt: Optimization) -> float:
     """Relative cost of an optimization for the schedule: evaluations x time steps (a sweep:
     every point's), times :data:`ROM_COST` on a fluid ROM."""
     study = opt.study()
-    rom = str(study.raw.simulation.aero).startswith("rom:")
+    rom = str(study.raw.simulation.aero).startswith(ROM_PREFIX)
     o, sweep = study.optimizer, study.sweep
     evaluations = o.initial_samples + study.iteration_cap + o.polish
     if sweep is not None:  # the later points' budgets (None: the study's)

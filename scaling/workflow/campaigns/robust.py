@@ -196,6 +196,8 @@ def run_robust_study(study: Study, out: str | Path, *, resume: bool = False, wor
                             progress=nominal_progress,
                             on_scatter=scatter("nominal"))
         problem = nominal.problem
+        with EvaluationStore(nominal_dir / STORE, read_only=True) as nominal_store:
+            count[0] = len(nominal_store) + len(store)  # a resume counts what is stored
         problem.prototype_response.save(out / PROTOTYPE_NPZ)
         try:
             executor, close = make_executor(workers, scheduler, lost_after=lost_after)

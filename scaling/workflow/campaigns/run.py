@@ -35,10 +35,11 @@ import numpy as np
 import pandas as pd
 from hypate.scaling.engine.coordinates import LogLinearCoordinates
 from hypate.scaling.engine.design_point import rank_designs
-from hypate.scaling.engine.executors import LOST_AFTER, make_executor
+from hypate.scaling.engine.executors import LOST_AFTER, make_executor, run_batch
 from hypate.scaling.engine.faults import ExecutorError
 from hypate.scaling.engine.optimizer import BayesianOptimizer
 from hypate.scaling.engine.problem import (
+    Outcome,
     evaluate_design,
     project_cheap,
     recorded_warnings,
@@ -332,23 +333,33 @@ def _seed_designs(study: Study, problem: ScalingProblem, classical: dict[str, An
 def _evaluate_seeds(problem: ScalingProblem | FidelityProblem, study: Study, store: EvaluationStore,
                     seed_list: Sequence[tuple[np.ndarray, str]],
                     classical: dict[str, Any] | None, run_seed: int,
-                    callback: Callable[[Evaluation], None]) -> None:
-    """The seeds as iteration -1, committed one by one (crash-safe; skipped when already
-    stored); the classical baseline's objectives are noted in ``classical`` (per material,
-    the best material's record then heading it)."""
+                    callback: Callable[[Evaluation], None], executor: Any = None) -> None:
+    """The seeds as iteration -1 (those not stored yet), on the run's ``executor`` like the
+    optimizer's batches (:func:`~hypate.scaling.engine.executors.run_batch`: a sweep
+    point's recycled designs take all the workers) and committed in seed order as each
+    finishes (crash-safe: a resume evaluates the missing ones); the classical baseline's
+    objectives are noted in ``classical`` (per material, the best material's record then
+    heading it)."""
     stored = {r.batch_index: r for r in store.load() if r.iteration == -1}
+    todo = [i for i in range(len(seed_list)) if i not in stored]
+    n_obj, n_constr = int(problem.n_obj), int(problem.n_ieq_constr) + int(problem.n_eq_constr)
+
+    def failure(message: str, seconds: float) -> Outcome:
+        return Outcome.failure(n_obj, n_constr, "error", message, seconds)
+
+    calls = [(problem, seed_list[i][0], study.optimizer.timeout) for i in todo]
+    for j, res in run_batch(executor, evaluate_design, calls, on_failure=failure):
+        i = todo[j]
+        x, why = seed_list[i]
+        ev = Evaluation.from_outcome(x, res, iteration=-1, batch_index=i, seed=run_seed)
+        ev = dataclasses.replace(ev, message=f"{why}; {res.message}" if res.message else why)
+        store.append(ev)
+        callback(ev)
+        stored[i] = ev
     records = dict(_classical_records(classical))
-    for i, (x, why) in enumerate(seed_list):
-        if i in stored:
-            ev = stored[i]
-        else:
-            res = evaluate_design(problem, x, timeout=study.optimizer.timeout)
-            ev = Evaluation.from_outcome(x, res, iteration=-1, batch_index=i, seed=run_seed)
-            ev = dataclasses.replace(ev, message=f"{why}; {res.message}" if res.message
-                                     else why)
-            store.append(ev)
-            callback(ev)
+    for i, (_, why) in enumerate(seed_list):
         if why in records:
+            ev = stored[i]
             records[why]["objectives"] = {o: finite_or_none(f) for o, f in
                                           zip(study.spec.objectives, ev.F)}
             records[why]["evaluation_status"] = ev.status
@@ -455,7 +466,7 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
             classical = classical_baseline(study, problem)
             seed_list = _seed_designs(study, problem, classical, seeds)
             budget = study.budget + len(seed_list)
-            count = [0]
+            count = [len(store)]  # a resume counts the earlier sessions' evaluations
 
             def callback(evaluation: Evaluation) -> None:
                 count[0] += 1
@@ -466,7 +477,7 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
                 top = float(len(levels.levels) - 1)
                 seed_list = [(np.r_[x, top], why) for x, why in seed_list]
             _evaluate_seeds(levels or problem, study, store, seed_list, classical, run_seed,
-                            callback)
+                            callback, executor)
             write_json(out / CLASSICAL_JSON, classical or {"status": "not available"})
             settings, context = optimizer_settings(study, problem, executor=executor,
                                                    store=store, seed=run_seed,

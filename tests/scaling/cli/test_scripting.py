@@ -8,7 +8,9 @@ import subprocess
 import sys
 from importlib.metadata import version
 from pathlib import Path
+from types import SimpleNamespace
 
+import numpy as np
 import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.commands import quick_answer, top_level_parser
@@ -145,6 +147,19 @@ def test_progress_without_a_terminal_prints_lines(capsys: pytest.CaptureFixture,
     # one line once 10 s have passed (t = 12 s: 2 evaluations since the first in 12 s,
     # 6 s each, one left) and one at the end; none in between
     assert lines == ["evaluations 3/4, 12 s, ETA 6 s", "evaluations 4/4, 13 s"]
+
+
+def test_a_resumed_progress_counts_the_stored_best_and_times_only_this_session(
+        capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
+    clock = iter([0.0, 0.0, 12.0])  # start, then one reading per call
+    monkeypatch.setattr("hypate.scaling.cli.run.time.monotonic", lambda: next(clock))
+    # 10 of 12 stored, the best of them max(J) 0.2; this session's first is worse
+    bar = Progress(tty=False, history=[np.array([0.2, 0.1]), np.array([0.5, 0.4])])
+    bar(11, 12, SimpleNamespace(status="ok", F=[0.3, 0.3], warnings=()))
+    bar(12, 12, SimpleNamespace(status="ok", F=[0.6, 0.6], warnings=()))
+    bar.close()
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert line.startswith("evaluations 12/12, best 0.2, HV ") and line.endswith(", 12 s")
 
 
 def test_solver_warnings_are_collected_and_summarized_once(capsys: pytest.CaptureFixture) -> None:

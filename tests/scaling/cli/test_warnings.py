@@ -37,10 +37,11 @@ def test_summary_lines_say_where_each_warning_occurred() -> None:
 
 
 def test_verbose_progress_prints_each_evaluation_s_warnings_with_its_id(capsys) -> None:
-    bar = Progress(quiet=True, verbose=True, first_id=5)
+    # a resumed run: 5 evaluations stored before, then ids 5 and 6 (done counts all)
+    bar = Progress(quiet=True, verbose=True)
     ev = SimpleNamespace(status="ok", F=[0.1, 0.2], warnings=("RuntimeWarning: w (2 times)",))
-    bar(1, 3, SimpleNamespace(status="ok", F=[0.3, 0.3], warnings=()))
-    bar(2, 3, ev)
+    bar(6, 8, SimpleNamespace(status="ok", F=[0.3, 0.3], warnings=()))
+    bar(7, 8, ev)
     bar.close()
     assert capsys.readouterr().err == "evaluation 6: RuntimeWarning: w (2 times)\n"
 

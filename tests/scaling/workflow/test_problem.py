@@ -53,8 +53,8 @@ def test_failed_model_is_an_evaluation_not_a_crash() -> None:
     # comparable response -> recorded as a failed evaluation with its reason
     x = np.array([2e-4, 11000.0, 4.5])
     res = evaluate_design(prob, x)
-    assert res["status"] == "error" and "ModelFailure" in res["message"]
-    assert np.all(np.isnan(res["F"]))
+    assert res.status == "error" and "ModelFailure" in res.message
+    assert np.all(np.isnan(res.F))
 
 
 def test_t_inf_equality_constraint_exact_and_gradient() -> None:

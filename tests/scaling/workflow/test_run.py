@@ -68,10 +68,45 @@ def test_sigkill_and_resume_equals_uninterrupted_run(tmp_path: Path) -> None:
 
 
 def test_process_pool_gives_the_same_evaluations(tmp_path: Path) -> None:
+    # given seeds (as a sweep's recycled designs) go to the pool too, committed in order
     study = load_study(_study(tmp_path))
-    local = run_study(study, tmp_path / "local")
-    pool = run_study(study, tmp_path / "pool", workers=2)
-    _same(_table(local.directory), _table(pool.directory))
+    problem = ScalingProblem(study.spec)
+    lo, hi = np.asarray(problem.xl, float), np.asarray(problem.xu, float)
+    seeds = [(lo + f * (hi - lo), f"given seed {f}") for f in (0.25, 0.5, 0.75)]
+    local = run_study(study, tmp_path / "local", seeds=seeds)
+    pool = run_study(study, tmp_path / "pool", workers=2, seeds=seeds)
+    a, b = _table(local.directory), _table(pool.directory)
+    _same(a, b)
+    assert (b.iteration == -1).sum() == 4  # the classical design and the three given
+    with EvaluationStore(pool.directory / "evaluations.sqlite") as store:
+        seeded = [r.batch_index for r in store.load() if r.iteration == -1]
+    assert seeded == sorted(seeded)  # the store's order is the seeds' order
+
+
+class _Stop(RuntimeError):
+    pass
+
+
+def test_a_resumed_run_counts_its_stored_evaluations_in_the_progress(tmp_path: Path) -> None:
+    # the progress of a resume goes on from the stored evaluations (it said "1/15" after
+    # a run that had stored 10), up to the whole budget
+    study = load_study(_study(tmp_path))
+    seen: list[tuple[int, int]] = []
+
+    def stopping(done: int, budget: int, evaluation) -> None:
+        seen.append((done, budget))
+        if done == 5:
+            raise _Stop("stopped after 5 evaluations")
+
+    with pytest.raises(_Stop):
+        run_study(study, tmp_path / "run", progress=stopping)
+    assert [d for d, _ in seen] == [1, 2, 3, 4, 5]
+    budget = seen[0][1]
+    seen.clear()
+    run_study(study, tmp_path / "run", resume=True,
+              progress=lambda done, total, ev: seen.append((done, total)))
+    assert seen == [(k, budget) for k in range(6, budget + 1)]
+    assert stored_evaluations(tmp_path / "run" / "evaluations.sqlite") == budget
 
 
 def test_dask_local_cluster_gives_the_same_evaluations(tmp_path: Path) -> None:
