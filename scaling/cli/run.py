@@ -50,7 +50,7 @@ from hypate.scaling.workflow.campaigns.execute import (
 )
 from hypate.scaling.workflow.campaigns.integrity import missing_outputs
 from hypate.scaling.workflow.campaigns.resources import local_workers, study_estimate
-from hypate.scaling.workflow.campaigns.robust import robust_budget
+from hypate.scaling.workflow.campaigns.robust import NOMINAL_DIR, robust_budget
 from hypate.scaling.workflow.campaigns.run import RunOutcome
 from hypate.scaling.workflow.campaigns.rundir import (
     DESIGN_POINT_JSON,
@@ -158,7 +158,8 @@ class Progress:
         Whether stderr is a terminal (``None``: ask it).
     verbose : bool
         Print each evaluation's recorded warnings as it is stored
-        (``"evaluation 12: RuntimeWarning: ... (3 times)"``), even when quiet.
+        (``"evaluation 12: RuntimeWarning: ... (3 times)"``, the id of ``evaluations.csv``;
+        a robust run's search counts on from its nominal campaign's), even when quiet.
     history : sequence of ndarray
         Objectives of the successful evaluations stored before this session (a resume):
         the best and the hypervolume count them.
@@ -531,7 +532,12 @@ class Terminal:
                                   history=self._history(start)))
 
     def _history(self, start: RunStart) -> list[np.ndarray]:
-        return stored_objectives(start.directory) if self.args.resume else []
+        """The stored objectives a resumed campaign's progress starts from (a robust run's
+        nominal campaign's too: its bar shows both)."""
+        if not self.args.resume:
+            return []
+        nominal = stored_objectives(start.directory / NOMINAL_DIR) if start.kind == "robust" else []
+        return nominal + stored_objectives(start.directory)
 
     def progress(self, done: int, budget: int, evaluation: Any) -> None:
         if self.bars:

@@ -197,7 +197,9 @@ def run_robust_study(study: Study, out: str | Path, *, resume: bool = False, wor
                             on_scatter=scatter("nominal"))
         problem = nominal.problem
         with EvaluationStore(nominal_dir / STORE, read_only=True) as nominal_store:
-            count[0] = len(nominal_store) + len(store)  # a resume counts what is stored
+            nominal_done = len(nominal_store)  # finished: its seeds and budget, all stored
+        # a resume counts what is stored (a nominal campaign found complete reported nothing)
+        total[0], count[0] = nominal_done + own, nominal_done + len(store)
         problem.prototype_response.save(out / PROTOTYPE_NPZ)
         try:
             executor, close = make_executor(workers, scheduler, lost_after=lost_after)

@@ -406,12 +406,14 @@ def run_study(study: Study, out: str | Path, *, resume: bool = False, workers: i
         Overrides the study's optimizer seed (on resume: the stored seed when omitted).
     progress : callable, optional
         ``progress(done, budget, evaluation)`` after each committed evaluation (the
-        :class:`hypate.scaling.engine.store.Evaluation` just stored).
+        :class:`hypate.scaling.engine.store.Evaluation` just stored); ``done`` counts the
+        store's evaluations, a resumed run's earlier ones too.
     seeds : sequence of (x, reason), optional
         Extra designs evaluated before the initial sample and stored with it as
         iteration -1 (recycled samples of Sec. 9.2.4, a refined law's prediction); the
-        classical baseline comes first. Each seed is committed as soon as it is
-        evaluated, so an interrupted run resumes without evaluating it again.
+        classical baseline comes first. They are evaluated on the run's workers and each
+        is committed once it and the seeds before it are finished, so an interrupted run
+        resumes without evaluating them again.
     prototype_response : Response, optional
         The prototype's response if already simulated.
     seed_runs : sequence of paths

@@ -137,3 +137,33 @@ def test_killed_robust_run_resumes_to_the_same_campaign(tmp_path, robust_run):
     a = json.loads((out / "design_point.json").read_text())
     b = json.loads((whole / "design_point.json").read_text())
     assert a["design"] == b["design"] and a["robust"]["objectives"] == b["robust"]["objectives"]
+
+
+class _Stop(RuntimeError):
+    pass
+
+
+def test_a_resumed_robust_run_counts_both_stored_campaigns(tmp_path):
+    """Stopped three evaluations into the robust search, then resumed: the progress goes
+    on from the stored nominal and robust evaluations and ends at the total (it started
+    at 1 before; counting the stored ones without the nominal seeds in the total, it ran
+    past it)."""
+    from hypate.scaling.workflow.campaigns.robust import run_robust_study
+
+    study = load_study(_study(tmp_path))
+    seen: list[tuple[int, int]] = []
+
+    def stopping(done: int, total: int, evaluation) -> None:
+        seen.append((done, total))
+        with EvaluationStore(tmp_path / "r" / "evaluations.sqlite", read_only=True) as s:
+            if len(s) == 3:  # the robust store (the nominal campaign's is r/nominal)
+                raise _Stop("three robust evaluations stored")
+
+    with pytest.raises(_Stop):
+        run_robust_study(study, tmp_path / "r", progress=stopping)
+    stopped_at, total = seen[-1]
+    assert [d for d, _ in seen] == list(range(1, stopped_at + 1))
+    seen.clear()
+    run_robust_study(study, tmp_path / "r", resume=True,
+                     progress=lambda done, t, ev: seen.append((done, t)))
+    assert seen == [(k, total) for k in range(stopped_at + 1, total + 1)]
