@@ -33,11 +33,9 @@ from hypate.scaling.cli.failures import (
     is_write_failure,
     write_failure,
 )
-from hypate.scaling.cli.progress import StepProgress
-from hypate.scaling.engine.design_point import worst_objective
+from hypate.scaling.cli.progress import Progress, StepProgress
 from hypate.scaling.engine.executors import LOST_AFTER, auto_workers, usable_cores
 from hypate.scaling.engine.faults import InfrastructureError
-from hypate.scaling.engine.pareto import hypervolume
 from hypate.scaling.engine.problem import summarize_warnings, tally_warnings
 from hypate.scaling.engine.store import EvaluationStore, StoreError
 from hypate.scaling.report.html import write_report, write_report_safely
@@ -67,12 +65,6 @@ from hypate.scaling.workflow.vocabulary.shipped import default_study, resolve
 from hypate.scaling.workflow.vocabulary.study import Study, load_study
 from hypate.scaling.workflow.vocabulary.variables import CATEGORICAL
 from hypate.solvers.errors import InputError
-from tqdm import tqdm
-
-#: Reference point of the progress-bar hypervolume (relative errors of 100 %).
-PROGRESS_REF = np.array([1.0, 1.0])
-#: Seconds between progress lines when stderr is not a terminal (a log file, CI, nohup).
-LOG_EVERY = 10.0
 
 
 class ReportFailed(Exception):
@@ -138,73 +130,6 @@ def register(sub: argparse._SubParsersAction) -> None:
                                           "workers": "--workers", "scheduler": "--scheduler",
                                           "seed": "--seed", "seed_runs": "--seed-from",
                                           "lost_after": "--cluster-timeout", "seeds": "--seeds"})
-
-
-class Progress:
-    """Progress: evaluations / budget, best max(J), hypervolume, elapsed and ETA -- a live
-    bar in a terminal, a line every :data:`LOG_EVERY` seconds (and at the end) otherwise,
-    nothing when quiet.
-
-    Called as the ``progress`` callback of :func:`hypate.scaling.workflow.campaigns.run.run_study`:
-    ``progress(done, budget, evaluation)`` with the evaluation just stored (or None);
-    ``done`` counts the campaign's stored evaluations, a resumed one's earlier sessions
-    too, and the ETA this session's.
-
-    Parameters
-    ----------
-    quiet : bool
-        No progress output at all.
-    tty : bool or None
-        Whether stderr is a terminal (``None``: ask it).
-    verbose : bool
-        Print each evaluation's recorded warnings as it is stored
-        (``"evaluation 12: RuntimeWarning: ... (3 times)"``, the id of ``evaluations.csv``;
-        a robust run's search counts on from its nominal campaign's), even when quiet.
-    history : sequence of ndarray
-        Objectives of the successful evaluations stored before this session (a resume):
-        the best and the hypervolume count them.
-    """
-
-    def __init__(self, quiet: bool = False, tty: bool | None = None, verbose: bool = False,
-                 history: Sequence[np.ndarray] = ()) -> None:
-        tty = sys.stderr.isatty() if tty is None else tty
-        self.verbose = verbose
-        self.lines = not quiet and not tty
-        self.bar = tqdm(total=1, unit="eval", desc="evaluations", disable=quiet or not tty,
-                        dynamic_ncols=True)
-        self.F: list[np.ndarray] = [np.asarray(f, float) for f in history]
-        self.t0 = self.last = time.monotonic()
-        self.first: int | None = None
-
-    def __call__(self, done: int, budget: int, evaluation) -> None:
-        self.bar.total = budget
-        if self.verbose and evaluation is not None:
-            for entry in evaluation.warnings:  # above the bar, not through it
-                self.bar.write(f"evaluation {done - 1}: {entry}",
-                               file=sys.stderr)
-        if evaluation is not None and evaluation.status == "ok":
-            self.F.append(np.asarray(evaluation.F, float))
-        post = {}
-        if self.F:
-            F = np.array(self.F)
-            post["best"] = f"{worst_objective(F).min():.4g}"
-            if F.shape[1] == 2:
-                post["HV"] = f"{hypervolume(F[np.all(F < PROGRESS_REF, axis=1)], PROGRESS_REF):.4g}"
-        self.bar.set_postfix(post, refresh=False)
-        self.bar.update(done - self.bar.n)
-        if self.first is None:
-            self.first = done - 1 if evaluation is not None else done
-        now = time.monotonic()
-        if self.lines and (now - self.last >= LOG_EVERY or done >= budget):
-            self.last = now
-            rate = (now - self.t0) / max(done - self.first, 1)
-            eta = f", ETA {rate * (budget - done):.0f} s" if done < budget else ""
-            extra = "".join(f", {k} {v}" for k, v in post.items())
-            print(f"evaluations {done}/{budget}{extra}, {now - self.t0:.0f} s{eta}",
-                  file=sys.stderr, flush=True)
-
-    def close(self) -> None:
-        self.bar.close()
 
 
 @contextlib.contextmanager

@@ -16,7 +16,7 @@ import pytest
 from conftest import tiny_study_text
 from hypate.scaling.cli.commands import quick_answer, top_level_parser
 from hypate.scaling.cli.main import build_parser, main
-from hypate.scaling.cli.run import Progress
+from hypate.scaling.cli.progress import Progress
 from hypate.scaling.workflow.vocabulary.study import load_study
 
 
@@ -139,7 +139,7 @@ def test_run_json_and_resume_summaries(tiny_study, tmp_path: Path,
 def test_progress_without_a_terminal_prints_lines(capsys: pytest.CaptureFixture,
                                                   monkeypatch: pytest.MonkeyPatch) -> None:
     clock = iter([0.0, 0.0, 1.0, 12.0, 13.0])  # start, then one reading per call
-    monkeypatch.setattr("hypate.scaling.cli.run.time.monotonic", lambda: next(clock))
+    monkeypatch.setattr("hypate.scaling.cli.progress.time.monotonic", lambda: next(clock))
     bar = Progress(tty=False)
     for done in (1, 2, 3, 4):
         bar(done, 4, None)
@@ -153,7 +153,7 @@ def test_progress_without_a_terminal_prints_lines(capsys: pytest.CaptureFixture,
 def test_a_resumed_progress_counts_the_stored_best_and_times_only_this_session(
         capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
     clock = iter([0.0, 0.0, 12.0])  # start, then one reading per call
-    monkeypatch.setattr("hypate.scaling.cli.run.time.monotonic", lambda: next(clock))
+    monkeypatch.setattr("hypate.scaling.cli.progress.time.monotonic", lambda: next(clock))
     # 10 of 12 stored, the best of them max(J) 0.2; this session's first is worse
     bar = Progress(tty=False, history=[np.array([0.2, 0.1]), np.array([0.5, 0.4])])
     bar(11, 12, SimpleNamespace(status="ok", F=[0.3, 0.3], warnings=()))

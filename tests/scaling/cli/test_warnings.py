@@ -11,7 +11,8 @@ from types import SimpleNamespace
 
 import pandas as pd
 from conftest import tiny_study_text
-from hypate.scaling.cli.run import Progress, warning_summary
+from hypate.scaling.cli.progress import Progress
+from hypate.scaling.cli.run import warning_summary
 from hypate.scaling.engine.problem import parse_warning, tally_warnings
 from hypate.scaling.engine.store import warnings_from_text
 from hypate.scaling.workflow.campaigns.rundir import describe_occurrences
