@@ -501,7 +501,9 @@ class KrigingRegressor(RegressorMixin, BaseEstimator):
             mu[:, cols] = K @ A  # Eq. (A.6a), standardized
             if gradient:
                 assert dmu is not None and dK is not None  # with the gradient
-                dmu[:, cols] = np.einsum("Nnd,ng->Ngd", dK, A)  # Eq. (A.8a)
+                # Eq. (A.8a): sum_n dK[N, n, d] A[n, g] as one BLAS product (an einsum
+                # here was 40x slower: 1 ms a call, a tenth of a CFD-ROM simulation)
+                dmu[:, cols] = np.matmul(dK.transpose(0, 2, 1), A).transpose(0, 2, 1)
         mean = self.y_mean_ + self.y_std_ * mu
         if not gradient:
             return mean, None
