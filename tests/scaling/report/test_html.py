@@ -77,7 +77,7 @@ def test_report_ids_are_the_csv_ids(tiny_run: tuple[Path, Path]) -> None:
     out, study = tiny_run
     page = write_report(out, study_path=study).read_text(encoding="utf-8")
     csv = pd.read_csv(out / "evaluations.csv")
-    assert csv.columns[0] == "id" and (csv["id"] == range(len(csv))).all()
+    assert csv.columns[0] == "id" and csv["id"].tolist() == list(range(len(csv)))
     point = json.loads((out / "design_point.json").read_text())
     assert point["rule"] == "minmax"
     row = csv.loc[csv["id"] == point["evaluation"]].iloc[0]
