@@ -436,14 +436,14 @@ def _not_run_quick(quantity: str, reference: object, why: str) -> pd.DataFrame:
 
 def _sec9_2_2_cfd(ctx: Context) -> pd.DataFrame:
     """Table 9.8's xi = 4 study optimized on the CFD ROM (``sec9_2_2_xi4_cfd``, per seed;
-    about 36 min a seed on one worker; full run only): its design point against Table 9.8,
+    about 25 min a seed on one worker at c5ff16e; full run only): its design point against Table 9.8,
     and its best admissible max(J_u, J_T) and design-point errors beside the ``pt-bl`` +
     Eckert run of the same seed and budget (the fluid model's share in the optimum)."""
     bound = Bound("<", 10.0, "< 10 % (Sec. 9.2.2, with the dissertation's CFD ROM)")
     best = "Table 9.8 xi4 min over admissible evaluations of max(J_u, J_T)"
     if ctx.quick:
         return _not_run_quick(f"{best}, CFD ROM (%)", bound,
-                              "the study on the CFD ROM, about 36 min a seed")
+                              "the study on the CFD ROM, about 25 min a seed")
     rows_by_seed = []
     for dirs in ctx.run_dirs("Sec. 9.2.2 CFD ROM", names_9_2_2_cfd(ctx.quick)):
         cfd, ptbl = dirs[XI4_CFD], dirs["sec9_2_2_xi4"]
