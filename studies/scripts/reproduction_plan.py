@@ -436,9 +436,10 @@ def _not_run_quick(quantity: str, reference: object, why: str) -> pd.DataFrame:
 
 def _sec9_2_2_cfd(ctx: Context) -> pd.DataFrame:
     """Table 9.8's xi = 4 study optimized on the CFD ROM (``sec9_2_2_xi4_cfd``, per seed;
-    about 25 min a seed on one worker at c5ff16e; full run only): its design point against Table 9.8,
-    and its best admissible max(J_u, J_T) and design-point errors beside the ``pt-bl`` +
-    Eckert run of the same seed and budget (the fluid model's share in the optimum)."""
+    about 25 min a seed on one worker at c5ff16e; full run only): its design point against
+    Table 9.8, and its best admissible max(J_u, J_T) and design-point errors beside the
+    ``pt-bl`` + Eckert run of the same seed and budget (the fluid model's share in the
+    optimum)."""
     bound = Bound("<", 10.0, "< 10 % (Sec. 9.2.2, with the dissertation's CFD ROM)")
     best = "Table 9.8 xi4 min over admissible evaluations of max(J_u, J_T)"
     if ctx.quick:
