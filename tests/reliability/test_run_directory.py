@@ -436,6 +436,10 @@ class _Tiny:
         return load_study(self.path)
 
 
+# The tiny first point has no feasible design (3 of its 4 evaluations fail on the 4-step
+# mesh, the fourth is above its temperature limit), so the second point draws initial
+# samples instead of recycling, with its documented warning: not this test's subject.
+@pytest.mark.filterwarnings("ignore:sweep point xi_4. only 0 recycled:RuntimeWarning")
 def test_reproduce_reads_a_finished_sweep_without_writing_into_it(tmp_path: Path) -> None:
     """``hypate reproduce``'s runner (studies/scripts/ch9_runs.run_directory) on a finished
     sweep: it is verified and read, not resumed (which rewrote sweep.json and sweep.csv)."""
