@@ -370,31 +370,69 @@ def test_report_of_a_zero_byte_store_reads_the_csv_and_leaves_the_store(
     assert not (recv / "evaluations.sqlite-wal").exists()
 
 
+@contextlib.contextmanager
+def _read_only(recv: Path, ro: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
+    """``recv`` where no file or folder can be made: its permission bits for a user; for
+    root (who writes through them) a read-only bind mount at ``ro``, or -- where this
+    machine refuses root a mount -- ``EROFS`` from every ``os.open`` / ``os.mkdir`` that
+    would create or write inside it (the calls under ``tempfile.mkstemp`` and
+    ``Path.mkdir``), so the report meets the same error either way."""
+    if os.geteuid() != 0:
+        recv.chmod(0o555)
+        try:
+            yield recv
+        finally:
+            recv.chmod(0o755)
+        return
+    ro.mkdir()
+    try:
+        made = subprocess.run(["mount", "--bind", "-o", "ro", str(recv), str(ro)],
+                              capture_output=True)
+    except FileNotFoundError:  # no mount command at all
+        made = None
+    if made is not None and made.returncode == 0:
+        try:
+            yield ro
+        finally:
+            subprocess.run(["umount", str(ro)], check=True)
+        return
+    import errno
+
+    inside = recv.resolve()
+    writes = os.O_WRONLY | os.O_RDWR | os.O_CREAT
+
+    def refused(path: object) -> OSError | None:
+        p = Path(os.fsdecode(path)).resolve()  # type: ignore[arg-type]
+        if p == inside or inside in p.parents:
+            return OSError(errno.EROFS, os.strerror(errno.EROFS), str(p))
+        return None
+
+    real_open, real_mkdir = os.open, os.mkdir
+
+    def open_(path, flags, *args, **kwargs):  # type: ignore[no-untyped-def]
+        if flags & writes and (exc := refused(path)) is not None:
+            raise exc
+        return real_open(path, flags, *args, **kwargs)
+
+    def mkdir_(path, *args, **kwargs):  # type: ignore[no-untyped-def]
+        if (exc := refused(path)) is not None:
+            raise exc
+        return real_mkdir(path, *args, **kwargs)
+
+    monkeypatch.setattr(os, "open", open_)
+    monkeypatch.setattr(os, "mkdir", mkdir_)
+    yield recv
+
+
 def test_report_into_a_read_only_directory_is_one_line(
-        tmp_path: Path, finished: tuple[Path, Path],
+        tmp_path: Path, finished: tuple[Path, Path], monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
     _, ref = finished
     recv = _copy(ref, tmp_path / "recv")
     (recv / "report.html").unlink()
     shutil.rmtree(recv / "figures")
-    if os.geteuid() == 0:  # root writes through permission bits: a read-only bind mount
-        ro = tmp_path / "ro"
-        ro.mkdir()
-        made = subprocess.run(["mount", "--bind", "-o", "ro", str(recv), str(ro)],
-                              capture_output=True)
-        if made.returncode != 0:
-            pytest.skip(f"no read-only mount here: {made.stderr.decode().strip()}")
-        target = ro
-    else:
-        recv.chmod(0o555)
-        target = recv
-    try:
+    with _read_only(recv, tmp_path / "ro", monkeypatch) as target:
         code = main(["report", str(target)])
-    finally:
-        if target != recv:
-            subprocess.run(["umount", str(target)], check=True)
-        else:
-            recv.chmod(0o755)
     assert code == 2
     line = _one_error_line(capsys.readouterr().err)
     assert ("Read-only file system" in line or "Permission denied" in line), line
