@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import errno
 import json
 import os
 import shutil
@@ -314,7 +315,6 @@ def test_a_full_disk_during_the_report_is_one_line_and_resumes(
         tmp_path: Path, finished: tuple[Path, Path], monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
     """The report's first figure hits a full disk (ENOSPC injected at the write)."""
-    import errno
 
     import hypate.scaling.report.figures as figures
 
@@ -396,7 +396,6 @@ def _read_only(recv: Path, ro: Path, monkeypatch: pytest.MonkeyPatch) -> Iterato
         finally:
             subprocess.run(["umount", str(ro)], check=True)
         return
-    import errno
 
     inside = recv.resolve()
     writes = os.O_WRONLY | os.O_RDWR | os.O_CREAT
