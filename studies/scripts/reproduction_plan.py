@@ -386,7 +386,7 @@ def envelope_fluid_rows(path: Path, progress: Progress | None = None) -> list[tu
         if progress is not None:
             progress("Sec. 9.2.4: envelope designs on the CFD ROM", i, len(done))
         label, mach, h_km = str(r["label"]), float(r["mach"]), float(r["altitude"]) / 1000.0
-        res = evaluate_whatif(at_sweep_point(cfd, label)[0],
+        res = evaluate_whatif(at_sweep_point(cfd, label),
                               design_point(path / label)["design"])
         J_s = (res["objectives"] or {}).get("J_s")
         own = 100.0 * float(r["J_s"])

@@ -292,7 +292,7 @@ def test_envelope_design_on_the_cfd_rom_at_its_flight_condition(tmp_path: Path) 
     cfd = reproduction_plan.Optimization(reproduction_plan.ENVELOPE_CFD).study()
     ptbl = reproduction_plan.Optimization("sec9_2_4_envelope").study()
     design = reproduction_plan.evaluate_whatif(cfd, {})["design"]  # the midpoints
-    J = {name: reproduction_plan.evaluate_whatif(at_sweep_point(s, "M7_H20km")[0],
+    J = {name: reproduction_plan.evaluate_whatif(at_sweep_point(s, "M7_H20km"),
                                                  design)["objectives"]["J_s"]
          for name, s in (("cfd", cfd), ("ptbl", ptbl))}
     run = tmp_path / "sec9_2_4_envelope"
