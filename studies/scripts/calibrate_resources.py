@@ -26,9 +26,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from hypate.scaling.workflow.campaigns.resources import SimulationSize, estimate, simulation_size
 from hypate.scaling.workflow.vocabulary.derived import study_data
 from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
-from hypate.scaling.workflow.campaigns.resources import SimulationSize, estimate, simulation_size
 from hypate.scaling.workflow.vocabulary.shipped import default_study
 from hypate.scaling.workflow.vocabulary.study import load_study, parse_study
 from scipy.optimize import nnls

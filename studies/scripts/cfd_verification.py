@@ -269,9 +269,10 @@ def leading_edge(l_le: tuple[float, ...] = (1.0, 1.406), amplitudes: tuple[float
     0.3516 / 0.25 = 1.406``."""
     flow = FlowCondition.from_altitude(6.0, 25000.0)
     xs = np.linspace(0.0, 1.0, 4 * resolution.cells_panel + 1)
-    w = thickness * sum(A * np.sin((k + 1) * np.pi * xs) for k, A in enumerate(amplitudes))
+    w = np.asarray(thickness * sum(A * np.sin((k + 1) * np.pi * xs)
+                                   for k, A in enumerate(amplitudes)), dtype=float)
     w[[0, -1]] = 0.0
-    cases = []
+    cases: list[dict[str, Any]] = []
     for L in l_le:
         res = replace(resolution, height=height / (L + 1.0),
                       cells_plate=max(2, int(round(resolution.cells_plate * L))))
@@ -299,6 +300,7 @@ def prototype_deflection() -> tuple[Array, Array]:
     / a) sin(j pi y / b)`` symmetric about the centre line (odd j), as ``(modes,
     amplitudes)``."""
     case = load_case(shipped("case")["sec9_2_prototype"])
+    assert case.flow is not None  # the shipped case has its flight condition
     r = simulate(case.panel, case.flow, case.simulation, keep_fields=False)
     modal = np.asarray(r.modal)[-1] * case.panel.thickness  # amplitude / h -> m
     idx = np.asarray(r.mode_indices, int)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -56,9 +57,10 @@ def benchmark_model(time_step: float, duration: float, *, aero: str | None = Non
     """
 
     case = parse_case(read_toml(str(CASE)), source=str(CASE))
+    assert case.simulation is not None and case.flow is not None  # the shipped case has both
     sim = case.simulation
     panel = case.panel
-    changes: dict[str, object] = {}
+    changes: dict[str, Any] = {}
     if leading_edge_length is not None:
         changes["leading_edge_length"] = float(leading_edge_length)
     if width is not None:

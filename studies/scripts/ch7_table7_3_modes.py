@@ -57,7 +57,7 @@ def run(config: Config | None = None) -> Result:
     config = Config() if config is None else config
     mat = isotropic("table7_2", 110.0 * LBFT3, 5.6e6 * PSI, 0.35, 1e-5, 1.0, 1.0)
     panel = PanelSpec(layers=(Layer(mat, 0.0401 * INCH),), length=9 * INCH, width=18 * INCH,
-                      mesh=tuple(config.mesh), boundary="clamped")
+                      mesh=(config.mesh[0], config.mesh[1]), boundary="clamped")
     f = np.asarray(modes(StructuralModel(panel), config.count).frequencies_hz, dtype=float)
     rows = []
     for i in range(min(config.count, 5)):

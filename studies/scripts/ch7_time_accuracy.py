@@ -131,7 +131,7 @@ def analyse(config: Config, runs: dict) -> Result:
     ratio = {f: raw["s2"][f] / raw["s1"][f] for f in FIELDS}
     energy = {s: np.array([runs[s, dt][1] for dt in steps]) for s in ("s1", "s2")}
     expo = {s: fitted_exponent(steps, energy[s]) for s in energy}
-    rows = []
+    rows: list[tuple] = []
     for f in FIELDS:
         for s in ("s1", "s2"):
             for i, p in enumerate(rates[s][f]):

@@ -114,7 +114,7 @@ def stiffened_panel(case: str, flow_angle_deg: float, mesh: tuple[int, int]):
     t1, l1, t2, l2 = STIFFENERS[case]
     stiff = homogenized_stiffener(inc, t1, l1, t2, l2, name=f"stiffener_{case}")
     return PanelSpec(layers=(Layer(stiff, 0.012, 0.0, 1), Layer(inc, 0.0015, 0.0, 2)),
-                     length=1.0, width=1.0, mesh=tuple(mesh), emissivity=0.85,
+                     length=1.0, width=1.0, mesh=(mesh[0], mesh[1]), emissivity=0.85,
                      flow_angle=math.radians(flow_angle_deg), leading_edge_length=1.0)
 
 
@@ -166,7 +166,7 @@ def run(config: Config | None = None) -> Result:
                          rans if rans is not None else "stable", _stable_if_none(onset_bl[L]),
                          f"Table 8.2 RANS (BL pressure effect); {runs}" if rans is None
                          else FINDING_PT_BL))
-    seq = [onset_pt[L] if onset_pt[L] is not None else math.inf
+    seq = [math.inf if (on := onset_pt[L]) is None else on
            for L in sorted(config.leading_edge_lengths)]
     delayed = bool(all(b >= a for a, b in zip(seq, seq[1:])) and seq[-1] > seq[0])
     rows.append(("(a) thicker boundary layer delays the snap-through (AM onsets increase)",
@@ -222,7 +222,9 @@ def run(config: Config | None = None) -> Result:
         if len(betas) > 1:
             for case in config.stiffener_cases:
                 lo, hi = sec8_3[case, betas[0]], sec8_3[case, betas[-1]]
-                more = hi["final_failed_percent"] >= lo["final_failed_percent"]
+                f_lo, f_hi = lo["final_failed_percent"], hi["final_failed_percent"]
+                assert f_lo is not None and f_hi is not None  # always set above
+                more = f_hi >= f_lo
                 rows.append((f"(c) {case}: beta {betas[-1]:g} deg fails more area than "
                              f"{betas[0]:g} deg", "yes", bool(more),
                              "Sec. 8.3.4.1: larger beta, stronger windward heating"))

@@ -19,19 +19,24 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import minimize
-from hypate.scaling.workflow.vocabulary.derived import study_data, sweep_points
+from hypate.scaling.workflow.analyses.whatif import evaluate_whatif
 from hypate.scaling.workflow.campaigns.integrity import missing_outputs, verify_run
-from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
 from hypate.scaling.workflow.campaigns.run import run_study
-from hypate.scaling.workflow.campaigns.rundir import DESIGN_POINT_JSON, EVALUATIONS_CSV, STORE, SWEEP_JSON
+from hypate.scaling.workflow.campaigns.rundir import (
+    DESIGN_POINT_JSON,
+    EVALUATIONS_CSV,
+    STORE,
+    SWEEP_JSON,
+)
+from hypate.scaling.workflow.campaigns.sweep import run_sweep
+from hypate.scaling.workflow.vocabulary.derived import study_data, sweep_points
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
 from hypate.scaling.workflow.vocabulary.shipped import shipped
 from hypate.scaling.workflow.vocabulary.similarity import analytical_scaling
 from hypate.scaling.workflow.vocabulary.study import Study, load_study, parse_study
-from hypate.scaling.workflow.campaigns.sweep import run_sweep
-from hypate.scaling.workflow.analyses.whatif import evaluate_whatif
 from hypate.solvers.aero.factory import ROM_PREFIX
 from hypate.studies.scripts.ch9_tables import published_design, study_of
+from scipy.optimize import minimize
 
 #: Coarse Sec. 9.1 variant: 4 x 4 mesh, 40 of the 100 steps, 10 + 40 evaluations of BO
 #: without the shipped studies' final polish (about 15 s each here).
@@ -83,12 +88,13 @@ def run_directory(opt: Optimization, root: str | Path, seed: int = 0,
     """The finished run directory ``root/<name>`` of ``opt`` at optimizer ``seed``.
 
     A complete study directory (every output its run wrote, matching its store:
-    :func:`~hypate.scaling.workflow.campaigns.integrity.missing_outputs`) is only read, after its store
-    and outputs are verified (:func:`~hypate.scaling.workflow.campaigns.integrity.verify_run`); an
-    interrupted one is resumed (nothing finished is evaluated again; another study or seed
-    there is refused by the run's campaign check); otherwise the study runs
-    (:func:`hypate.scaling.workflow.campaigns.run.run_study`). A ``[sweep]`` study whose every point is
-    complete is only read likewise; one that has begun is resumed through
+    :func:`~hypate.scaling.workflow.campaigns.integrity.missing_outputs`) is only read,
+    after its store and outputs are verified
+    (:func:`~hypate.scaling.workflow.campaigns.integrity.verify_run`); an interrupted one is
+    resumed (nothing finished is evaluated again; another study or seed there is refused by
+    the run's campaign check); otherwise the study runs
+    (:func:`hypate.scaling.workflow.campaigns.run.run_study`). A ``[sweep]`` study whose
+    every point is complete is only read likewise; one that has begun is resumed through
     :func:`~hypate.scaling.workflow.campaigns.sweep.run_sweep`.
     """
     out = Path(root) / opt.name

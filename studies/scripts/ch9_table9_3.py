@@ -8,7 +8,8 @@ optimization. Here the model rows are those of the analytical laws (Eq. 9.2), wh
 the prototype exactly; with ``optimize_dirs`` (``--optimize DIR ...``) the models of
 ``hypate run studies/optimization/sec9_1_xi*.toml`` run directories are tabulated as well.
 
-Run ``python -m hypate.studies.scripts.ch9_table9_3 [--coarse] [--out DIR] [--optimize RUN_DIR ...]``.
+Run ``python -m hypate.studies.scripts.ch9_table9_3 [--coarse] [--out DIR]
+[--optimize RUN_DIR ...]``.
 """
 from __future__ import annotations
 
@@ -59,12 +60,13 @@ class Result:
     prototype: dict[str, float]
     analytical: dict[float, dict[str, float]]
     designs: dict[float, dict[str, float]]
-    optimized: dict[str, dict[str, float]]
+    optimized: dict[str, dict[str, float | None]]
     table: pd.DataFrame
 
 
 def sec9_1_configurations():
-    """(prototype, model template) :class:`hypate.scaling.workflow.vocabulary.similarity.Configuration` of Sec. 9.1."""
+    """(prototype, model template)
+    :class:`hypate.scaling.workflow.vocabulary.similarity.Configuration` of Sec. 9.1."""
 
     case = load_case(shipped("case")["sec9_1_prototype"])
     proto = Configuration(case.panel, case.flow, delta_T=1.0, time=1e-3)
@@ -104,7 +106,7 @@ def run(config: Config | None = None) -> Result:
                          _model(ref.get(n)), m[n]))
         for k, v in a.design().items():
             rows.append((f"xi = {xi:g} Eq. 9.2 design {k}", None, v, "Fig. 9.4 (not tabulated)"))
-    optimized: dict[str, dict[str, float]] = {}
+    optimized: dict[str, dict[str, float | None]] = {}
     for d in config.optimize_dirs:
         try:
             dp = read_design_point(d)
@@ -126,7 +128,8 @@ def run(config: Config | None = None) -> Result:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """``python -m hypate.studies.scripts.ch9_table9_3 [--coarse] [--out DIR] [--optimize RUN_DIR ...]``."""
+    """``python -m hypate.studies.scripts.ch9_table9_3 [--coarse] [--out DIR]
+    [--optimize RUN_DIR ...]``."""
     parser = standard_parser(__doc__.splitlines()[0])
     parser.add_argument("--optimize", nargs="*", default=[], metavar="RUN_DIR",
                         help="run directories of `hypate run studies/optimization/sec9_1_xi*.toml`")

@@ -2,7 +2,8 @@
 
 Tabulates the dissertation's design points next to those of ``hypate run`` directories:
 
-* Table 9.8 (Sec. 9.2.2, ideal tunnel, Fig. 9.9 solid points): ``studies/optimization/sec9_2_2_xi{2..5}.toml``;
+* Table 9.8 (Sec. 9.2.2, ideal tunnel, Fig. 9.9 solid points):
+  ``studies/optimization/sec9_2_2_xi{2..5}.toml``;
 * Tables 9.9 / 9.10 (Sec. 9.2.3, WT5-WT7, Case 1 parameter relaxation / Case 2 with the
   radiant heater): ``studies/optimization/sec9_2_3_case{1,2}_wt{5,6,7}.toml``;
 * Table 9.11 (Sec. 9.2.4, errors over the flight envelope in WT7):
@@ -13,7 +14,8 @@ directories: ``design_point.json`` (``study``, ``xi``, ``design``, ``objectives`
 ``sweep.csv``. A directory is matched to a table column by its study name; ``assign``
 overrides that (e.g. ``"9.8:xi4"`` to show the quick-start run next to Table 9.8).
 
-Run ``python -m hypate.studies.scripts.ch9_tables RUN_DIR ... [--assign RUN_DIR=9.8:xi4] [--out DIR]``.
+Run ``python -m hypate.studies.scripts.ch9_tables RUN_DIR ... [--assign RUN_DIR=9.8:xi4]
+[--out DIR]``.
 """
 from __future__ import annotations
 
@@ -244,10 +246,11 @@ def envelope_temperature_rows(path: Path) -> list[tuple]:
     above = sum(n > lim for n, lim, _ in found)
     missing = len(df) - len(found)
     what = "Table 9.11 model volume-mean temperature J_T's similarity needs"
-    rows = [(f"{what}: conditions above the model's service temperature", None, above,
-             f"of {len(found)}{f' ({missing} without the responses)' if missing else ''}; "
-             f"needed {min(need):.0f}-{max(need):.0f} K against {limit:.1f} K (the tunnel's "
-             "T0 times the prototype's mean temperature / T0)")]
+    rows: list[tuple] = [(
+        f"{what}: conditions above the model's service temperature", None, above,
+        f"of {len(found)}{f' ({missing} without the responses)' if missing else ''}; "
+        f"needed {min(need):.0f}-{max(need):.0f} K against {limit:.1f} K (the tunnel's "
+        "T0 times the prototype's mean temperature / T0)")]
     if len(found) > 2:
         r = float(pd.Series(need).corr(pd.Series([J for _, _, J in found])))
         rows.append((f"{what}: correlation with J_s over the conditions (Pearson r)", None, r,
@@ -301,7 +304,8 @@ def published_rows(table: str, col: str, published: dict[str, Any], dp: dict
         note = (f"J_u {100.0 * o['J_u']:.1f} %, J_T {100.0 * o['J_T']:.1f} %; the table's "
                 "values as published" + (f" ({', '.join(off)})" if off else ""))
     own = 100.0 * max(dp["objectives"]["J_u"], dp["objectives"]["J_T"])
-    rows = [(f"Table {table} {col} the dissertation's design in hypate, max(J_u, J_T) (%)",
+    rows: list[tuple] = [(
+        f"Table {table} {col} the dissertation's design in hypate, max(J_u, J_T) (%)",
              None, pub, note)]
     # issue 40: whether the published model could be built and tested, as hypate checks it
     temp = next((r for r in published.get("admissibility") or []
@@ -365,7 +369,8 @@ def run(config: Config | None = None) -> Result:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """``python -m hypate.studies.scripts.ch9_tables RUN_DIR ... [--assign DIR=9.8:xi4] [--out DIR]``."""
+    """``python -m hypate.studies.scripts.ch9_tables RUN_DIR ... [--assign DIR=9.8:xi4]
+    [--out DIR]``."""
     parser = standard_parser(__doc__.splitlines()[0])
     parser.add_argument("run_dirs", nargs="*", help="`hypate run` output directories")
     parser.add_argument("--assign", action="append", default=[],

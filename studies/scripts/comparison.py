@@ -254,8 +254,8 @@ def _aggregate(values: list[object]) -> object:
     present = [v for v in values if not _missing(v)]
     if not present:
         return None
-    numbers = [_number(v) for v in present]
-    if all(n is not None for n in numbers):
+    numbers = [n for n in map(_number, present) if n is not None]
+    if len(numbers) == len(present):
         return present[0] if len(present) == 1 else float(statistics.median(numbers))
     counts = Counter(map(str, present))
     top = counts.most_common(1)[0][0]

@@ -42,10 +42,10 @@ import numpy as np
 import pandas as pd
 from hypate.scaling.engine.store import EvaluationStore
 from hypate.scaling.workflow.campaigns.campaign import campaign_identity, package_version
-from hypate.scaling.workflow.vocabulary.derived import study_data
-from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
 from hypate.scaling.workflow.campaigns.run import run_study
 from hypate.scaling.workflow.campaigns.rundir import DESIGN_POINT_JSON, DESIGN_POINT_NPZ, STORE
+from hypate.scaling.workflow.vocabulary.derived import study_data
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
 from hypate.scaling.workflow.vocabulary.shipped import resolve
 from hypate.scaling.workflow.vocabulary.study import Study, load_study, parse_study
 from hypate.solvers.coupling.response import Response
@@ -110,7 +110,8 @@ def finished_run(study: Study, run_dir: Path) -> dict[str, Any]:
     if not (run_dir / DESIGN_POINT_JSON).is_file():
         run_study(study, run_dir, resume=(run_dir / STORE).exists())
     with EvaluationStore(run_dir / STORE, read_only=True) as store:
-        record = store.get_meta("campaign") or {}
+        meta = store.get_meta("campaign")
+    record = meta if isinstance(meta, dict) else {}
     expected = campaign_identity(study, 0)
     for key in ("study", "simulation"):
         if json.dumps(record.get(key), sort_keys=True) != \

@@ -24,9 +24,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
-from hypate.scaling.workflow.vocabulary.derived import study_data
-from hypate.scaling.workflow.campaigns.rundir import DESIGN_POINT_JSON, STORE
 from hypate.scaling.workflow.campaigns.run import run_study
+from hypate.scaling.workflow.campaigns.rundir import DESIGN_POINT_JSON, STORE
+from hypate.scaling.workflow.vocabulary.derived import study_data
 from hypate.scaling.workflow.vocabulary.shipped import shipped
 from hypate.scaling.workflow.vocabulary.study import Study, load_study, parse_study
 

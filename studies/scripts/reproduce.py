@@ -13,14 +13,15 @@ tolerances and accepted findings in :mod:`.reproduction_plan`):
   accepted Poisson's-ratio finding, :data:`~.reproduction_plan.FINDING_POISSON`);
 * Sec. 9.2.2 (Table 9.8), Sec. 9.2.3 (Tables 9.9-9.10, Fig. 9.13: Case 2 against Case 1,
   the accepted WT5 finding :data:`~.reproduction_plan.FINDING_WT5`) per seed; Sec. 9.2.4
-  (Table 9.11, the envelope sweep) per seed in the full run only. The full run also evaluates each published
-  design point of Tables 9.8-9.10 in hypate and checks that the run's own design point beats
-  it (:func:`~.ch9_tables.published_rows`), the premise of the accepted finding on the
-  design-variable rows and Table 9.11 (:data:`~.ch9_tables.FINDING_SEC9_2_MODEL`), and puts
-  Table 9.8's xi = 4 design and the first seed's envelope designs through the CFD fluid ROM
-  too (``sec9_2_2_fluids``, ``sec9_2_4_fluids``: the fluid model's share, measured), and
-  optimizes on it: the xi = 4 study per seed and the envelope sweep for the first seed,
-  beside their ``pt-bl`` + Eckert runs (``sec9_2_2_cfd``, ``sec9_2_4_cfd``).
+  (Table 9.11, the envelope sweep) per seed in the full run only. The full run also
+  evaluates each published design point of Tables 9.8-9.10 in hypate and checks that the
+  run's own design point beats it (:func:`~.ch9_tables.published_rows`), the premise of the
+  accepted finding on the design-variable rows and Table 9.11
+  (:data:`~.ch9_tables.FINDING_SEC9_2_MODEL`), and puts Table 9.8's xi = 4 design and the
+  first seed's envelope designs through the CFD fluid ROM too (``sec9_2_2_fluids``,
+  ``sec9_2_4_fluids``: the fluid model's share, measured), and optimizes on it: the xi = 4
+  study per seed and the envelope sweep for the first seed, beside their ``pt-bl`` + Eckert
+  runs (``sec9_2_2_cfd``, ``sec9_2_4_cfd``).
 
 ``quick`` runs the Ch. 9 studies as coarse variants (:data:`~.ch9_runs.COARSE_9_1`,
 :data:`~.ch9_runs.COARSE_9_2`: 4 x 4 meshes, fewer steps, 36-50 evaluations) with their own stated
@@ -56,6 +57,7 @@ import warnings
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -295,7 +297,7 @@ def run(config: Config | None = None, progress: Progress | None = None) -> Resul
             if item.key in built:  # solver warnings: counted, each distinct one once
                 table, seen, seconds = ctx.wait_for(item.title, built[item.key])
             else:
-                table, seen = _caught(lambda item=item: item.build(ctx))
+                table, seen = _caught(partial(item.build, ctx))
                 seen = tuple(dict.fromkeys(ctx.carried + list(seen)))
                 # pooled optimizations: their own seconds, not the wait for them
                 seconds = (time.monotonic() - start - sum(ctx.waited_seconds)

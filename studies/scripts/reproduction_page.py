@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import html
 import math
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -107,7 +107,7 @@ def render(result: Any) -> str:
     cfg = result.config
     mode = "--quick (coarse variants)" if cfg.quick else "full"
     total = result.counts()
-    stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     state = ("all reproductions finished" if len(result.reproductions) == result.planned else
              f"partial: {len(result.reproductions)} of {result.planned} reproductions "
              "finished (the run was interrupted or is still running)")

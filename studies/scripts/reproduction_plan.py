@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
-from hypate.scaling.workflow.campaigns.rundir import SWEEP_CSV
 from hypate.scaling.workflow.analyses.whatif import at_sweep_point, evaluate_whatif
+from hypate.scaling.workflow.campaigns.rundir import SWEEP_CSV
+from hypate.scaling.workflow.vocabulary.problem import ScalingProblem
 from hypate.studies.scripts import (
     ch7_benchmark,
     ch7_flutter,
@@ -214,7 +214,7 @@ def _sec9_1_bo(ctx: Context) -> pd.DataFrame:
                 if ctx.quick:
                     d = (Approx(ref[n], rel=COARSE_9_1_RTOL[n]) if n in COARSE_9_1_RTOL else
                          NotCompared(ref[n], f"{coarse} does not resolve h (seed 0: 14 % off)"))
-                    note = f"{coarse}: ±{100 * COARSE_9_1_RTOL[n]:g} %" \
+                    note: object = f"{coarse}: ±{100 * COARSE_9_1_RTOL[n]:g} %" \
                         if n in COARSE_9_1_RTOL else None
                 else:  # h/L and the thermal load sit ~1 % off where nu differs
                     d = Approx(ref[n], rel=FULL_9_1_RTOL)

@@ -53,9 +53,9 @@ class SimulatedHistories:
 
     Attributes
     ----------
-    deflection : sequence of float
+    deflection : sequence or 1-D array of float
         ``w_c / h`` at time levels ``0, dt, ..., n dt``.
-    temperature : sequence of float
+    temperature : sequence or 1-D array of float
         Volume-mean temperature over the stagnation temperature at the same levels.
     layer_temperature : sequence of (float, float), optional
         Each layer's ``[min, max]`` temperature over the run (K), bottom first.
@@ -67,8 +67,8 @@ class SimulatedHistories:
         A note stored with the evaluation (e.g. the code's version).
     """
 
-    deflection: Sequence[float]
-    temperature: Sequence[float]
+    deflection: Sequence[float] | np.ndarray
+    temperature: Sequence[float] | np.ndarray
     layer_temperature: Sequence[Sequence[float]] | None = None
     max_stress_ratio: float | None = None
     stress_at_ratio: float | None = None

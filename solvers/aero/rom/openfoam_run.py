@@ -220,7 +220,7 @@ def _clear_output(folder: Path) -> None:
 
 def run_case(folder: str | Path, openfoam: OpenFoam, resolution: Resolution,
              viscous: bool, timeout: float | None = None,
-             after_mesh: Callable[[Path], None] | None = None) -> CaseResult:
+             after_mesh: Callable[[Path], object] | None = None) -> CaseResult:
     """Mesh and run the case in ``folder`` until its wall averages converge.
 
     Parameters
