@@ -281,6 +281,44 @@ def test_envelope_swept_on_the_cfd_rom_beside_pt_bl(monkeypatch, tmp_path: Path)
     assert seeds == [0, 0]  # the first seed's two sweeps only, of three seeds
 
 
+def test_envelope_designs_go_to_the_cfd_rom_each_at_its_own_flight_condition(
+        monkeypatch, tmp_path: Path) -> None:
+    """Fast: a fabricated pt-bl sweep of two finished points and one unfinished; the CFD
+    evaluation (monkeypatched, the slow test below runs the real one) sees each point's
+    design at that point's flight condition (the ISA free stream of its M and H) and returns
+    J_s = the sweep's + 0.01 (M 5) / - 0.03 (M 7): rows +1 and -3 points, mean -1."""
+    from hypate.solvers.flow import FlowCondition
+
+    points = {"M5_H20km": (5.0, 20000.0, 0.50, 0.01), "M7_H30km": (7.0, 30000.0, 0.20, -0.03)}
+    run = tmp_path / "sec9_2_4_envelope"
+    for label, (_, _, _, delta) in points.items():
+        (run / label).mkdir(parents=True)
+        (run / label / "design_point.json").write_text(json.dumps({"design": {"h": delta}}))
+    pd.DataFrame([{"label": k, "mach": m, "altitude": h, "J_s": J}
+                  for k, (m, h, J, _) in points.items()]
+                 + [{"label": "M6_H25km", "mach": 6.0, "altitude": 25000.0, "J_s": math.nan}]
+                 ).to_csv(run / "sweep.csv", index=False)
+    seen: dict[str, tuple[float, float]] = {}
+
+    def cfd_evaluation(study, design: dict[str, float]) -> dict:
+        label = next(k for k, v in points.items() if v[3] == design["h"])
+        flow = study.spec.prototype.flow
+        seen[label] = (flow.mach, flow.pressure)
+        return {"objectives": {"J_s": points[label][2] + design["h"]}, "message": ""}
+
+    monkeypatch.setattr(reproduction_plan, "evaluate_whatif", cfd_evaluation)
+    rows = {r[0]: r[2] for r in reproduction_plan.envelope_fluid_rows(run)}
+    for label, (m, h, _, _) in points.items():
+        isa = FlowCondition.from_altitude(m, h)
+        assert seen[label] == pytest.approx((m, isa.pressure), rel=1e-12)
+    assert rows["Table 9.11 M = 5, H = 20 km: the pt-bl design on the CFD ROM, J_s (%)"] == \
+        pytest.approx(51.0, rel=1e-12)
+    what = "Table 9.11 envelope designs: J_s, CFD ROM minus pt-bl + Eckert"
+    assert rows[f"{what}, mean over the conditions (points)"] == pytest.approx(-1.0, rel=1e-9)
+    assert rows[f"{what}, largest magnitude (points)"] == pytest.approx(-3.0, rel=1e-9)
+    assert len(seen) == 2  # the unfinished point is not evaluated
+
+
 @pytest.mark.slow
 def test_envelope_design_on_the_cfd_rom_at_its_flight_condition(tmp_path: Path) -> None:
     """One point of a (fabricated) pt-bl envelope sweep, the M 7 / 20 km corner, with a
