@@ -377,11 +377,14 @@ def envelope_fluid_rows(path: Path, progress: Progress | None = None) -> list[tu
     """Rows of :func:`_sec9_2_4_fluids` from a ``pt-bl`` + Eckert envelope sweep directory
     (``sweep.csv`` and each point's ``design_point.json``): each finished point's design
     evaluated on the CFD ROM at that point's flight condition, then the mean and the
-    largest difference from the sweep's own J_s (points)."""
+    largest difference from the sweep's own J_s (points) and how many of the designs stay
+    admissible on the CFD ROM (with the model's peak temperatures there)."""
     done = pd.read_csv(path / SWEEP_CSV).dropna(subset=["J_s"])
     cfd = Optimization(ENVELOPE_CFD).study()
     rows: list[tuple] = []
     diffs: list[float] = []
+    admissible: list[bool] = []
+    peaks: list[float] = []
     for i, (_, r) in enumerate(done.iterrows()):
         if progress is not None:
             progress("Sec. 9.2.4: envelope designs on the CFD ROM", i, len(done))
@@ -396,6 +399,9 @@ def envelope_fluid_rows(path: Path, progress: Progress | None = None) -> list[tu
                      else res["message"]))
         if J_s is not None:
             diffs.append(100.0 * J_s - own)
+        admissible.append(res.get("admissible") is True)
+        peaks += [float(c["value"]) for c in res.get("admissibility") or []
+                  if c.get("check") == "temperature" and c.get("value") is not None]
     if diffs:
         what = "Table 9.11 envelope designs: J_s, CFD ROM minus pt-bl + Eckert"
         rows.append((f"{what}, mean over the conditions (points)", None,
@@ -403,6 +409,11 @@ def envelope_fluid_rows(path: Path, progress: Progress | None = None) -> list[tu
         rows.append((f"{what}, largest magnitude (points)", None,
                      diffs[int(np.argmax(np.abs(diffs)))],
                      "the fluid model's share of the envelope's errors"))
+    if admissible:
+        rows.append(("Table 9.11 envelope designs on the CFD ROM: admissible designs", None,
+                     sum(admissible), f"of {len(admissible)}" + (
+                         f"; the model's peak temperature {min(peaks):.0f}-{max(peaks):.0f} K"
+                         if peaks else "")))
     return rows
 
 

@@ -286,7 +286,8 @@ def test_envelope_designs_go_to_the_cfd_rom_each_at_its_own_flight_condition(
     """Fast: a fabricated pt-bl sweep of two finished points and one unfinished; the CFD
     evaluation (monkeypatched, the slow test below runs the real one) sees each point's
     design at that point's flight condition (the ISA free stream of its M and H) and returns
-    J_s = the sweep's + 0.01 (M 5) / - 0.03 (M 7): rows +1 and -3 points, mean -1."""
+    J_s = the sweep's + 0.01 (M 5) / - 0.03 (M 7): rows +1 and -3 points, mean -1; the
+    second design's model runs 820 K, above its limit: one of two admissible."""
     from hypate.solvers.flow import FlowCondition
 
     points = {"M5_H20km": (5.0, 20000.0, 0.50, 0.01), "M7_H30km": (7.0, 30000.0, 0.20, -0.03)}
@@ -304,7 +305,10 @@ def test_envelope_designs_go_to_the_cfd_rom_each_at_its_own_flight_condition(
         label = next(k for k, v in points.items() if v[3] == design["h"])
         flow = study.spec.prototype.flow
         seen[label] = (flow.mach, flow.pressure)
-        return {"objectives": {"J_s": points[label][2] + design["h"]}, "message": ""}
+        peak = 800.0 if label == "M5_H20km" else 820.0  # the second above Ti 6242's limit
+        return {"objectives": {"J_s": points[label][2] + design["h"]}, "message": "",
+                "admissible": peak < 810.9,
+                "admissibility": [{"check": "temperature", "value": peak}]}
 
     monkeypatch.setattr(reproduction_plan, "evaluate_whatif", cfd_evaluation)
     rows = {r[0]: r[2] for r in reproduction_plan.envelope_fluid_rows(run)}
@@ -317,6 +321,9 @@ def test_envelope_designs_go_to_the_cfd_rom_each_at_its_own_flight_condition(
     assert rows[f"{what}, mean over the conditions (points)"] == pytest.approx(-1.0, rel=1e-9)
     assert rows[f"{what}, largest magnitude (points)"] == pytest.approx(-3.0, rel=1e-9)
     assert len(seen) == 2  # the unfinished point is not evaluated
+    row = next(r for r in reproduction_plan.envelope_fluid_rows(run)
+               if r[0].endswith("admissible designs"))
+    assert row[2] == 1 and row[3] == "of 2; the model's peak temperature 800-820 K"
 
 
 @pytest.mark.slow
