@@ -308,10 +308,11 @@ def test_envelope_designs_go_to_the_cfd_rom_each_at_its_own_flight_condition(
         peak = 800.0 if label == "M5_H20km" else 820.0  # the second above Ti 6242's limit
         return {"objectives": {"J_s": points[label][2] + design["h"]}, "message": "",
                 "admissible": peak < 810.9,
-                "admissibility": [{"check": "temperature", "value": peak}]}
+                "responses": {"model": {"max_wall_temperature": peak}}}
 
     monkeypatch.setattr(reproduction_plan, "evaluate_whatif", cfd_evaluation)
-    rows = {r[0]: r[2] for r in reproduction_plan.envelope_fluid_rows(run)}
+    table = reproduction_plan.envelope_fluid_rows(run)
+    rows = {r[0]: r[2] for r in table}
     for label, (m, h, _, _) in points.items():
         isa = FlowCondition.from_altitude(m, h)
         assert seen[label] == pytest.approx((m, isa.pressure), rel=1e-12)
@@ -321,8 +322,7 @@ def test_envelope_designs_go_to_the_cfd_rom_each_at_its_own_flight_condition(
     assert rows[f"{what}, mean over the conditions (points)"] == pytest.approx(-1.0, rel=1e-9)
     assert rows[f"{what}, largest magnitude (points)"] == pytest.approx(-3.0, rel=1e-9)
     assert len(seen) == 2  # the unfinished point is not evaluated
-    row = next(r for r in reproduction_plan.envelope_fluid_rows(run)
-               if r[0].endswith("admissible designs"))
+    row = next(r for r in table if r[0].endswith("admissible designs"))
     assert row[2] == 1 and row[3] == "of 2; the model's peak temperature 800-820 K"
 
 
@@ -345,7 +345,8 @@ def test_envelope_design_on_the_cfd_rom_at_its_flight_condition(tmp_path: Path) 
     (run / "M7_H20km" / "design_point.json").write_text(json.dumps({"design": design}))
     pd.DataFrame([{"label": "M7_H20km", "mach": 7.0, "altitude": 20000.0,
                    "J_s": J["ptbl"]}]).to_csv(run / "sweep.csv", index=False)
-    rows = {r[0]: r[2] for r in reproduction_plan.envelope_fluid_rows(run)}
+    table = reproduction_plan.envelope_fluid_rows(run)
+    rows = {r[0]: r[2] for r in table}
     assert rows["Table 9.11 M = 7, H = 20 km: the pt-bl design on the CFD ROM, J_s (%)"] == \
         pytest.approx(100.0 * J["cfd"], rel=1e-12)
     mean = ("Table 9.11 envelope designs: J_s, CFD ROM minus pt-bl + Eckert, mean over the "
